@@ -1,0 +1,52 @@
+"""The book's case studies, each a function returning a :class:`CaseResult`.
+
+A case module registers its entry point with :func:`register`; ``servokit
+reproduce`` (and ``make demo``) runs every registered case.
+"""
+
+from __future__ import annotations
+
+import importlib
+import pkgutil
+from collections.abc import Callable
+from pathlib import Path
+
+from servokit.report import CaseResult
+
+__all__ = ["register", "registry", "run_all"]
+
+CaseFn = Callable[[Path], CaseResult]
+_REGISTRY: dict[str, CaseFn] = {}
+
+
+def register(name: str) -> Callable[[CaseFn], CaseFn]:
+    """Register ``fn(outdir) -> CaseResult`` under ``name`` for ``servokit reproduce``."""
+
+    def deco(fn: CaseFn) -> CaseFn:
+        _REGISTRY[name] = fn
+        return fn
+
+    return deco
+
+
+def registry() -> dict[str, CaseFn]:
+    """All registered cases, importing every case module first."""
+    for info in pkgutil.iter_modules(__path__):
+        if not info.name.startswith("_"):
+            importlib.import_module(f"{__name__}.{info.name}")
+    return dict(sorted(_REGISTRY.items()))
+
+
+def run_all(outdir: Path, only: list[str] | None = None) -> list[CaseResult]:
+    """Run the registered cases (all, or those named in ``only``) writing figures to ``outdir``."""
+    outdir.mkdir(parents=True, exist_ok=True)
+    cases = registry()
+    names = only or list(cases)
+    unknown = [n for n in names if n not in cases]
+    if unknown:
+        from servokit.errors import ServokitValueError
+
+        raise ServokitValueError(
+            f"case {unknown[0]!r} is unknown; choose one of {', '.join(cases)}"
+        )
+    return [cases[n](outdir) for n in names]

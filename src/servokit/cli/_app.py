@@ -1,0 +1,78 @@
+"""The typer application shared by every ``servokit`` sub-command module.
+
+Each module of :mod:`servokit.cli` registers its commands on :data:`app` (or adds a
+sub-typer to it); :func:`main` discovers them, runs the command and turns user
+mistakes into one line on stderr with exit status 2.
+"""
+
+from __future__ import annotations
+
+import json
+import sys
+from typing import Any
+
+import numpy as np
+import typer
+from rich.console import Console
+
+from servokit.errors import ServokitError
+
+app = typer.Typer(
+    name="servokit",
+    help="Design and analyse high-speed, high-precision motion control.",
+    no_args_is_help=True,
+    add_completion=False,
+    pretty_exceptions_enable=False,
+)
+console = Console()
+
+
+def _jsonable(obj: Any) -> Any:
+    if isinstance(obj, dict):
+        return {str(k): _jsonable(v) for k, v in obj.items()}
+    if isinstance(obj, list | tuple):
+        return [_jsonable(v) for v in obj]
+    if isinstance(obj, np.ndarray):
+        return _jsonable(obj.tolist())
+    if isinstance(obj, np.generic):
+        return obj.item()
+    if isinstance(obj, complex):
+        return {"re": obj.real, "im": obj.imag}
+    if isinstance(obj, float) and not np.isfinite(obj):
+        return None
+    return obj
+
+
+def emit_json(data: Any) -> None:
+    """Print ``data`` as JSON on stdout (numpy arrays and scalars converted)."""
+    typer.echo(json.dumps(_jsonable(data), indent=2))
+
+
+def fail(message: str) -> None:
+    """Print one line on stderr and exit with status 2."""
+    typer.echo(f"servokit: error: {message}", err=True)
+    raise typer.Exit(code=2)
+
+
+def main() -> None:
+    """Entry point of the ``servokit`` command."""
+    from servokit.cli import _discover
+
+    _discover()
+    try:
+        app(standalone_mode=False)
+    except typer.Exit as exc:
+        sys.exit(exc.exit_code)
+    except (ServokitError, ValueError, TypeError, FileNotFoundError) as exc:
+        msg = str(exc).splitlines()[0] if str(exc) else type(exc).__name__
+        typer.echo(f"servokit: error: {msg}", err=True)
+        sys.exit(2)
+    except Exception as exc:  # click usage errors and friends
+        import click
+
+        if isinstance(exc, click.exceptions.ClickException):
+            typer.echo(f"servokit: error: {exc.format_message()}", err=True)
+            sys.exit(2)
+        if isinstance(exc, click.exceptions.Abort):
+            sys.exit(1)
+        raise

@@ -1,0 +1,69 @@
+"""Plants and controllers: modal plants with delay, exact discretisation, variation
+sets, the built-in catalogue, the book's controllers and TOML plant/controller files."""
+
+from servokit.models.catalogue import (
+    CATALOGUE,
+    HDD_BENCHMARK_TS,
+    HDD_SAMPLED_DATA_TS,
+    galvano_scanner,
+    get_plant,
+    hdd_benchmark,
+    hdd_benchmark_variants,
+    hdd_benchmark_variation_set,
+    hdd_sampled_data,
+    personal_mobility_robot,
+    pzt_active_suspension,
+    svm_head_plant,
+    vcm_dual_stage,
+)
+from servokit.models.controllers import (
+    VCM_PES_TS,
+    cnc_eq_4_73,
+    controller_eq_4_69,
+    controller_fig_4_57,
+    cpc_eq_4_72,
+    vcm_controller_table_5_2,
+    zpk,
+)
+from servokit.models.files import (
+    PlantFileError,
+    load_controller,
+    load_plant,
+    save_controller,
+    save_plant,
+)
+from servokit.models.modal import ModalPlant, Mode, modal_matrices
+from servokit.models.variations import Perturbation, VariationSet
+
+__all__ = [
+    "CATALOGUE",
+    "HDD_BENCHMARK_TS",
+    "HDD_SAMPLED_DATA_TS",
+    "VCM_PES_TS",
+    "ModalPlant",
+    "Mode",
+    "Perturbation",
+    "PlantFileError",
+    "VariationSet",
+    "cnc_eq_4_73",
+    "controller_eq_4_69",
+    "controller_fig_4_57",
+    "cpc_eq_4_72",
+    "galvano_scanner",
+    "get_plant",
+    "hdd_benchmark",
+    "hdd_benchmark_variants",
+    "hdd_benchmark_variation_set",
+    "hdd_sampled_data",
+    "load_controller",
+    "load_plant",
+    "modal_matrices",
+    "personal_mobility_robot",
+    "pzt_active_suspension",
+    "save_controller",
+    "save_plant",
+    "svm_head_plant",
+    "vcm_controller_table_5_2",
+    "vcm_dual_stage",
+    "zpk",
+]

@@ -1,0 +1,82 @@
+"""The book's numerically given controllers, as python-control objects.
+
+* C(z) of eq. (4.69): PI-lead controller of the multirate HDD example (§4.5.2).
+* Cpc(s), Cnc(s) of eqs. (4.72)-(4.73): PI-lead and notch of the TDOF seek (§4.5.4),
+  discretised as the book does (Cp by the bilinear transform, Cn by pole-zero matching).
+* The VCM controller of Table 5.2 (gain 0.1365; PES sampled at 30 kHz, §5.2.1.2).
+"""
+
+from __future__ import annotations
+
+from collections.abc import Sequence
+
+import control
+import numpy as np
+
+from servokit.errors import ServokitValueError
+from servokit.models.catalogue import HDD_SAMPLED_DATA_TS
+
+__all__ = [
+    "zpk",
+    "controller_eq_4_69",
+    "cpc_eq_4_72",
+    "cnc_eq_4_73",
+    "controller_fig_4_57",
+    "vcm_controller_table_5_2",
+    "VCM_PES_TS",
+]
+
+#: PES sampling period of the dual-stage HDD of chapter 5 (30 kHz, §5.2.1.2) [s].
+VCM_PES_TS = 1.0 / 30000.0
+
+
+def zpk(
+    zeros: Sequence[complex], poles: Sequence[complex], gain: float, dt: float | None = None
+) -> control.TransferFunction:
+    """Transfer function ``gain * prod(x - z) / prod(x - p)`` (x = s or z), real coefficients."""
+    num = gain * np.real_if_close(np.poly(np.asarray(zeros, dtype=complex)), tol=1e6)
+    den = np.real_if_close(np.poly(np.asarray(poles, dtype=complex)), tol=1e6)
+    if np.iscomplexobj(num) or np.iscomplexobj(den):
+        raise ServokitValueError("zeros and poles must come in complex-conjugate pairs")
+    num = np.atleast_1d(num).astype(float)
+    den = np.atleast_1d(den).astype(float)
+    if dt is None:
+        return control.tf(num, den)
+    return control.tf(num, den, dt)
+
+
+def controller_eq_4_69(dt: float = HDD_SAMPLED_DATA_TS) -> control.TransferFunction:
+    """C(z) = 0.872 (z-0.490)(z-0.865)(z-0.908) / ((z-0.0182)(z-0.409)(z-1)), eq. (4.69)."""
+    return zpk([0.490, 0.865, 0.908], [0.0182, 0.409, 1.0], 0.872, dt)
+
+
+def cpc_eq_4_72() -> control.TransferFunction:
+    """Cpc(s) = 1318 (s+628.3)(s+1257) / (s (s+25130)), eq. (4.72)."""
+    return zpk([-628.3, -1257.0], [0.0, -25130.0], 1318.0)
+
+
+def cnc_eq_4_73() -> control.TransferFunction:
+    """Cnc(s) = (s^2 + 515.2 s + 663.6e6) / (s^2 + 7728 s + 663.6e6), eq. (4.73)."""
+    return control.tf([1.0, 515.2, 663.6e6], [1.0, 7728.0, 663.6e6])
+
+
+def controller_fig_4_57(dt: float = HDD_SAMPLED_DATA_TS) -> control.TransferFunction:
+    """C(z) = Cp(z) Cn(z) of §4.5.4.1: Cp = Tustin(Cpc), Cn = matched pole-zero(Cnc)."""
+    cp = control.sample_system(cpc_eq_4_72(), dt, method="tustin")
+    cn = control.sample_system(cnc_eq_4_73(), dt, method="matched")
+    return cp * cn
+
+
+def vcm_controller_table_5_2(dt: float = VCM_PES_TS) -> control.TransferFunction:
+    """VCM controller C(z) of Table 5.2: gain 0.1365 with the listed zeros and poles."""
+    zeros = [
+        -0.2199 + 0.9392j, -0.2199 - 0.9392j, 0.0741 + 0.9824j, 0.0741 - 0.9824j,
+        0.2163 + 0.9292j, 0.2163 - 0.9292j, 0.5777 + 0.7766j, 0.5777 - 0.7766j,
+        0.9896, 0.9896,
+    ]
+    poles = [
+        0.0019, 0.009, 0.5026, 1.0,
+        0.0711 + 0.8581j, 0.0711 - 0.8581j, 0.2032 + 0.8504j, 0.2032 - 0.8504j,
+        0.5467 + 0.7287j, 0.5467 - 0.7287j,
+    ]
+    return zpk(zeros, poles, 0.1365, dt)

@@ -1,0 +1,184 @@
+"""Plant and controller files in TOML.
+
+A plant file::
+
+    name = "my-hdd"
+    gain = 3.93e9          # required
+    delay = 1e-5           # s, optional (default 0)
+    source = "measured 2026-11"
+    [[modes]]
+    freq_hz = 0.0
+    damping = 0.0
+    residue = 1.0
+
+A controller file (zeros/poles as numbers or ``[re, im]`` pairs; omit ``dt`` for a
+continuous controller)::
+
+    kind = "controller"
+    dt = 153.5e-6
+    gain = 0.872
+    zeros = [0.490, 0.865, 0.908]
+    poles = [0.0182, 0.409, 1.0]
+
+or ``num = [...]`` and ``den = [...]`` instead of ``gain``/``zeros``/``poles``.
+Every error names the field and says how to fix it.
+"""
+
+from __future__ import annotations
+
+import math
+import tomllib
+from pathlib import Path
+from typing import Any
+
+import control
+import numpy as np
+import tomli_w
+
+from servokit.errors import ServokitValueError
+from servokit.models.controllers import zpk
+from servokit.models.modal import ModalPlant, Mode
+
+__all__ = ["PlantFileError", "load_plant", "save_plant", "load_controller", "save_controller"]
+
+_PLANT_KEYS = {"name", "gain", "delay", "source", "modes", "kind"}
+_MODE_KEYS = {"freq_hz", "damping", "residue"}
+_CTRL_KEYS = {"kind", "name", "dt", "gain", "zeros", "poles", "num", "den"}
+
+
+class PlantFileError(ServokitValueError):
+    """A plant or controller file is malformed."""
+
+
+def _read(path: Path) -> dict[str, Any]:
+    path = Path(path)
+    if not path.exists():
+        raise PlantFileError(f"{path}: file not found; give the path of a .toml file")
+    try:
+        return tomllib.loads(path.read_text())
+    except tomllib.TOMLDecodeError as exc:
+        raise PlantFileError(f"{path}: not valid TOML ({exc})") from None
+
+
+def _number(path: Path, field: str, value: Any) -> float:
+    if isinstance(value, bool) or not isinstance(value, int | float):
+        raise PlantFileError(f"{path}: field '{field}' must be a number, got {value!r}")
+    if not math.isfinite(value):
+        raise PlantFileError(f"{path}: field '{field}' must be finite, got {value!r}")
+    return float(value)
+
+
+def _unknown(path: Path, where: str, keys: set[str], allowed: set[str]) -> None:
+    extra = sorted(keys - allowed)
+    if extra:
+        raise PlantFileError(
+            f"{path}: unknown key '{where}{extra[0]}'; allowed keys are {', '.join(sorted(allowed))}"
+        )
+
+
+def load_plant(path: str | Path) -> ModalPlant:
+    """Load a :class:`ModalPlant` from a TOML file, validating every field."""
+    path = Path(path)
+    data = _read(path)
+    _unknown(path, "", set(data), _PLANT_KEYS)
+    if data.get("kind", "plant") != "plant":
+        raise PlantFileError(f"{path}: field 'kind' must be 'plant' for a plant file")
+    if "gain" not in data:
+        raise PlantFileError(f"{path}: missing field 'gain'; add e.g. 'gain = 3.93e9'")
+    gain = _number(path, "gain", data["gain"])
+    delay = _number(path, "delay", data.get("delay", 0.0))
+    if delay < 0:
+        raise PlantFileError(f"{path}: field 'delay' must be >= 0 seconds, got {delay}")
+    raw_modes = data.get("modes")
+    if not raw_modes:
+        raise PlantFileError(f"{path}: missing field 'modes'; add at least one [[modes]] table")
+    modes = []
+    for i, m in enumerate(raw_modes):
+        if not isinstance(m, dict):
+            raise PlantFileError(f"{path}: modes[{i}] must be a table with freq_hz, damping, residue")
+        _unknown(path, f"modes[{i}].", set(m), _MODE_KEYS)
+        vals = {}
+        for k in ("freq_hz", "damping", "residue"):
+            if k not in m:
+                raise PlantFileError(f"{path}: missing field 'modes[{i}].{k}'")
+            vals[k] = _number(path, f"modes[{i}].{k}", m[k])
+        if vals["damping"] < 0:
+            raise PlantFileError(
+                f"{path}: field 'modes[{i}].damping' is negative ({vals['damping']}); "
+                "damping ratios must be >= 0"
+            )
+        if vals["freq_hz"] < 0:
+            raise PlantFileError(f"{path}: field 'modes[{i}].freq_hz' must be >= 0")
+        modes.append(Mode(**vals))
+    return ModalPlant(
+        gain=gain,
+        modes=tuple(modes),
+        delay=delay,
+        name=str(data.get("name", path.stem)),
+        source=str(data.get("source", str(path))),
+    )
+
+
+def save_plant(plant: ModalPlant, path: str | Path) -> None:
+    """Write ``plant`` as a TOML plant file (round-trips through :func:`load_plant`)."""
+    doc = {
+        "kind": "plant",
+        "name": plant.name,
+        "gain": plant.gain,
+        "delay": plant.delay,
+        "source": plant.source,
+        "modes": [
+            {"freq_hz": m.freq_hz, "damping": m.damping, "residue": m.residue} for m in plant.modes
+        ],
+    }
+    Path(path).write_text(tomli_w.dumps(doc))
+
+
+def _roots(path: Path, field: str, raw: Any) -> list[complex]:
+    if not isinstance(raw, list):
+        raise PlantFileError(f"{path}: field '{field}' must be a list of numbers or [re, im] pairs")
+    out = []
+    for i, r in enumerate(raw):
+        if isinstance(r, list):
+            if len(r) != 2:
+                raise PlantFileError(f"{path}: field '{field}[{i}]' must be [re, im]")
+            out.append(complex(_number(path, f"{field}[{i}]", r[0]), _number(path, f"{field}[{i}]", r[1])))
+        else:
+            out.append(complex(_number(path, f"{field}[{i}]", r)))
+    return out
+
+
+def load_controller(path: str | Path) -> control.TransferFunction:
+    """Load a controller TOML file (zeros/poles/gain or num/den; ``dt`` for discrete)."""
+    path = Path(path)
+    data = _read(path)
+    _unknown(path, "", set(data), _CTRL_KEYS)
+    dt = data.get("dt")
+    if dt is not None:
+        dt = _number(path, "dt", dt)
+        if dt <= 0:
+            raise PlantFileError(f"{path}: field 'dt' must be > 0 seconds (omit it for continuous)")
+    if "num" in data or "den" in data:
+        if "num" not in data or "den" not in data:
+            raise PlantFileError(f"{path}: give both 'num' and 'den'")
+        num = [_number(path, f"num[{i}]", v) for i, v in enumerate(data["num"])]
+        den = [_number(path, f"den[{i}]", v) for i, v in enumerate(data["den"])]
+        if not any(den):
+            raise PlantFileError(f"{path}: field 'den' must not be all zeros")
+        return control.tf(num, den) if dt is None else control.tf(num, den, dt)
+    if "gain" not in data:
+        raise PlantFileError(f"{path}: missing field 'gain' (or give 'num' and 'den')")
+    gain = _number(path, "gain", data["gain"])
+    zeros = _roots(path, "zeros", data.get("zeros", []))
+    poles = _roots(path, "poles", data.get("poles", []))
+    return zpk(zeros, poles, gain, dt)
+
+
+def save_controller(ctrl: control.TransferFunction, path: str | Path) -> None:
+    """Write a SISO transfer function as a controller TOML file (num/den form)."""
+    num = np.atleast_1d(np.squeeze(ctrl.num[0][0])).astype(float).tolist()
+    den = np.atleast_1d(np.squeeze(ctrl.den[0][0])).astype(float).tolist()
+    doc: dict[str, Any] = {"kind": "controller", "num": num, "den": den}
+    if ctrl.dt not in (None, 0):
+        doc["dt"] = float(ctrl.dt)
+    Path(path).write_text(tomli_w.dumps(doc))

@@ -1,0 +1,235 @@
+"""Modal plants with input delay: the book's universal model.
+
+Implements
+
+    P(s) = K * sum_i A_i / (s^2 + 2 zeta_i omega_i s + omega_i^2) * exp(-s Td)
+
+as written in eq. (1.1)/(2.73) (HDD benchmark), (4.64)-(4.65) (sampled-data HDD),
+(5.1) and (5.12) (VCM and PZT active suspension) and (6.7) (SVM head plant).  A mode
+at ``freq_hz = 0`` with zero damping is the rigid-body mode ``A_i / s^2``.
+
+:class:`ModalPlant` evaluates the frequency response exactly (delay included),
+returns the continuous real modal state-space model (python-control, no delay) and
+discretises it exactly under a zero-order hold, including a delay that is not a
+multiple of the sampling period (extra delay states, see :func:`delayed_zoh`).
+"""
+
+from __future__ import annotations
+
+import dataclasses
+from collections.abc import Iterable, Sequence
+from dataclasses import dataclass, field
+
+import control
+import numpy as np
+
+from servokit.errors import ServokitTypeError, ServokitValueError
+from servokit.models._zoh import delayed_zoh
+
+__all__ = ["Mode", "ModalPlant", "modal_matrices"]
+
+
+def _finite(name: str, value: float) -> float:
+    try:
+        v = float(value)
+    except (TypeError, ValueError):
+        raise ServokitTypeError(f"{name} must be a real number, got {value!r}") from None
+    if not np.isfinite(v):
+        raise ServokitValueError(f"{name} must be finite, got {value!r}; pass a finite number")
+    return v
+
+
+@dataclass(frozen=True)
+class Mode:
+    """One mode ``residue / (s^2 + 2 damping w s + w^2)`` with ``w = 2 pi freq_hz``.
+
+    Parameters
+    ----------
+    freq_hz : float
+        Natural frequency [Hz]; 0 for the rigid-body mode.
+    damping : float
+        Damping ratio (>= 0).
+    residue : float
+        Modal residue (dimensionless; the plant gain multiplies it).
+    """
+
+    freq_hz: float
+    damping: float
+    residue: float
+
+    def __post_init__(self) -> None:
+        f = _finite("Mode.freq_hz", self.freq_hz)
+        z = _finite("Mode.damping", self.damping)
+        r = _finite("Mode.residue", self.residue)
+        if f < 0:
+            raise ServokitValueError(f"Mode.freq_hz must be >= 0 (got {f}); use 0 for the rigid body")
+        if z < 0:
+            raise ServokitValueError(
+                f"Mode.damping must be >= 0 (got {z}); a negative damping ratio is an unstable mode"
+            )
+        object.__setattr__(self, "freq_hz", f)
+        object.__setattr__(self, "damping", z)
+        object.__setattr__(self, "residue", r)
+
+    @property
+    def omega(self) -> float:
+        """Natural frequency [rad/s]."""
+        return 2.0 * np.pi * self.freq_hz
+
+
+@dataclass(frozen=True)
+class ModalPlant:
+    """Sum of second-order modes times a gain, with an input delay.
+
+    Parameters
+    ----------
+    gain : float
+        Plant gain K (e.g. Kp = 3.93e9 track/A/s^2 for the HDD benchmark).
+    modes : sequence of Mode
+        At least one mode.
+    delay : float
+        Input (dead-time) delay Td [s], >= 0.
+    name : str
+        Human-readable name.
+    source : str
+        Where the parameters come from (book table / section), or "illustrative".
+    """
+
+    gain: float
+    modes: tuple[Mode, ...]
+    delay: float = 0.0
+    name: str = ""
+    source: str = field(default="", compare=False)
+
+    def __post_init__(self) -> None:
+        g = _finite("gain", self.gain)
+        if g == 0:
+            raise ServokitValueError("gain must be non-zero; pass the plant gain K")
+        d = _finite("delay", self.delay)
+        if d < 0:
+            raise ServokitValueError(f"delay must be >= 0 seconds (got {d})")
+        if isinstance(self.modes, Mode) or not isinstance(self.modes, Iterable):
+            raise ServokitTypeError("modes must be a sequence of Mode(freq_hz, damping, residue)")
+        modes = tuple(self.modes)
+        if not modes:
+            raise ServokitValueError(
+                "modes is empty; give at least one Mode (the rigid body is Mode(0, 0, 1))"
+            )
+        for i, m in enumerate(modes):
+            if not isinstance(m, Mode):
+                raise ServokitTypeError(f"modes[{i}] must be a Mode, got {type(m).__name__}")
+        object.__setattr__(self, "gain", g)
+        object.__setattr__(self, "delay", d)
+        object.__setattr__(self, "modes", modes)
+
+    # ----------------------------------------------------------------- views
+    @property
+    def order(self) -> int:
+        """Number of continuous states (two per mode)."""
+        return 2 * len(self.modes)
+
+    def replace(self, **changes: object) -> ModalPlant:
+        """Return a copy with fields replaced (``dataclasses.replace``)."""
+        return dataclasses.replace(self, **changes)
+
+    def rigid_body(self) -> ModalPlant:
+        """The plant keeping only its rigid-body (freq 0) modes, as used by the book's Design 1."""
+        rigid = tuple(m for m in self.modes if m.freq_hz == 0.0)
+        if not rigid:
+            raise ServokitValueError(f"plant {self.name!r} has no rigid-body mode (freq_hz == 0)")
+        return self.replace(modes=rigid, name=f"{self.name} (rigid body)".strip())
+
+    def arrays(self) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """Mode frequencies [rad/s], damping ratios and gain*residues as arrays."""
+        w = np.array([m.omega for m in self.modes])
+        z = np.array([m.damping for m in self.modes])
+        r = self.gain * np.array([m.residue for m in self.modes])
+        return w, z, r
+
+    # ------------------------------------------------------------- responses
+    def freqresp(self, freq_hz: float | Sequence[float] | np.ndarray) -> np.ndarray:
+        """Exact frequency response P(j 2 pi f), delay included.
+
+        Parameters
+        ----------
+        freq_hz : array_like
+            Frequencies [Hz] (any shape).
+
+        Returns
+        -------
+        ndarray of complex, same shape as ``freq_hz``.
+        """
+        f = np.asarray(freq_hz, dtype=float)
+        if not np.all(np.isfinite(f)):
+            raise ServokitValueError("freq_hz must be finite")
+        s = 2j * np.pi * f[..., None]
+        w, z, r = self.arrays()
+        with np.errstate(divide="ignore", invalid="ignore"):
+            modal = np.sum(r / (s * s + 2 * z * w * s + w * w), axis=-1)
+        return modal * np.exp(-s[..., 0] * self.delay)
+
+    def to_statespace(self) -> control.StateSpace:
+        """Continuous real modal state space (no delay).
+
+        State order: for each mode, ``[q_i, dq_i/dt]`` with
+        ``q_i'' + 2 zeta_i w_i q_i' + w_i^2 q_i = K A_i u`` and ``y = sum_i q_i``.
+        """
+        A, B, C = modal_matrices(*self.arrays())
+        return control.ss(A, B, C, np.zeros((1, 1)))
+
+    def discretize(self, dt: float) -> control.StateSpace:
+        """Exact ZOH discretisation with the input delay, as a python-control ``StateSpace``.
+
+        With ``delay = d*dt + frac`` the model is augmented with the past inputs it needs:
+        ``d + 1`` extra states ``u[k-1], ..., u[k-d-1]`` when ``frac > 0``, ``d`` when the
+        delay is a whole number of samples (see :func:`servokit.models._zoh.delayed_zoh`).
+        The modal states come first, the delay states last.
+        """
+        dt = _finite("dt", dt)
+        if dt <= 0:
+            raise ServokitValueError(f"dt must be > 0 seconds (got {dt})")
+        A, B, C = modal_matrices(*self.arrays())
+        Phi, Gnew, Gold, d = delayed_zoh(A, B, dt, self.delay)
+        has_old = bool(np.any(Gold != 0.0))
+        n_del = d + 1 if has_old else d
+        n = A.shape[0]
+        if n_del == 0:
+            return control.ss(Phi, Gnew, C, np.zeros((1, 1)), dt)
+        N = n + n_del
+        Ad = np.zeros((N, N))
+        Bd = np.zeros((N, 1))
+        Ad[:n, :n] = Phi
+        # delay line: state n + j holds u[k-1-j]
+        Bd[n, 0] = 1.0
+        for j in range(1, n_del):
+            Ad[n + j, n + j - 1] = 1.0
+        # u[k-d] enters with Gnew, u[k-d-1] with Gold
+        if d == 0:
+            Bd[:n] = Gnew
+        else:
+            Ad[:n, n + d - 1 : n + d] = Gnew
+        if has_old:
+            Ad[:n, n + d : n + d + 1] = Gold
+        Cd = np.zeros((1, N))
+        Cd[:, :n] = C
+        return control.ss(Ad, Bd, Cd, np.zeros((1, 1)), dt)
+
+    def __str__(self) -> str:
+        return self.name or f"ModalPlant({len(self.modes)} modes)"
+
+
+def modal_matrices(
+    w: np.ndarray, z: np.ndarray, r: np.ndarray
+) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Block-diagonal real modal (A, B, C) for frequencies ``w`` [rad/s], dampings, gains ``r``."""
+    n = len(w)
+    A = np.zeros((2 * n, 2 * n))
+    B = np.zeros((2 * n, 1))
+    C = np.zeros((1, 2 * n))
+    for i in range(n):
+        A[2 * i, 2 * i + 1] = 1.0
+        A[2 * i + 1, 2 * i] = -w[i] ** 2
+        A[2 * i + 1, 2 * i + 1] = -2.0 * z[i] * w[i]
+        B[2 * i + 1, 0] = r[i]
+        C[0, 2 * i] = 1.0
+    return A, B, C

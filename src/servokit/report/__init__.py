@@ -1,0 +1,48 @@
+"""The reproduction report: book value vs servokit value, side by side.
+
+A case study (:mod:`servokit.cases`) returns a :class:`CaseResult` holding
+:class:`Comparison` rows and the paths of the figures it wrote.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+from pathlib import Path
+
+__all__ = ["Comparison", "CaseResult"]
+
+
+@dataclass(frozen=True)
+class Comparison:
+    """One published number of the book against the value servokit computes.
+
+    ``rel_tol`` is the tolerance the issue states; ``ok`` compares the ratio with it.
+    """
+
+    quantity: str
+    book: float
+    servokit: float
+    unit: str = ""
+    rel_tol: float = 0.05
+    source: str = ""
+
+    @property
+    def ratio(self) -> float:
+        return self.servokit / self.book if self.book != 0 else float("nan")
+
+    @property
+    def ok(self) -> bool:
+        if self.book == 0:
+            return abs(self.servokit) <= self.rel_tol
+        return abs(self.ratio - 1.0) <= self.rel_tol
+
+
+@dataclass
+class CaseResult:
+    """Numbers and figures of one case study."""
+
+    name: str
+    title: str
+    comparisons: list[Comparison] = field(default_factory=list)
+    figures: list[Path] = field(default_factory=list)
+    extra: dict = field(default_factory=dict)
