@@ -1,0 +1,274 @@
+"""The hybrid (sampled-data) simulator: continuous modal plants behind holds, digital
+controllers, multirate filters and held feedforward inputs, batched over plant variants.
+
+The loop of the book's Figs. 2.5/2.6 (TDOF), 4.1/4.2 (multirate sampled-data loop) and
+4.57 (TDOF seek with a multirate feedforward) is::
+
+    u(t)  = H[ F( up_m( C(z) (r[k] - yd[k]) ) ) ](t) + H_ff[u_ff](t) + d_in(t)
+    yc(t) = P(s) e^{-s Td} u(t) + dc(t),         yd[k] = yc(k Ts)
+
+with ``H`` a zero-order hold at ``Ts/m`` (``Ts`` without a multirate filter), ``H_ff`` a
+zero-order hold at the feedforward period and ``up_m`` the zero-inserting up-sampler.
+The plant is integrated exactly (matrix exponential, delay split into whole and
+fractional fine steps) on a fine grid ``h = Ts/substeps``; all holds switch on that grid.
+
+The time loop runs once per sampling period ``Ts`` and is vectorised over variants and
+modes; the outputs between samples are then produced for all periods at once from the
+stored sample states (free response) and a per-period Toeplitz convolution (forced
+response).  ``d_in`` is sampled on the fine grid and held over each fine step; ``dc``
+is added exactly.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable, Sequence
+from dataclasses import dataclass
+
+import control
+import numpy as np
+
+from servokit.errors import ServokitTypeError, ServokitValueError, check_finite
+from servokit.models.modal import ModalPlant
+from servokit.simulate._bank import PlantBank, as_plant_list
+
+__all__ = ["SimulationResult", "simulate"]
+
+Signal = Callable[[np.ndarray], np.ndarray]
+
+
+@dataclass(frozen=True)
+class SimulationResult:
+    """Output of :func:`simulate`.
+
+    Attributes
+    ----------
+    t : ndarray (Nt,)
+        Fine time grid [s], ``Nt = n_samples * substeps``.
+    yc : ndarray (V, Nt)
+        Continuous output on the fine grid, one row per plant variant.
+    td : ndarray (n_samples,)
+        Sampling instants [s].
+    yd : ndarray (V, n_samples)
+        Output at the sampling instants (what the controller sees).
+    u : ndarray (V, Nt)
+        Plant input before the delay on the fine grid.
+    """
+
+    t: np.ndarray
+    yc: np.ndarray
+    td: np.ndarray
+    yd: np.ndarray
+    u: np.ndarray
+    substeps: int
+
+
+def _integer_ratio(name: str, period: float, h: float) -> int:
+    q = period / h
+    qi = int(round(q))
+    if qi < 1 or abs(q - qi) > 1e-6 * max(q, 1.0):
+        raise ServokitValueError(
+            f"{name} ({period:.6g} s) must be an integer multiple of the fine step "
+            f"dt/substeps = {h:.6g} s; choose substeps so that it is"
+        )
+    return qi
+
+
+def _eval_signal(name: str, f: Signal | np.ndarray, t: np.ndarray, V: int) -> np.ndarray:
+    vals = f(t) if callable(f) else f
+    arr = check_finite(name, vals)
+    if arr.shape not in ((t.size,), (V, t.size)):
+        raise ServokitValueError(
+            f"{name} must give one value per fine time step (shape ({t.size},) or ({V}, {t.size})),"
+            f" got shape {arr.shape}"
+        )
+    return np.broadcast_to(arr, (V, t.size))
+
+
+def _ss(name: str, sys: object, dt: float) -> tuple[np.ndarray, ...]:
+    if not isinstance(sys, control.LTI):
+        raise ServokitTypeError(f"{name} must be a python-control discrete LTI object")
+    if not sys.isdtime() or sys.dt is True or abs(float(sys.dt) - dt) > 1e-9 * dt:
+        raise ServokitValueError(
+            f"{name} must be discrete with dt = {dt:.6g} s (got dt = {sys.dt}); "
+            "discretise it with control.sample_system"
+        )
+    s = control.ss(sys)
+    if s.ninputs != 1 or s.noutputs != 1:
+        raise ServokitValueError(f"{name} must be single-input single-output")
+    return (np.asarray(s.A, float), np.asarray(s.B, float)[:, 0],
+            np.asarray(s.C, float)[0], float(np.asarray(s.D)[0, 0]))
+
+
+def simulate(
+    plants: ModalPlant | Sequence[ModalPlant],
+    *,
+    dt: float,
+    n_samples: int,
+    substeps: int = 10,
+    feedforward: np.ndarray | Sequence[float] | None = None,
+    ff_dt: float | None = None,
+    controller: control.LTI | None = None,
+    reference: np.ndarray | Sequence[float] | None = None,
+    multirate: tuple[int, control.LTI] | None = None,
+    output_disturbance: Signal | np.ndarray | None = None,
+    input_disturbance: Signal | np.ndarray | None = None,
+    x0: np.ndarray | None = None,
+) -> SimulationResult:
+    """Simulate plant variants under feedforward and/or digital feedback.
+
+    Parameters
+    ----------
+    plants : ModalPlant or sequence of ModalPlant
+        Variants run together (vectorised); they must share one delay.
+    dt : float
+        Sampling period Ts of the controller (and base period) [s].
+    n_samples : int
+        Number of sampling periods to simulate.
+    substeps : int
+        Fine steps per sampling period; ``yc`` is returned on the grid ``dt/substeps``.
+    feedforward : array_like, optional
+        Feedforward samples, each held for ``ff_dt`` from ``t = 0``; zero afterwards.
+    ff_dt : float, optional
+        Hold period of the feedforward (default ``dt``), a multiple of ``dt/substeps``
+        (multirate feedforward, Fig. 4.57).
+    controller : python-control LTI, optional
+        Discrete controller with ``dt``: ``u_fb = C(z) (r - yd)``.
+    reference : array_like, optional
+        Reference ``r[k]`` at the sampling instants (e.g. the TDOF model output);
+        padded with its last value.
+    multirate : (int, python-control LTI), optional
+        ``(m, F)``: controller output up-sampled by ``m`` with zero insertion, filtered by
+        ``F`` (discrete, ``dt/m``; include the interpolation filter of eq. 4.67 in it) and
+        held at ``dt/m``.  ``m`` must divide ``substeps``.
+    output_disturbance, input_disturbance : callable or array, optional
+        ``dc(t)`` added to the output (exactly) and ``d(t)`` added to the plant input
+        (held on the fine grid), evaluated on the fine grid.
+    x0 : array_like, optional
+        Initial modal state, shape (2M,) or (V, 2M) in ``ModalPlant.to_statespace`` order.
+
+    Returns
+    -------
+    SimulationResult
+    """
+    plist = as_plant_list(plants)
+    dt = float(check_finite("dt", dt))
+    if dt <= 0:
+        raise ServokitValueError(f"dt must be > 0 seconds (got {dt})")
+    if int(n_samples) != n_samples or n_samples < 1:
+        raise ServokitValueError(f"n_samples must be a positive integer (got {n_samples})")
+    if int(substeps) != substeps or substeps < 1:
+        raise ServokitValueError(f"substeps must be a positive integer (got {substeps})")
+    K, S = int(n_samples), int(substeps)
+    h = dt / S
+    Nt = K * S
+    t = h * np.arange(Nt)
+    V = len(plist)
+
+    u_open = np.zeros((V, Nt))
+    if feedforward is not None:
+        ff = check_finite("feedforward", feedforward)
+        if ff.ndim != 1:
+            raise ServokitValueError("feedforward must be a 1-D array of held samples")
+        q = _integer_ratio("ff_dt", dt if ff_dt is None else float(ff_dt), h)
+        fine = np.repeat(ff, q)[:Nt]
+        u_open[:, : fine.size] += fine
+    if input_disturbance is not None:
+        u_open += _eval_signal("input_disturbance", input_disturbance, t, V)
+    dc = np.zeros((V, Nt))
+    if output_disturbance is not None:
+        dc = dc + _eval_signal("output_disturbance", output_disturbance, t, V)
+
+    bank = PlantBank.build(plist, h)
+    M = bank.shape[1]
+    P = bank.powers(S)  # (V, M, S+1, 2, 2)
+    x = np.zeros((V, M, 2))
+    if x0 is not None:
+        x0a = check_finite("x0", x0)
+        if x0a.shape not in ((2 * M,), (V, 2 * M)):
+            raise ServokitValueError(f"x0 must have shape ({2 * M},) or ({V}, {2 * M})")
+        x = np.broadcast_to(x0a, (V, 2 * M)).reshape(V, M, 2).copy()
+
+    # contribution of the input at step i of a block to the state at the block's end
+    back = P[:, :, S - 1 :: -1] if S > 1 else P[:, :, :1]
+    Bn = back @ bank.Gnew[:, :, None, :, None]
+    Bo = back @ bank.Gold[:, :, None, :, None]
+    Bn, Bo = Bn[..., 0], Bo[..., 0]  # (V, M, S, 2)
+    PS = P[:, :, S]
+
+    # u_j sits at ubuf[:, j + dd + 1]; the plant sees u[j-dd] (new) and u[j-dd-1] (old)
+    dd = bank.dd
+    ubuf = np.zeros((V, Nt + dd + 1))
+    ubuf[:, dd + 1 :] = u_open
+    xs = np.empty((V, K, M, 2))
+    yd = np.empty((V, K))
+
+    loop = None
+    if controller is not None:
+        Ac, Bc, Cc, Dc = _ss("controller", controller, dt)
+        xc = np.zeros((V, Ac.shape[0]))
+        r = np.zeros(K)
+        if reference is not None:
+            ref = check_finite("reference", reference)
+            if ref.ndim != 1 or ref.size == 0:
+                raise ServokitValueError("reference must be a non-empty 1-D array at dt")
+            r[: min(K, ref.size)] = ref[:K]
+            r[ref.size :] = ref[-1]
+        m = 1
+        filt = None
+        if multirate is not None:
+            m, F = multirate
+            if int(m) != m or m < 1 or S % m:
+                raise ServokitValueError(
+                    f"multirate m = {m} must be a positive integer dividing substeps = {S}"
+                )
+            m = int(m)
+            filt = _ss("multirate filter", F, dt / m)
+            xf = np.zeros((V, filt[0].shape[0]))
+        loop = True
+    elif reference is not None or multirate is not None:
+        raise ServokitValueError("reference and multirate need a controller; pass controller=...")
+
+    for k in range(K):
+        xs[:, k] = x
+        yk = x[..., 0].sum(axis=-1) + dc[:, k * S]
+        yd[:, k] = yk
+        if loop:
+            e = r[k] - yk
+            ufb = xc @ Cc + Dc * e
+            xc = xc @ Ac.T + e[:, None] * Bc
+            if filt is None:
+                fb = np.repeat(ufb[:, None], S, axis=1)
+            else:
+                Af, Bf, Cf, Df = filt
+                sub = np.empty((V, m))
+                inp = ufb  # zero insertion: only the first sub-sample carries the value
+                for i in range(m):
+                    sub[:, i] = xf @ Cf + Df * inp
+                    xf = xf @ Af.T + inp[:, None] * Bf
+                    inp = np.zeros(V)
+                fb = np.repeat(sub, S // m, axis=1)
+            ubuf[:, dd + 1 + k * S : dd + 1 + (k + 1) * S] += fb
+        w_new = ubuf[:, k * S + 1 : k * S + S + 1]
+        w_old = ubuf[:, k * S : k * S + S]
+        x = (
+            np.einsum("vmij,vmj->vmi", PS, x)
+            + np.einsum("vmsi,vs->vmi", Bn, w_new)
+            + np.einsum("vmsi,vs->vmi", Bo, w_old)
+        )
+
+    # outputs between the samples: free response of the stored states + forced response
+    CP = P[:, :, :S, 0, :]  # (V, M, S, 2): first row of Phi^i
+    y = np.einsum("vmic,vkmc->vki", CP, xs)
+    hn = np.einsum("vmlc,vmc->vl", CP, bank.Gnew)  # (V, S): C Phi^l Gnew summed over modes
+    ho = np.einsum("vmlc,vmc->vl", CP, bank.Gold)
+    idx = np.arange(S)
+    lag = idx[:, None] - 1 - idx[None, :]
+    mask = lag >= 0
+    Tn = np.where(mask, hn[:, np.clip(lag, 0, None)], 0.0)  # (V, S, S)
+    To = np.where(mask, ho[:, np.clip(lag, 0, None)], 0.0)
+    Wn = ubuf[:, 1 : Nt + 1].reshape(V, K, S)
+    Wo = ubuf[:, 0:Nt].reshape(V, K, S)
+    y += Wn @ Tn.transpose(0, 2, 1) + Wo @ To.transpose(0, 2, 1)
+    yc = y.reshape(V, Nt) + dc
+    u = ubuf[:, dd + 1 :]
+    return SimulationResult(t=t, yc=yc, td=t[::S], yd=yd, u=u, substeps=S)

@@ -1,0 +1,144 @@
+"""Seek and settling metrics on simulated responses.
+
+Seek time (book §2.4.1, assumption 4): the time after which the output, read on the
+given grid, stays within ``target +- band`` until the end of the record; worst case
+over the plant set.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Sequence
+from dataclasses import dataclass
+from typing import Protocol
+
+import numpy as np
+
+from servokit.errors import ServokitValueError, check_finite
+from servokit.models.modal import ModalPlant
+from servokit.simulate.hybrid import simulate
+
+__all__ = ["HeldInput", "StepMetrics", "settling_time", "step_metrics", "seek_time", "seek_response"]
+
+
+class HeldInput(Protocol):
+    """Anything with held input samples ``u`` and their period ``dt`` (a FeedforwardInput)."""
+
+    u: np.ndarray
+    dt: float
+
+
+def settling_time(t: np.ndarray, y: np.ndarray, target: float, band: float) -> np.ndarray:
+    """Time after which ``|y - target| <= band`` holds to the end of the record.
+
+    Parameters
+    ----------
+    t : ndarray (Nt,)
+    y : ndarray (Nt,) or (V, Nt)
+    target, band : float
+
+    Returns
+    -------
+    ndarray (V,)
+        Settling time per row [s]; ``inf`` where the output is outside the band at the
+        end of the record (not settled within it).
+    """
+    if band <= 0:
+        raise ServokitValueError(f"band must be > 0 (got {band})")
+    t = np.asarray(t, dtype=float)
+    y2 = np.atleast_2d(check_finite("y", y))
+    if y2.shape[-1] != t.size:
+        raise ServokitValueError("y must have one value per time in t along its last axis")
+    outside = np.abs(y2 - target) > band
+    any_out = outside.any(axis=1)
+    last = t.size - 1 - np.argmax(outside[:, ::-1], axis=1)
+    out = np.where(any_out, np.inf, t[0])
+    ok = any_out & (last + 1 < t.size)
+    out[ok] = t[last[ok] + 1]
+    return out
+
+
+@dataclass(frozen=True)
+class StepMetrics:
+    """Per-variant metrics of a move to ``target`` (from 0).
+
+    ``overshoot`` is in output units beyond the target in the direction of motion
+    (0 if none); ``peak`` is the extreme output in that direction.
+    """
+
+    settling_time: np.ndarray
+    overshoot: np.ndarray
+    peak: np.ndarray
+
+    @property
+    def worst(self) -> int:
+        """Index of the variant with the longest settling time."""
+        return int(np.argmax(self.settling_time))
+
+    @property
+    def worst_settling_time(self) -> float:
+        return float(np.max(self.settling_time))
+
+
+def step_metrics(t: np.ndarray, y: np.ndarray, target: float, band: float) -> StepMetrics:
+    """Settling time, overshoot and peak of each row of ``y`` for a move to ``target``."""
+    y2 = np.atleast_2d(np.asarray(y, dtype=float))
+    sgn = 1.0 if target >= 0 else -1.0
+    peak = sgn * np.max(sgn * y2, axis=1)
+    over = np.maximum(sgn * (peak - target), 0.0)
+    return StepMetrics(settling_time(t, y2, target, band), over, peak)
+
+
+def seek_response(
+    plants: ModalPlant | Sequence[ModalPlant],
+    ff: HeldInput,
+    *,
+    grid: float | None = None,
+    horizon: float | None = None,
+):
+    """Open-loop response of every plant to the held feedforward ``ff`` (no feedback).
+
+    ``grid`` defaults to ``ff.dt / 10``; ``horizon`` to ``max(3 T, T + 2 ms)`` with
+    ``T`` the input's duration.
+    """
+    u = check_finite("ff.u", ff.u)
+    dt = float(ff.dt)
+    grid = dt / 10 if grid is None else float(grid)
+    S = int(round(dt / grid))
+    if S < 1 or abs(S * grid - dt) > 1e-9 * dt:
+        raise ServokitValueError(f"grid ({grid:g} s) must divide ff.dt ({dt:g} s) a whole number of times")
+    duration = u.size * dt
+    horizon = max(3 * duration, duration + 2e-3) if horizon is None else float(horizon)
+    K = int(np.ceil(horizon / dt)) + 1
+    return simulate(plants, dt=dt, n_samples=K, substeps=S, feedforward=u)
+
+
+def seek_time(
+    plants: ModalPlant | Sequence[ModalPlant],
+    ff: HeldInput,
+    target: float,
+    band: float = 0.1,
+    grid: float | None = None,
+    horizon: float | None = None,
+) -> np.ndarray:
+    """Seek time of every plant under the feedforward input ``ff`` (no feedback).
+
+    Parameters
+    ----------
+    plants : ModalPlant or sequence of ModalPlant
+    ff : object with ``.u`` (held samples) and ``.dt`` (their period)
+    target : float
+        Target position (e.g. 1 track).
+    band : float
+        Half-width of the settling band (0.1 track in the HDD benchmark).
+    grid : float, optional
+        Time grid on which the position is read (default ``ff.dt / 10``).
+    horizon : float, optional
+        Length of the simulated record [s].
+
+    Returns
+    -------
+    ndarray (V,)
+        Seek time per plant [s] (``inf`` if not settled within the horizon).
+    """
+    res = seek_response(plants, ff, grid=grid, horizon=horizon)
+    return settling_time(res.t, res.yc, target, band)
