@@ -164,7 +164,10 @@ def simulate(
     t = h * np.arange(Nt)
     V = len(plist)
 
-    u_open = np.zeros((V, Nt))
+    # Inputs shared by every variant (feedforward, 1-D disturbances) are kept as one row
+    # so that the open-loop response is a single large matrix product for all variants.
+    Vu = 1 if controller is None else V
+    u_open = np.zeros((1, Nt))
     if feedforward is not None:
         ff = check_finite("feedforward", feedforward)
         if ff.ndim != 1:
@@ -173,7 +176,10 @@ def simulate(
         fine = np.repeat(ff, q)[:Nt]
         u_open[:, : fine.size] += fine
     if input_disturbance is not None:
-        u_open += _eval_signal("input_disturbance", input_disturbance, t, V)
+        d_in = _eval_signal("input_disturbance", input_disturbance, t, V)
+        if not np.all(d_in == d_in[:1]):
+            Vu = V
+        u_open = u_open + (d_in if Vu == V else d_in[:1])
     dc = np.zeros((V, Nt))
     if output_disturbance is not None:
         dc = dc + _eval_signal("output_disturbance", output_disturbance, t, V)
@@ -188,21 +194,37 @@ def simulate(
             raise ServokitValueError(f"x0 must have shape ({2 * M},) or ({V}, {2 * M})")
         x = np.broadcast_to(x0a, (V, 2 * M)).reshape(V, M, 2).copy()
 
-    # contribution of the input at step i of a block to the state at the block's end
+    # B2[v, s, :]: contribution of the new (s < S) / old (s >= S) input at fine step s of
+    # a block to the modal state (flattened to 2M) at the block's end
     back = P[:, :, S - 1 :: -1] if S > 1 else P[:, :, :1]
-    Bn = back @ bank.Gnew[:, :, None, :, None]
-    Bo = back @ bank.Gold[:, :, None, :, None]
-    Bn, Bo = Bn[..., 0], Bo[..., 0]  # (V, M, S, 2)
+    B2 = np.concatenate(
+        [back @ bank.Gnew[:, :, None, :, None], back @ bank.Gold[:, :, None, :, None]], axis=2
+    )[..., 0].transpose(0, 2, 1, 3).reshape(V, 2 * S, 2 * M)
     PS = P[:, :, S]
 
     # u_j sits at ubuf[:, j + dd + 1]; the plant sees u[j-dd] (new) and u[j-dd-1] (old)
     dd = bank.dd
-    ubuf = np.zeros((V, Nt + dd + 1))
+    ubuf = np.zeros((Vu, Nt + dd + 1))
     ubuf[:, dd + 1 :] = u_open
+
+    def windows(lo: int, hi: int) -> np.ndarray:
+        """Delayed inputs of blocks lo..hi-1 as (Vu, hi-lo, 2S): new then old."""
+        w_new = ubuf[:, lo * S + 1 : hi * S + 1].reshape(Vu, hi - lo, S)
+        w_old = ubuf[:, lo * S : hi * S].reshape(Vu, hi - lo, S)
+        return np.concatenate([w_new, w_old], axis=2)
+
+    def apply(W: np.ndarray, mats: np.ndarray) -> np.ndarray:
+        """(Vu, n, 2S) inputs times per-variant (V, 2S, q) maps -> (V, n, q)."""
+        if W.shape[0] == 1:  # one shared input: a single GEMM over all variants
+            q = mats.shape[2]
+            flat = W[0] @ mats.transpose(1, 0, 2).reshape(2 * S, V * q)
+            return flat.reshape(W.shape[1], V, q).transpose(1, 0, 2)
+        return W @ mats
+
     xs = np.empty((V, K, M, 2))
     yd = np.empty((V, K))
 
-    loop = None
+    loop = False
     if controller is not None:
         Ac, Bc, Cc, Dc = _ss("controller", controller, dt)
         xc = np.zeros((V, Ac.shape[0]))
@@ -228,6 +250,7 @@ def simulate(
     elif reference is not None or multirate is not None:
         raise ServokitValueError("reference and multirate need a controller; pass controller=...")
 
+    open_drive = None if loop else apply(windows(0, K), B2).reshape(V, K, M, 2)
     for k in range(K):
         xs[:, k] = x
         yk = x[..., 0].sum(axis=-1) + dc[:, k * S]
@@ -248,27 +271,33 @@ def simulate(
                     inp = np.zeros(V)
                 fb = np.repeat(sub, S // m, axis=1)
             ubuf[:, dd + 1 + k * S : dd + 1 + (k + 1) * S] += fb
-        w_new = ubuf[:, k * S + 1 : k * S + S + 1]
-        w_old = ubuf[:, k * S : k * S + S]
-        x = (
-            np.einsum("vmij,vmj->vmi", PS, x)
-            + np.einsum("vmsi,vs->vmi", Bn, w_new)
-            + np.einsum("vmsi,vs->vmi", Bo, w_old)
-        )
+            inc = (windows(k, k + 1) @ B2).reshape(V, M, 2)
+        else:
+            inc = open_drive[:, k]
+        x = (PS @ x[..., None])[..., 0] + inc
 
     # outputs between the samples: free response of the stored states + forced response
     CP = P[:, :, :S, 0, :]  # (V, M, S, 2): first row of Phi^i
-    y = np.einsum("vmic,vkmc->vki", CP, xs)
-    hn = np.einsum("vmlc,vmc->vl", CP, bank.Gnew)  # (V, S): C Phi^l Gnew summed over modes
-    ho = np.einsum("vmlc,vmc->vl", CP, bank.Gold)
+    y = xs.reshape(V, K, 2 * M) @ CP.transpose(0, 1, 3, 2).reshape(V, 2 * M, S)
+    # impulse responses C Phi^l G (l = 0..S-1) summed over modes
+    H2 = np.concatenate(
+        [np.einsum("vmlc,vmc->vl", CP, bank.Gnew), np.einsum("vmlc,vmc->vl", CP, bank.Gold)], axis=1
+    )  # (V, 2S)
     idx = np.arange(S)
-    lag = idx[:, None] - 1 - idx[None, :]
-    mask = lag >= 0
-    Tn = np.where(mask, hn[:, np.clip(lag, 0, None)], 0.0)  # (V, S, S)
-    To = np.where(mask, ho[:, np.clip(lag, 0, None)], 0.0)
-    Wn = ubuf[:, 1 : Nt + 1].reshape(V, K, S)
-    Wo = ubuf[:, 0:Nt].reshape(V, K, S)
-    y += Wn @ Tn.transpose(0, 2, 1) + Wo @ To.transpose(0, 2, 1)
+    W = np.concatenate([np.zeros((Vu, K, 1)), windows(0, K)], axis=2)  # leading zero pad
+    if Vu == 1:
+        # shared input: its per-block Toeplitz Wt[l, k, i] = w[k, i-1-l] is built once
+        lag = np.clip(idx[None, :] - idx[:, None], 0, None)  # [l, i] -> i - l (0 = pad)
+        Wt_new = W[0][:, lag].transpose(1, 0, 2)  # (S, K, S)
+        Wt_old = W[0][:, S + lag].transpose(1, 0, 2)
+        Wt_old[(lag == 0)[:, None, :].repeat(K, axis=1)] = 0.0
+        Wt = np.concatenate([Wt_new, Wt_old], axis=0).reshape(2 * S, K * S)
+        y += (H2 @ Wt).reshape(V, K, S)
+    else:
+        lag = np.clip(idx[:, None] - idx[None, :], 0, None)  # [i, j] -> i - j (0 if i <= j)
+        Hp = np.concatenate([np.zeros((V, 1)), H2[:, :S], np.zeros((V, 1)), H2[:, S:]], axis=1)
+        T2 = np.concatenate([Hp[:, lag.T], Hp[:, S + 1 + lag.T]], axis=1)  # (V, 2S, S)
+        y += W[:, :, 1:] @ T2
     yc = y.reshape(V, Nt) + dc
-    u = ubuf[:, dd + 1 :]
+    u = np.broadcast_to(ubuf[:, dd + 1 :], (V, Nt))
     return SimulationResult(t=t, yc=yc, td=t[::S], yd=yd, u=u, substeps=S)

@@ -1,0 +1,54 @@
+"""``servokit reproduce``: run the book's case studies, book value vs servokit value."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import typer
+from rich.table import Table
+
+from servokit.cli._app import app, console, emit_json
+
+
+@app.command("reproduce")
+def reproduce(
+    out: Path = typer.Option(Path("out"), help="directory for the figures"),
+    case: list[str] | None = typer.Option(None, help="run only these cases (repeatable)"),
+    json_out: bool = typer.Option(False, "--json", help="machine-readable output"),
+) -> None:
+    """Reproduce the book's published numbers and figures."""
+    from servokit.cases import run_all
+
+    results = run_all(out, only=case or None)
+    if json_out:
+        emit_json([
+            {
+                "case": r.name,
+                "title": r.title,
+                "comparisons": [
+                    {"quantity": c.quantity, "book": c.book, "servokit": c.servokit, "ratio": c.ratio,
+                     "unit": c.unit, "rel_tol": c.rel_tol, "ok": c.ok, "source": c.source}
+                    for c in r.comparisons
+                ],
+                "figures": [str(f) for f in r.figures],
+            }
+            for r in results
+        ])
+        return
+    n_ok = n_all = 0
+    for r in results:
+        table = Table(title=f"{r.title}  [{r.name}]", title_justify="left")
+        for col in ("quantity", "book", "servokit", "ratio", "tol", "ok"):
+            table.add_column(col, justify="left" if col == "quantity" else "right")
+        for c in r.comparisons:
+            n_all += 1
+            n_ok += c.ok
+            table.add_row(
+                f"{c.quantity} [{c.unit}]" if c.unit else c.quantity,
+                f"{c.book:.6g}", f"{c.servokit:.6g}", f"{c.ratio:.4f}", f"{c.rel_tol:.0%}",
+                "[green]yes[/green]" if c.ok else "[red]no[/red]",
+            )
+        console.print(table)
+        for f in r.figures:
+            console.print(f"  figure: {f}")
+    console.print(f"{n_ok}/{n_all} book numbers within tolerance; figures in {out}/")

@@ -1,0 +1,53 @@
+"""Bode plots of modal plants (exact frequency response, delay included)."""
+
+from __future__ import annotations
+
+from collections.abc import Sequence
+from pathlib import Path
+
+import numpy as np
+
+from servokit.models.modal import ModalPlant
+
+__all__ = ["bode_plot"]
+
+
+def bode_plot(
+    plants: ModalPlant | Sequence[ModalPlant],
+    freq_hz: np.ndarray | None = None,
+    *,
+    path: str | Path | None = None,
+    title: str | None = None,
+):
+    """Draw magnitude [dB] and phase [deg] of one or several plants; save to ``path`` if given.
+
+    Returns the matplotlib figure.
+    """
+    import matplotlib.pyplot as plt
+
+    plist = [plants] if isinstance(plants, ModalPlant) else list(plants)
+    f = np.logspace(1, np.log10(5e4), 2000) if freq_hz is None else np.asarray(freq_hz)
+    fig, (ax_m, ax_p) = plt.subplots(2, 1, sharex=True, figsize=(7, 6))
+    many = len(plist) > 3
+    for i, p in enumerate(plist):
+        H = p.freqresp(f)
+        kw = {"lw": 0.8, "alpha": 0.6} if many and i else {"lw": 1.4}
+        label = p.name if (not many or i == 0) else None
+        ax_m.semilogx(f, 20 * np.log10(np.abs(H)), label=label, **kw)
+        phase = np.degrees(np.unwrap(np.angle(H)))
+        phase -= 360.0 * np.ceil(phase[0] / 360.0)  # start in (-360, 0] as servo plots do
+        ax_p.semilogx(f, phase, **kw)
+    ax_m.set_ylabel("Magnitude [dB]")
+    ax_p.set_ylabel("Phase [deg]")
+    ax_p.set_xlabel("Frequency [Hz]")
+    ax_m.grid(True, which="both", alpha=0.3)
+    ax_p.grid(True, which="both", alpha=0.3)
+    if many:
+        ax_m.plot([], [], color="gray", lw=0.8, label=f"{len(plist) - 1} variants")
+    ax_m.legend(loc="best", fontsize=8)
+    ax_m.set_title(title or ("Bode plot: " + (plist[0].name or "plant")))
+    fig.tight_layout()
+    if path is not None:
+        fig.savefig(path, dpi=120)
+        plt.close(fig)
+    return fig
