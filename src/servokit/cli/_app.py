@@ -54,25 +54,44 @@ def fail(message: str) -> None:
     raise typer.Exit(code=2)
 
 
+def _usage_errors() -> tuple[type[BaseException], ...]:
+    """Usage-error classes of the installed typer (own copy of click) or of click."""
+    found: list[type[BaseException]] = []
+    try:
+        from typer.exceptions import TyperException
+
+        found.append(TyperException)
+    except ImportError:  # older typer builds on click
+        pass
+    try:
+        import click
+
+        found.append(click.exceptions.ClickException)
+    except ImportError:
+        pass
+    return tuple(found)
+
+
 def main() -> None:
     """Entry point of the ``servokit`` command."""
     from servokit.cli import _discover
 
     _discover()
+    usage = _usage_errors()
     try:
         app(standalone_mode=False)
     except typer.Exit as exc:
         sys.exit(exc.exit_code)
+    except typer.Abort:
+        sys.exit(1)
     except (ServokitError, ValueError, TypeError, FileNotFoundError) as exc:
         msg = str(exc).splitlines()[0] if str(exc) else type(exc).__name__
         typer.echo(f"servokit: error: {msg}", err=True)
         sys.exit(2)
-    except Exception as exc:  # click usage errors and friends
-        import click
-
-        if isinstance(exc, click.exceptions.ClickException):
-            typer.echo(f"servokit: error: {exc.format_message()}", err=True)
-            sys.exit(2)
-        if isinstance(exc, click.exceptions.Abort):
-            sys.exit(1)
-        raise
+    except usage as exc:
+        text = exc.format_message() if hasattr(exc, "format_message") else str(exc)
+        if type(exc).__name__ == "NoArgsIsHelpError":  # bare `servokit` / group: show help
+            typer.echo(text)
+            sys.exit(0)
+        typer.echo(f"servokit: error: {text.strip().splitlines()[0] if text.strip() else exc}", err=True)
+        sys.exit(2)
