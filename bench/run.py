@@ -33,9 +33,13 @@ def seek_input(n: int) -> np.ndarray:
 def main() -> None:
     ap = argparse.ArgumentParser()
     ap.add_argument("--variants", type=int, default=1000)
-    ap.add_argument("--baseline-variants", type=int, default=None,
-                    help="variants run by the python-control loop (default: all); its time is "
-                    "scaled to --variants")
+    ap.add_argument(
+        "--baseline-variants",
+        type=int,
+        default=None,
+        help="variants run by the python-control loop (default: all); its time is "
+        "scaled to --variants",
+    )
     ap.add_argument("--json", action="store_true")
     args = ap.parse_args()
 
@@ -81,8 +85,10 @@ def main() -> None:
     if args.json:
         print(json.dumps(out, indent=2))
         return
-    print(f"HDD benchmark, {args.variants} Monte-Carlo variants, 2 ms seek, grid Ts/40 "
-          f"({n_samples * S} fine steps)")
+    print(
+        f"HDD benchmark, {args.variants} Monte-Carlo variants, 2 ms seek, grid Ts/40 "
+        f"({n_samples * S} fine steps)"
+    )
     print(f"  servokit batched simulate : {t_sk:8.3f} s  (peak memory {peak / 2**20:.0f} MB)")
     print(f"  python-control loop       : {t_pc:8.3f} s  ({nb} variants run)")
     print(f"  speed-up                  : {t_pc / t_sk:8.1f} x")

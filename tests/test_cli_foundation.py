@@ -34,8 +34,20 @@ def test_plant_bode_plot(tmp_path: Path):
 
 
 def test_simulate_closed_loop_step_json():
-    r = run("simulate", "--plant", "hdd-sampled-data", "--dt", "153.5e-6", "--duration", "0.02",
-            "--step", "1", "--controller", "eq-4.69", "--json")
+    r = run(
+        "simulate",
+        "--plant",
+        "hdd-sampled-data",
+        "--dt",
+        "153.5e-6",
+        "--duration",
+        "0.02",
+        "--step",
+        "1",
+        "--controller",
+        "eq-4.69",
+        "--json",
+    )
     assert r.returncode == 0, r.stderr
     data = json.loads(r.stdout)
     assert data["final"][0] == pytest.approx(1.0, abs=1e-3)  # integral action
@@ -44,8 +56,17 @@ def test_simulate_closed_loop_step_json():
 def test_simulate_input_file(tmp_path: Path):
     f = tmp_path / "u.txt"
     f.write_text("1e-3\n-1e-3\n")
-    r = run("simulate", "--variants", "--dt", "37.879e-6", "--duration", "1e-3", "--input", str(f),
-            "--json")
+    r = run(
+        "simulate",
+        "--variants",
+        "--dt",
+        "37.879e-6",
+        "--duration",
+        "1e-3",
+        "--input",
+        str(f),
+        "--json",
+    )
     assert r.returncode == 0, r.stderr
     assert len(json.loads(r.stdout)["plants"]) == 18
 
@@ -55,7 +76,17 @@ def test_simulate_input_file(tmp_path: Path):
     [
         ("plant", "show", "no-such-plant"),
         ("simulate", "--dt", "0", "--duration", "1", "--step", "1"),
-        ("simulate", "--dt", "1e-4", "--duration", "1e-3", "--step", "1", "--controller", "eq-4.69"),
+        (
+            "simulate",
+            "--dt",
+            "1e-4",
+            "--duration",
+            "1e-3",
+            "--step",
+            "1",
+            "--controller",
+            "eq-4.69",
+        ),
         ("plant", "show", "missing.toml"),
     ],
 )

@@ -41,7 +41,9 @@ def _step_closed_form(plant: ModalPlant, t: np.ndarray) -> np.ndarray:
             y += k * tau**2 / 2
             continue
         wd = w * math.sqrt(1 - z * z)
-        g = 1 - np.exp(-z * w * tau) * (np.cos(wd * tau) + z / math.sqrt(1 - z * z) * np.sin(wd * tau))
+        g = 1 - np.exp(-z * w * tau) * (
+            np.cos(wd * tau) + z / math.sqrt(1 - z * z) * np.sin(wd * tau)
+        )
         y += k * g / w**2
     return y
 
@@ -73,7 +75,9 @@ def test_discretize_delay_multiples(delay_steps):
 
 modes_st = st.lists(
     st.tuples(
-        st.floats(50.0, 20000.0), st.floats(0.001, 0.5), st.floats(-2.0, 2.0).filter(lambda r: abs(r) > 1e-3)
+        st.floats(50.0, 20000.0),
+        st.floats(0.001, 0.5),
+        st.floats(-2.0, 2.0).filter(lambda r: abs(r) > 1e-3),
     ),
     min_size=1,
     max_size=4,
@@ -84,13 +88,17 @@ modes_st = st.lists(
 @given(modes=modes_st, delay_frac=st.floats(0.0, 3.0), f=st.floats(1.0, 3e4))
 def test_random_plants_freqresp_and_discretize(modes, delay_frac, f):
     dt = 5e-5
-    plant = ModalPlant(1e7, (Mode(0, 0, 1),) + tuple(Mode(*m) for m in modes), delay=delay_frac * dt)
+    plant = ModalPlant(
+        1e7, (Mode(0, 0, 1),) + tuple(Mode(*m) for m in modes), delay=delay_frac * dt
+    )
     H = plant.freqresp(np.array([f]))
     ref = _ss_freqresp(plant, np.array([f]))
     # modes may nearly cancel: measure the error against the size of the terms summed
     s = 2j * np.pi * f
-    scale = sum(abs(plant.gain * m.residue / (s * s + 2 * m.damping * m.omega * s + m.omega**2))
-                for m in plant.modes)
+    scale = sum(
+        abs(plant.gain * m.residue / (s * s + 2 * m.damping * m.omega * s + m.omega**2))
+        for m in plant.modes
+    )
     assert abs(H[0] - ref[0]) / scale < 1e-10
     d = plant.discretize(dt)
     k = np.arange(40)
@@ -101,7 +109,9 @@ def test_random_plants_freqresp_and_discretize(modes, delay_frac, f):
 
 def test_hdd_benchmark_catalogue_values():
     p = sk.models.hdd_benchmark()
-    assert p.gain == pytest.approx(1.0 / (1e-3 * 2.54e-7), rel=2e-3)  # kf/(m Tp), rounded in the book
+    assert p.gain == pytest.approx(
+        1.0 / (1e-3 * 2.54e-7), rel=2e-3
+    )  # kf/(m Tp), rounded in the book
     assert p.delay == 1e-5
     assert HDD_BENCHMARK_TS == pytest.approx(37.879e-6, rel=1e-5)
     assert [m.freq_hz for m in p.modes] == [0, 3000, 4100, 5000, 7000, 12300, 16400]
@@ -127,8 +137,16 @@ def test_hdd_benchmark_variants_are_the_18_table_2_3_plants():
         assert p.modes[3].residue == pytest.approx(-0.3)
     # frequency rows move f2, f3, f4..7 together
     for p in v:
-        r2, r3, r7 = p.modes[1].freq_hz / 3000, p.modes[2].freq_hz / 4100, p.modes[6].freq_hz / 16400
-        assert (r2, r3, r7) in [(1, 1, 1), pytest.approx((1.01, 1.025, 1.005)), pytest.approx((0.98, 0.95, 0.98))]
+        r2, r3, r7 = (
+            p.modes[1].freq_hz / 3000,
+            p.modes[2].freq_hz / 4100,
+            p.modes[6].freq_hz / 16400,
+        )
+        assert (r2, r3, r7) in [
+            (1, 1, 1),
+            pytest.approx((1.01, 1.025, 1.005)),
+            pytest.approx((0.98, 0.95, 0.98)),
+        ]
 
 
 def test_monte_carlo_is_reproducible_and_in_range():
@@ -213,11 +231,17 @@ def test_toml_round_trip_and_validation(tmp_path):
     good_mode = "[[modes]]\nfreq_hz = 0.0\ndamping = 0.0\nresidue = 1.0\n"
     cases = [
         ("gain = 1.0\ncolour = 'red'\n" + good_mode, "unknown key 'colour'"),
-        ("gain = 1.0\n[[modes]]\nfreq_hz = 10.0\ndamping = -0.1\nresidue = 1.0\n", r"modes\[0\].damping"),
+        (
+            "gain = 1.0\n[[modes]]\nfreq_hz = 10.0\ndamping = -0.1\nresidue = 1.0\n",
+            r"modes\[0\].damping",
+        ),
         ("delay = 0.0\n" + good_mode, "missing field 'gain'"),
         ("gain = nan\n" + good_mode, "'gain' must be finite"),
         ("gain = 1.0\n", "modes"),
-        ("gain = 1.0\n[[modes]]\nfreq_hz = 0.0\ndamping = 0.0\nresidue = 1.0\nq = 1\n", r"modes\[0\].q"),
+        (
+            "gain = 1.0\n[[modes]]\nfreq_hz = 0.0\ndamping = 0.0\nresidue = 1.0\nq = 1\n",
+            r"modes\[0\].q",
+        ),
     ]
     for text, match in cases:
         with pytest.raises(sk.models.PlantFileError, match=match):

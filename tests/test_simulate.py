@@ -41,8 +41,9 @@ def test_closed_loop_samples_match_python_control_feedback():
     plant = sk.models.hdd_sampled_data()
     C = sk.models.controller_eq_4_69()
     K = 300
-    res = simulate(plant, dt=HDD_SAMPLED_DATA_TS, n_samples=K, substeps=4, controller=C,
-                   reference=np.ones(K))
+    res = simulate(
+        plant, dt=HDD_SAMPLED_DATA_TS, n_samples=K, substeps=4, controller=C, reference=np.ones(K)
+    )
     cl = control.feedback(plant.discretize(HDD_SAMPLED_DATA_TS) * C, 1)
     ref = control.forced_response(cl, U=np.ones(K)).outputs
     assert np.max(np.abs(res.yd[0] - ref)) < 1e-10
@@ -81,8 +82,16 @@ def test_multirate_loop_matches_brute_force():
     Ip = control.tf([1, 1, 1, 1], [1, 0, 0, 0], dt / m)
     F = Ip * control.tf([0.5, 0.2], [1, -0.3], dt / m)
     ff = np.array([1e-3, -2e-3, 0.5e-3, 1e-3])
-    res = simulate(plant, dt=dt, n_samples=40, substeps=S, controller=C, multirate=(m, F),
-                   feedforward=ff, ff_dt=3 * dt / S)
+    res = simulate(
+        plant,
+        dt=dt,
+        n_samples=40,
+        substeps=S,
+        controller=C,
+        multirate=(m, F),
+        feedforward=ff,
+        ff_dt=3 * dt / S,
+    )
     ref = _brute_force_multirate(plant, C, F, m, S, 40, dt, ff, 3)
     assert np.max(np.abs(res.yc[0] - ref)) / np.max(np.abs(ref)) < 1e-9
 
@@ -90,15 +99,25 @@ def test_multirate_loop_matches_brute_force():
 def test_output_and_input_disturbance():
     plant = ModalPlant(1.0, (Mode(0, 0, 1),))
     dc = lambda t: np.sin(2 * np.pi * 100 * t)  # noqa: E731
-    res = simulate(plant, dt=1e-3, n_samples=5, substeps=10, output_disturbance=dc,
-                   input_disturbance=lambda t: np.ones_like(t))
+    res = simulate(
+        plant,
+        dt=1e-3,
+        n_samples=5,
+        substeps=10,
+        output_disturbance=dc,
+        input_disturbance=lambda t: np.ones_like(t),
+    )
     assert np.allclose(res.yc[0], res.t**2 / 2 + dc(res.t), atol=1e-15)
 
 
 @settings(max_examples=20, deadline=None)
 @given(
-    f=st.floats(200.0, 8000.0), z=st.floats(0.005, 0.3), r=st.floats(-1.5, 1.5),
-    delay_frac=st.floats(0.0, 2.5), S=st.integers(1, 12), seed=st.integers(0, 1000),
+    f=st.floats(200.0, 8000.0),
+    z=st.floats(0.005, 0.3),
+    r=st.floats(-1.5, 1.5),
+    delay_frac=st.floats(0.0, 2.5),
+    S=st.integers(1, 12),
+    seed=st.integers(0, 1000),
 )
 def test_random_plants_match_python_control(f, z, r, delay_frac, S, seed):
     dt = 1e-4

@@ -93,5 +93,7 @@ def main() -> None:
         if type(exc).__name__ == "NoArgsIsHelpError":  # bare `servokit` / group: show help
             typer.echo(text)
             sys.exit(0)
-        typer.echo(f"servokit: error: {text.strip().splitlines()[0] if text.strip() else exc}", err=True)
+        typer.echo(
+            f"servokit: error: {text.strip().splitlines()[0] if text.strip() else exc}", err=True
+        )
         sys.exit(2)

@@ -13,7 +13,9 @@ from servokit.errors import ServokitValueError
 from servokit.models import CATALOGUE, get_plant
 from servokit.models.plots import bode_plot
 
-plant_app = typer.Typer(help="Inspect plants: catalogue names or TOML plant files.", no_args_is_help=True)
+plant_app = typer.Typer(
+    help="Inspect plants: catalogue names or TOML plant files.", no_args_is_help=True
+)
 app.add_typer(plant_app, name="plant")
 
 _PLANT_HELP = f"catalogue name ({', '.join(CATALOGUE)}) or a .toml plant file"
@@ -31,7 +33,9 @@ def show(
         "gain": p.gain,
         "delay_s": p.delay,
         "source": p.source,
-        "modes": [{"freq_hz": m.freq_hz, "damping": m.damping, "residue": m.residue} for m in p.modes],
+        "modes": [
+            {"freq_hz": m.freq_hz, "damping": m.damping, "residue": m.residue} for m in p.modes
+        ],
     }
     if json_out:
         emit_json(data)
@@ -65,10 +69,18 @@ def bode(
     if plot is not None:
         bode_plot(p, f, path=plot)
     if json_out:
-        emit_json({"freq_hz": f, "mag_db": 20 * np.log10(np.abs(H)), "phase_deg": np.degrees(np.angle(H)),
-                   "plot": str(plot) if plot else None})
+        emit_json(
+            {
+                "freq_hz": f,
+                "mag_db": 20 * np.log10(np.abs(H)),
+                "phase_deg": np.degrees(np.angle(H)),
+                "plot": str(plot) if plot else None,
+            }
+        )
         return
     peak = int(np.argmax(np.abs(H) * f**2))
-    console.print(f"{p.name}: {n} points {fmin:g}-{fmax:g} Hz; strongest resonance near {f[peak]:.0f} Hz")
+    console.print(
+        f"{p.name}: {n} points {fmin:g}-{fmax:g} Hz; strongest resonance near {f[peak]:.0f} Hz"
+    )
     if plot is not None:
         console.print(f"wrote {plot}")

@@ -21,19 +21,29 @@ def reproduce(
 
     results = run_all(out, only=case or None)
     if json_out:
-        emit_json([
-            {
-                "case": r.name,
-                "title": r.title,
-                "comparisons": [
-                    {"quantity": c.quantity, "book": c.book, "servokit": c.servokit, "ratio": c.ratio,
-                     "unit": c.unit, "rel_tol": c.rel_tol, "ok": c.ok, "source": c.source}
-                    for c in r.comparisons
-                ],
-                "figures": [str(f) for f in r.figures],
-            }
-            for r in results
-        ])
+        emit_json(
+            [
+                {
+                    "case": r.name,
+                    "title": r.title,
+                    "comparisons": [
+                        {
+                            "quantity": c.quantity,
+                            "book": c.book,
+                            "servokit": c.servokit,
+                            "ratio": c.ratio,
+                            "unit": c.unit,
+                            "rel_tol": c.rel_tol,
+                            "ok": c.ok,
+                            "source": c.source,
+                        }
+                        for c in r.comparisons
+                    ],
+                    "figures": [str(f) for f in r.figures],
+                }
+                for r in results
+            ]
+        )
         return
     n_ok = n_all = 0
     for r in results:
@@ -45,7 +55,10 @@ def reproduce(
             n_ok += c.ok
             table.add_row(
                 f"{c.quantity} [{c.unit}]" if c.unit else c.quantity,
-                f"{c.book:.6g}", f"{c.servokit:.6g}", f"{c.ratio:.4f}", f"{c.rel_tol:.0%}",
+                f"{c.book:.6g}",
+                f"{c.servokit:.6g}",
+                f"{c.ratio:.4f}",
+                f"{c.rel_tol:.0%}",
                 "[green]yes[/green]" if c.ok else "[red]no[/red]",
             )
         console.print(table)

@@ -28,19 +28,24 @@ def _controller(spec: str | None, dt: float):
     else:
         c = load_controller(spec)
     if c.dt is None or c.dt == 0 or abs(c.dt - dt) > 1e-9 * dt:
-        raise ServokitValueError(f"--controller has dt = {c.dt}; it must be discrete with --dt {dt:g}")
+        raise ServokitValueError(
+            f"--controller has dt = {c.dt}; it must be discrete with --dt {dt:g}"
+        )
     return c
 
 
 @app.command("simulate")
 def simulate_cmd(
     plant: str = typer.Option("hdd-benchmark", help="catalogue name or .toml plant file"),
-    variants: bool = typer.Option(False, help="run the 18 HDD benchmark variants (hdd-benchmark only)"),
+    variants: bool = typer.Option(
+        False, help="run the 18 HDD benchmark variants (hdd-benchmark only)"
+    ),
     dt: float = typer.Option(..., help="sampling / hold period [s]"),
     duration: float = typer.Option(..., help="simulated time [s]"),
     substeps: int = typer.Option(10, help="fine steps per period for the continuous output"),
-    step: float | None = typer.Option(None, help="step amplitude: reference step with a controller, "
-                                      "held input step without"),
+    step: float | None = typer.Option(
+        None, help="step amplitude: reference step with a controller, held input step without"
+    ),
     input_file: Path | None = typer.Option(None, "--input", help="text file of held input samples"),
     controller: str | None = typer.Option(None, help="'eq-4.69' or a controller .toml file"),
     band: float = typer.Option(0.1, help="settling band around the final target"),

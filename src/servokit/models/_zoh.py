@@ -39,7 +39,9 @@ def _balance(M: np.ndarray, sweeps: int = 8) -> np.ndarray:
             c = B[..., :, i].sum(axis=-1) - B[..., i, i]
             r = B[..., i, :].sum(axis=-1) - B[..., i, i]
             ok = (c > 0) & (r > 0)
-            f = np.where(ok, np.exp2(np.round(0.5 * np.log2(np.where(ok, r / np.where(ok, c, 1), 1)))), 1.0)
+            f = np.where(
+                ok, np.exp2(np.round(0.5 * np.log2(np.where(ok, r / np.where(ok, c, 1), 1)))), 1.0
+            )
             d[..., i] *= f
     return d
 
@@ -61,7 +63,7 @@ def expm_batched(M: np.ndarray, n_state: int | None = None) -> np.ndarray:
     Mb = M * d[..., None, :] / d[..., :, None]
     norm = np.abs(Mb[..., :n, :n]).sum(axis=-1).max(axis=-1)
     sq = np.ceil(np.log2(np.maximum(norm, 1e-300) / 0.25)).clip(0, None).astype(int)
-    X = Mb / (2.0 ** sq)[..., None, None]
+    X = Mb / (2.0**sq)[..., None, None]
     E = np.broadcast_to(np.eye(k), M.shape).copy()
     term = E.copy()
     for j in range(1, _TAYLOR_TERMS + 1):

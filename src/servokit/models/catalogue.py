@@ -179,7 +179,10 @@ def pzt_active_suspension() -> ModalPlant:
 
 
 def svm_head_plant() -> ModalPlant:
-    """Head plant of the SVM settling study (book §6.2.3.2, eq. 6.7): rigid body + 4.1, 7 kHz modes."""
+    """Head plant of the SVM settling study (book §6.2.3.2, eq. 6.7).
+
+    Rigid body plus modes at 4.1 kHz and 7 kHz; gain kf / (m Tp).
+    """
     return ModalPlant(
         gain=_KF / (_MASS * _TRACK_PITCH),
         modes=(Mode(0.0, 0.0, 1.0), Mode(4100.0, 0.03, -1.0), Mode(7000.0, 0.01, -1.0)),
@@ -201,7 +204,8 @@ def galvano_scanner() -> ModalPlant:
         modes=(Mode(0.0, 0.0, 1.0), Mode(3020.0, 0.02, -0.5), Mode(6240.0, 0.01, 0.2)),
         delay=15.5e-6,
         name="galvano-scanner",
-        source="book §2.5 eq. (2.76)-(2.78), §3.5 eq. (3.105); residues, damping, gain illustrative",
+        source="book §2.5 eqs. (2.76)-(2.78), §3.5 eq. (3.105); "
+        "residues, damping, gain illustrative",
     )
 
 

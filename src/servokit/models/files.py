@@ -72,7 +72,8 @@ def _unknown(path: Path, where: str, keys: set[str], allowed: set[str]) -> None:
     extra = sorted(keys - allowed)
     if extra:
         raise PlantFileError(
-            f"{path}: unknown key '{where}{extra[0]}'; allowed keys are {', '.join(sorted(allowed))}"
+            f"{path}: unknown key '{where}{extra[0]}'; "
+            f"allowed keys are {', '.join(sorted(allowed))}"
         )
 
 
@@ -95,7 +96,9 @@ def load_plant(path: str | Path) -> ModalPlant:
     modes = []
     for i, m in enumerate(raw_modes):
         if not isinstance(m, dict):
-            raise PlantFileError(f"{path}: modes[{i}] must be a table with freq_hz, damping, residue")
+            raise PlantFileError(
+                f"{path}: modes[{i}] must be a table with freq_hz, damping, residue"
+            )
         _unknown(path, f"modes[{i}].", set(m), _MODE_KEYS)
         vals = {}
         for k in ("freq_hz", "damping", "residue"):
@@ -142,7 +145,9 @@ def _roots(path: Path, field: str, raw: Any) -> list[complex]:
         if isinstance(r, list):
             if len(r) != 2:
                 raise PlantFileError(f"{path}: field '{field}[{i}]' must be [re, im]")
-            out.append(complex(_number(path, f"{field}[{i}]", r[0]), _number(path, f"{field}[{i}]", r[1])))
+            out.append(
+                complex(_number(path, f"{field}[{i}]", r[0]), _number(path, f"{field}[{i}]", r[1]))
+            )
         else:
             out.append(complex(_number(path, f"{field}[{i}]", r)))
     return out

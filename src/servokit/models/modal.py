@@ -62,7 +62,9 @@ class Mode:
         z = _finite("Mode.damping", self.damping)
         r = _finite("Mode.residue", self.residue)
         if f < 0:
-            raise ServokitValueError(f"Mode.freq_hz must be >= 0 (got {f}); use 0 for the rigid body")
+            raise ServokitValueError(
+                f"Mode.freq_hz must be >= 0 (got {f}); use 0 for the rigid body"
+            )
         if z < 0:
             raise ServokitValueError(
                 f"Mode.damping must be >= 0 (got {z}); a negative damping ratio is an unstable mode"
@@ -228,7 +230,7 @@ def modal_matrices(
     C = np.zeros((1, 2 * n))
     for i in range(n):
         A[2 * i, 2 * i + 1] = 1.0
-        A[2 * i + 1, 2 * i] = -w[i] ** 2
+        A[2 * i + 1, 2 * i] = -(w[i] ** 2)
         A[2 * i + 1, 2 * i + 1] = -2.0 * z[i] * w[i]
         B[2 * i + 1, 0] = r[i]
         C[0, 2 * i] = 1.0

@@ -56,7 +56,9 @@ class Perturbation:
             )
 
 
-def _apply(nominal: ModalPlant, changes: Sequence[tuple[Perturbation, float]], gain_rel: float) -> ModalPlant:
+def _apply(
+    nominal: ModalPlant, changes: Sequence[tuple[Perturbation, float]], gain_rel: float
+) -> ModalPlant:
     freq = [m.freq_hz for m in nominal.modes]
     damp = [m.damping for m in nominal.modes]
     res = [m.residue for m in nominal.modes]
@@ -65,7 +67,8 @@ def _apply(nominal: ModalPlant, changes: Sequence[tuple[Perturbation, float]], g
         for i in p.modes:
             if not 1 <= i <= len(nominal.modes):
                 raise ServokitValueError(
-                    f"Perturbation mode {i} does not exist; the plant has modes 1..{len(nominal.modes)}"
+                    f"Perturbation mode {i} does not exist; "
+                    f"the plant has modes 1..{len(nominal.modes)}"
                 )
             table[p.param][i - 1] *= 1.0 + rel
     modes = tuple(Mode(f, z, r) for f, z, r in zip(freq, damp, res, strict=True))
@@ -117,7 +120,7 @@ class VariationSet:
         return out
 
     def monte_carlo(self, n: int, seed: int = 0) -> list[ModalPlant]:
-        """``n`` plants with every range and the gain drawn uniformly, reproducibly from ``seed``."""
+        """``n`` plants with every range and the gain drawn uniformly (reproducible by ``seed``)."""
         if n < 1:
             raise ServokitValueError(f"n must be >= 1 (got {n})")
         rng = np.random.default_rng(seed)

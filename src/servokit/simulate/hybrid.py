@@ -95,8 +95,12 @@ def _ss(name: str, sys: object, dt: float) -> tuple[np.ndarray, ...]:
     s = control.ss(sys)
     if s.ninputs != 1 or s.noutputs != 1:
         raise ServokitValueError(f"{name} must be single-input single-output")
-    return (np.asarray(s.A, float), np.asarray(s.B, float)[:, 0],
-            np.asarray(s.C, float)[0], float(np.asarray(s.D)[0, 0]))
+    return (
+        np.asarray(s.A, float),
+        np.asarray(s.B, float)[:, 0],
+        np.asarray(s.C, float)[0],
+        float(np.asarray(s.D)[0, 0]),
+    )
 
 
 def simulate(
@@ -197,9 +201,13 @@ def simulate(
     # B2[v, s, :]: contribution of the new (s < S) / old (s >= S) input at fine step s of
     # a block to the modal state (flattened to 2M) at the block's end
     back = P[:, :, S - 1 :: -1] if S > 1 else P[:, :, :1]
-    B2 = np.concatenate(
-        [back @ bank.Gnew[:, :, None, :, None], back @ bank.Gold[:, :, None, :, None]], axis=2
-    )[..., 0].transpose(0, 2, 1, 3).reshape(V, 2 * S, 2 * M)
+    B2 = (
+        np.concatenate(
+            [back @ bank.Gnew[:, :, None, :, None], back @ bank.Gold[:, :, None, :, None]], axis=2
+        )[..., 0]
+        .transpose(0, 2, 1, 3)
+        .reshape(V, 2 * S, 2 * M)
+    )
     PS = P[:, :, S]
 
     # u_j sits at ubuf[:, j + dd + 1]; the plant sees u[j-dd] (new) and u[j-dd-1] (old)

@@ -17,7 +17,14 @@ from servokit.errors import ServokitValueError, check_finite
 from servokit.models.modal import ModalPlant
 from servokit.simulate.hybrid import simulate
 
-__all__ = ["HeldInput", "StepMetrics", "settling_time", "step_metrics", "seek_time", "seek_response"]
+__all__ = [
+    "HeldInput",
+    "StepMetrics",
+    "settling_time",
+    "step_metrics",
+    "seek_time",
+    "seek_response",
+]
 
 
 class HeldInput(Protocol):
@@ -105,7 +112,9 @@ def seek_response(
     grid = dt / 10 if grid is None else float(grid)
     S = int(round(dt / grid))
     if S < 1 or abs(S * grid - dt) > 1e-9 * dt:
-        raise ServokitValueError(f"grid ({grid:g} s) must divide ff.dt ({dt:g} s) a whole number of times")
+        raise ServokitValueError(
+            f"grid ({grid:g} s) must divide ff.dt ({dt:g} s) a whole number of times"
+        )
     duration = u.size * dt
     horizon = max(3 * duration, duration + 2e-3) if horizon is None else float(horizon)
     K = int(np.ceil(horizon / dt)) + 1
