@@ -280,4 +280,5 @@ def test_batched_expm_matches_scipy_on_modal_blocks(w, z, r, t):
     ref = scipy.linalg.expm(M)
     got = expm_batched(M[None], 2)[0]
     scale = np.abs(ref).max(axis=1, keepdims=True)  # row scale: rows have different units
-    assert np.max(np.abs(got - ref) / scale) < 1e-10
+    # heavily damped blocks (exp(-zeta w t) ~ 1e-16) leave only rounding noise in both
+    assert np.max(np.abs(got - ref) / scale) < 1e-9
