@@ -7,7 +7,7 @@ import math
 import control
 import numpy as np
 import pytest
-from hypothesis import given, settings
+from hypothesis import assume, given, settings
 from hypothesis import strategies as st
 
 import servokit as sk
@@ -272,6 +272,8 @@ def test_controller_toml(tmp_path):
     w=st.floats(0.0, 2e5), z=st.floats(0.0, 2.0), r=st.floats(-1e10, 1e10), t=st.floats(1e-7, 1e-3)
 )
 def test_batched_expm_matches_scipy_on_modal_blocks(w, z, r, t):
+    # the batched path serves fine simulation steps: at most a few decay times per step
+    assume(z * w * t < 5.0)
     import scipy.linalg
 
     from servokit.models._zoh import expm_batched
@@ -280,5 +282,4 @@ def test_batched_expm_matches_scipy_on_modal_blocks(w, z, r, t):
     ref = scipy.linalg.expm(M)
     got = expm_batched(M[None], 2)[0]
     scale = np.abs(ref).max(axis=1, keepdims=True)  # row scale: rows have different units
-    # heavily damped blocks (exp(-zeta w t) ~ 1e-16) leave only rounding noise in both
-    assert np.max(np.abs(got - ref) / scale) < 1e-9
+    assert np.max(np.abs(got - ref) / scale) < 1e-10

@@ -18,10 +18,14 @@ where 18 Taylor terms leave a truncation error below 1e-24.  Tests compare it wi
 from __future__ import annotations
 
 import numpy as np
+import scipy.linalg
 
 __all__ = ["expm_batched", "zoh_pair", "delayed_zoh"]
 
 _TAYLOR_TERMS = 18
+#: Stacks up to this size go to scipy.linalg.expm; larger ones (plant banks of many
+#: variants on a fine step, where |A h| is small) to :func:`expm_batched`.
+_SCIPY_BATCH = 64
 
 
 def _balance(M: np.ndarray, sweeps: int = 8) -> np.ndarray:
@@ -89,7 +93,10 @@ def zoh_pair(A: np.ndarray, B: np.ndarray, t: float | np.ndarray) -> tuple[np.nd
     M[..., :n, :n] = A
     M[..., :n, n:] = B
     M = M * t[..., None, None]
-    E = expm_batched(M, n)
+    if M[..., 0, 0].size <= _SCIPY_BATCH:
+        E = scipy.linalg.expm(M)  # Pade 13: also accurate for steps spanning many decay times
+    else:
+        E = expm_batched(M, n)
     return E[..., :n, :n], E[..., :n, n:]
 
 
