@@ -24,7 +24,8 @@ app = typer.Typer(
     add_completion=False,
     pretty_exceptions_enable=False,
 )
-console = Console()
+# piped output (make demo into a log) keeps the book-vs-servokit tables on one line each
+console = Console(width=None if sys.stdout.isatty() else 120)
 
 
 def _jsonable(obj: Any) -> Any:
