@@ -43,10 +43,11 @@ def _balance(M: np.ndarray, sweeps: int = 8) -> np.ndarray:
             c = B[..., :, i].sum(axis=-1) - B[..., i, i]
             r = B[..., i, :].sum(axis=-1) - B[..., i, i]
             ok = (c > 0) & (r > 0)
-            f = np.where(
-                ok, np.exp2(np.round(0.5 * np.log2(np.where(ok, r / np.where(ok, c, 1), 1)))), 1.0
-            )
-            d[..., i] *= f
+            with np.errstate(over="ignore", divide="ignore"):
+                ratio = np.where(ok, r, 1.0) / np.where(ok, c, 1.0)
+                # bounded steps keep subnormal entries from driving the scaling to inf
+                f = np.exp2(np.clip(np.round(0.5 * np.log2(ratio)), -64, 64))
+            d[..., i] = np.clip(d[..., i] * f, 2.0**-256, 2.0**256)
     return d
 
 
