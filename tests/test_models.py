@@ -12,7 +12,7 @@ from hypothesis import strategies as st
 
 import servokit as sk
 from servokit.errors import ServokitValueError
-from servokit.models import CATALOGUE, HDD_BENCHMARK_TS, ModalPlant, Mode
+from servokit.models import CATALOGUE, HDD_BENCHMARK_TS, HDD_SAMPLED_DATA_TS, ModalPlant, Mode
 
 
 def _ss_freqresp(plant: ModalPlant, f: np.ndarray) -> np.ndarray:
@@ -283,3 +283,14 @@ def test_batched_expm_matches_scipy_on_modal_blocks(w, z, r, t):
     got = expm_batched(M[None], 2)[0]
     scale = np.abs(ref).max(axis=1, keepdims=True)  # row scale: rows have different units
     assert np.max(np.abs(got - ref) / scale) < 1e-10
+
+
+def test_get_discrete_controller_by_name_and_errors(tmp_path):
+    c = sk.models.get_discrete_controller("eq-4.69", HDD_SAMPLED_DATA_TS)
+    assert c.dt == pytest.approx(HDD_SAMPLED_DATA_TS)
+    with pytest.raises(ValueError, match="must match"):
+        sk.models.get_discrete_controller("eq-4.69", 1e-4)
+    f = tmp_path / "c.toml"
+    f.write_text("gain = 1.0\nzeros = [-1.0]\npoles = [-2.0]\n")
+    with pytest.raises(ValueError, match="continuous"):
+        sk.models.get_discrete_controller(str(f))

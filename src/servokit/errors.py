@@ -8,7 +8,13 @@ as one line and exits with status 2.
 
 from __future__ import annotations
 
-__all__ = ["ServokitError", "ServokitValueError", "ServokitTypeError", "check_finite"]
+__all__ = [
+    "ServokitError",
+    "ServokitValueError",
+    "ServokitTypeError",
+    "check_finite",
+    "check_positive",
+]
 
 import numpy as np
 
@@ -31,3 +37,11 @@ def check_finite(name: str, value: object) -> np.ndarray:
     if not np.all(np.isfinite(arr)):
         raise ServokitValueError(f"{name} must be finite (got NaN or inf); pass finite numbers")
     return arr
+
+
+def check_positive(name: str, value: object, unit: str = "") -> float:
+    """Return ``value`` as a float, or raise naming ``name`` unless it is finite and > 0."""
+    v = float(check_finite(name, value))
+    if v <= 0:
+        raise ServokitValueError(f"{name} must be > 0{' ' + unit if unit else ''} (got {v})")
+    return v

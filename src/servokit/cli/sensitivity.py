@@ -11,19 +11,8 @@ from rich.table import Table
 
 from servokit.cli._app import app, console, emit_json
 from servokit.errors import ServokitValueError
-from servokit.models import controller_eq_4_69, get_plant, load_controller
+from servokit.models import get_discrete_controller, get_plant
 from servokit.sampled import sampled_data_sensitivity, sensitivity_plot
-
-_CONTROLLERS = {"eq-4.69": controller_eq_4_69}
-
-
-def _controller(spec: str):
-    ctrl = _CONTROLLERS[spec]() if spec in _CONTROLLERS else load_controller(spec)
-    if ctrl.dt is None or ctrl.dt is True or not ctrl.dt:
-        raise ServokitValueError(
-            f"--controller {spec} is continuous; give a discrete controller (a 'dt' field)"
-        )
-    return ctrl
 
 
 @app.command("sensitivity")
@@ -52,7 +41,7 @@ def sensitivity_cmd(
     if n < 2:
         raise ServokitValueError(f"--n must be >= 2 (got {n})")
     p = get_plant(plant)
-    ctrl = _controller(controller)
+    ctrl = get_discrete_controller(controller)
     dt = float(ctrl.dt)
     mr = None
     if multirate:

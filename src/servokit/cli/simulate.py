@@ -9,29 +9,8 @@ import typer
 
 from servokit.cli._app import app, console, emit_json
 from servokit.errors import ServokitValueError
-from servokit.models import (
-    controller_eq_4_69,
-    get_plant,
-    hdd_benchmark_variants,
-    load_controller,
-)
+from servokit.models import get_discrete_controller, get_plant, hdd_benchmark_variants
 from servokit.simulate import simulate, step_metrics
-
-_CONTROLLERS = {"eq-4.69": controller_eq_4_69}
-
-
-def _controller(spec: str | None, dt: float):
-    if spec is None:
-        return None
-    if spec in _CONTROLLERS:
-        c = _CONTROLLERS[spec]()
-    else:
-        c = load_controller(spec)
-    if c.dt is None or c.dt == 0 or abs(c.dt - dt) > 1e-9 * dt:
-        raise ServokitValueError(
-            f"--controller has dt = {c.dt}; it must be discrete with --dt {dt:g}"
-        )
-    return c
 
 
 @app.command("simulate")
@@ -61,7 +40,7 @@ def simulate_cmd(
     if variants and plant != "hdd-benchmark":
         raise ServokitValueError("--variants is only defined for --plant hdd-benchmark")
     K = int(np.ceil(duration / dt))
-    ctrl = _controller(controller, dt)
+    ctrl = None if controller is None else get_discrete_controller(controller, dt)
     kw: dict = {}
     target = 0.0
     if step is not None and ctrl is not None:

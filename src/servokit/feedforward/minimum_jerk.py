@@ -24,7 +24,7 @@ from typing import TYPE_CHECKING
 
 import numpy as np
 
-from servokit.errors import ServokitValueError, check_finite
+from servokit.errors import ServokitValueError, check_finite, check_positive
 from servokit.feedforward.polynomial import rigid_body_zoh_states
 
 if TYPE_CHECKING:
@@ -42,13 +42,6 @@ __all__ = [
     "minimum_jerk_zoh_response",
     "minimum_jerk_zoh_plot",
 ]
-
-
-def _positive(name: str, value: float) -> float:
-    v = float(check_finite(name, value))
-    if v <= 0:
-        raise ServokitValueError(f"{name} must be > 0 (got {v})")
-    return v
 
 
 @dataclass(frozen=True)
@@ -72,7 +65,7 @@ class RigidBodyTrajectory:
 def bang_bang_time(target: float, u_max: float) -> float:
     """Minimum time ``Topt = 2 sqrt(|r| / umax)`` of the bang-bang input (2.10) [s]."""
     r = float(check_finite("target", target))
-    return 2.0 * np.sqrt(abs(r) / _positive("u_max", u_max))
+    return 2.0 * np.sqrt(abs(r) / check_positive("u_max", u_max))
 
 
 def bang_bang_input(t: float | np.ndarray, target: float, u_max: float) -> np.ndarray:
@@ -126,7 +119,7 @@ def minimum_jerk_input(t: float | np.ndarray, T: float, target: float) -> np.nda
         Target position ``r``.
     """
     t = check_finite("t", t)
-    T = _positive("T", T)
+    T = check_positive("T", T)
     tn = t / T
     u = 60.0 * float(target) / T**2 * tn * (2.0 * tn - 1.0) * (tn - 1.0)
     return np.where((tn >= 0) & (tn <= 1), u, 0.0)
@@ -135,7 +128,7 @@ def minimum_jerk_input(t: float | np.ndarray, T: float, target: float) -> np.nda
 def minimum_jerk_trajectory(t: float | np.ndarray, T: float, target: float) -> RigidBodyTrajectory:
     """Minimum-jerk position, velocity and acceleration of §2.2.2 (Fig. 2.8), at rest after T."""
     t = np.atleast_1d(check_finite("t", t))
-    T = _positive("T", T)
+    T = check_positive("T", T)
     r = float(target)
     tn = np.clip(t / T, 0.0, 1.0)
     p = 60.0 * r * (tn**5 / 10 - tn**4 / 4 + tn**3 / 6)
@@ -168,7 +161,7 @@ def held_input_response(
     position, velocity : ndarray, shape of ``t``
     """
     u = check_finite("u", u).ravel()
-    dt = _positive("dt", dt)
+    dt = check_positive("dt", dt)
     t = check_finite("t", t)
     p_s, v_s = rigid_body_zoh_states(u, dt)
     m = u.size
@@ -229,8 +222,8 @@ def minimum_jerk_zoh_response(
     -------
     MinimumJerkZOHResponse
     """
-    T = _positive("T", T)
-    tau = _positive("tau", tau)
+    T = check_positive("T", T)
+    tau = check_positive("tau", tau)
     r = float(check_finite("target", target))
     # samples k tau < T; the round-off guard keeps k tau == T (where umjc = 0) out
     m = int(np.ceil(T / tau - 1e-9))

@@ -17,11 +17,13 @@ from servokit.models.catalogue import (
     vcm_dual_stage,
 )
 from servokit.models.controllers import (
+    CONTROLLERS,
     VCM_PES_TS,
     cnc_eq_4_73,
     controller_eq_4_69,
     controller_fig_4_57,
     cpc_eq_4_72,
+    get_discrete_controller,
     vcm_controller_table_5_2,
     zpk,
 )
@@ -37,6 +39,8 @@ from servokit.models.variations import Perturbation, VariationSet
 
 __all__ = [
     "CATALOGUE",
+    "CONTROLLERS",
+    "get_discrete_controller",
     "HDD_BENCHMARK_TS",
     "HDD_SAMPLED_DATA_TS",
     "VCM_PES_TS",

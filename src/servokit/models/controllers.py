@@ -24,6 +24,8 @@ __all__ = [
     "controller_fig_4_57",
     "vcm_controller_table_5_2",
     "VCM_PES_TS",
+    "CONTROLLERS",
+    "get_discrete_controller",
 ]
 
 #: PES sampling period of the dual-stage HDD of chapter 5 (30 kHz, §5.2.1.2) [s].
@@ -94,3 +96,35 @@ def vcm_controller_table_5_2(dt: float = VCM_PES_TS) -> control.TransferFunction
         0.5467 - 0.7287j,
     ]
     return zpk(zeros, poles, 0.1365, dt)
+
+
+#: Book controllers by command-line name (all discrete, at their book sampling period).
+CONTROLLERS = {
+    "eq-4.69": controller_eq_4_69,
+    "fig-4.57": controller_fig_4_57,
+    "table-5.2": vcm_controller_table_5_2,
+}
+
+
+def get_discrete_controller(name_or_file: str, dt: float | None = None) -> control.TransferFunction:
+    """A book controller by name (``eq-4.69``, ...) or a controller TOML file, checked discrete.
+
+    With ``dt`` given, the controller's sampling period must equal it.
+    """
+    if name_or_file in CONTROLLERS:
+        ctrl = CONTROLLERS[name_or_file]()
+    else:
+        from servokit.models.files import load_controller
+
+        ctrl = load_controller(name_or_file)
+    if ctrl.dt is None or ctrl.dt is True or not ctrl.dt:
+        raise ServokitValueError(
+            f"controller {name_or_file} is continuous; give a discrete one (a 'dt' field), "
+            f"or one of {', '.join(CONTROLLERS)}"
+        )
+    if dt is not None and abs(ctrl.dt - dt) > 1e-9 * dt:
+        raise ServokitValueError(
+            f"controller {name_or_file} has dt = {ctrl.dt:g} s; it must match the sampling "
+            f"period {dt:g} s"
+        )
+    return ctrl

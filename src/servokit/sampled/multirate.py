@@ -23,7 +23,7 @@ from dataclasses import dataclass
 import control
 import numpy as np
 
-from servokit.errors import ServokitTypeError, ServokitValueError, check_finite
+from servokit.errors import ServokitTypeError, ServokitValueError, check_positive
 from servokit.models.modal import ModalPlant
 
 __all__ = ["Multirate", "zoh_response", "eval_discrete", "check_discrete"]
@@ -168,7 +168,7 @@ class Multirate:
     # ------------------------------------------------------------------ pieces
     def fast_dt(self, dt: float) -> float:
         """Fast period ``dt/m``, checking that the filters were designed for it."""
-        dt = _positive("dt", dt)
+        dt = check_positive("dt", dt, "seconds")
         h = dt / self.m
         for name in ("interpolator", "filter"):
             sys = getattr(self, name)
@@ -220,10 +220,3 @@ class Multirate:
         # m is a small integer (the multirate number): a few products, not a long loop
         Am1 = np.linalg.matrix_power(A, self.m - 1)
         return control.ss(Am1 @ A, Am1 @ B, C, D, dt)
-
-
-def _positive(name: str, value: float) -> float:
-    v = float(check_finite(name, value))
-    if v <= 0:
-        raise ServokitValueError(f"{name} must be > 0 seconds (got {v})")
-    return v
