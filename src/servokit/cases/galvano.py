@@ -1,0 +1,526 @@
+"""Galvano scanner I and II (book §2.5 and §2.6): FSC vs FFSC, voltage-constrained FFSC.
+
+Galvano I (§2.5, Figs. 2.25, 2.26, 2.28): FSC and FFSC inputs (N = 79) for the rigid body
+plus two vibration modes (2.76)-(2.82), FFSC weights of §2.5.2 in the cost (2.44)
+(bands +-6 % around both modes, 50 points each, q = 1e9 and 5e7), outputs of plants whose
+primary mode moves from -6 % to +6 % in 1 % steps.  As in the book's figures, time is
+normalised so that the final time ``N tau`` is one unit and the target is 1.
+
+Galvano II (§2.6, Figs. 2.36, 2.39): FFSC inputs with the current (12 A), velocity
+(5 m/s) and motor-voltage constraints (2.84)-(2.88) (none / 72 V / 36 V), for 0.1 mm,
+1 mm and 10 mm steps (N = 37, 73, 351), and the amplifier loss Pamp (2.89) with the
+supply ``Vp = limit + 16 V`` (internal drop of §2.6.3); without a voltage limit the
+supply is the 1 mm design's peak voltage + 16 V, as in the book.
+
+Illustrative values (the book gives neither the scanner's gain, residues and damping nor
+the motor's R, L, Ke, Kt, J, nor the sampling period of §2.5-§2.6):
+
+* the weights q are taken per SI second, as the HDD weights of Table 2.4 (frequencies in
+  Hz); a design in a time unit of ``T`` seconds uses ``q T**2``
+  (``|Uc|^2`` carries time squared);
+* Galvano I uses 20 us, the galvano sampling period of §3.5.1;
+* Galvano II uses 8 us: with N = 351 a 10 mm move only reaches the 5 m/s velocity limit
+  (and so shows the zero-current, constant-velocity interval of §2.6.3) if
+  ``N tau < 1.875 * 10 mm / 5 m/s`` (minimum-jerk peak velocity), i.e. tau < 10.7 us;
+  at 10 us the 1 mm design cannot meet 36 V once its unconstrained peak is ~146 V;
+* motor: rotary Kt = 0.15 N m/A, J = 1e-5 kg m^2 (rotor and a large drilling mirror),
+  R = 1 ohm, L = 0.25 mH, mirror-to-work-surface factor 0.2 m/rad (f = 100 mm lens,
+  optical doubling); hence the gain ``0.2 Kt / J = 3000 m/s^2/A`` and the work-surface
+  back-EMF ``Kt / 0.2 = 0.75 V s/m``.  L sets the 1 mm unconstrained peak near the
+  book's 146 V.
+
+With these values the 0.1 mm step at N = 37 (0.9 period of the 3020 Hz mode) cannot meet
+72 V or 36 V at all (:class:`InfeasibleConstraintsError`, binding: the voltage limit); the
+0.1 mm designs are then made at the smallest N at which every limit is feasible.  The
+book's numbers for this case are experimental, so no row of the comparison table is
+claimed; the qualitative findings are reported in ``extra``.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from pathlib import Path
+
+import numpy as np
+
+from servokit.cases import register
+from servokit.feedforward.constraints import (
+    CurrentLimit,
+    InfeasibleConstraintsError,
+    MotorModel,
+    VelocityLimit,
+    VoltageLimit,
+)
+from servokit.feedforward.energy import amplifier_power, supply_voltage
+from servokit.feedforward.ffsc import FeedforwardInput, augmented_design_model, fsc_input
+from servokit.feedforward.fsc import lifted_model
+from servokit.models import ModalPlant, Mode, galvano_scanner
+from servokit.report import CaseResult
+from servokit.simulate import seek_response, settling_time
+
+__all__ = [
+    "GALVANO_TS",
+    "GALVANO_II_TS",
+    "GALVANO_MOTOR",
+    "GALVANO_GAIN",
+    "GALVANO_LENS",
+    "normalised_plant",
+    "primary_mode_variants",
+    "ffsc_bands",
+    "galvano_i",
+    "galvano_ii",
+    "run",
+]
+
+#: Sampling period of Galvano I [s] (the galvano servo of §3.5.1).
+GALVANO_TS = 20e-6
+#: Illustrative sampling period of Galvano II [s] (see the module docstring).
+GALVANO_II_TS = 8e-6
+#: Illustrative mirror-angle to work-surface factor [m/rad] (f = 100 mm, optical doubling).
+GALVANO_LENS = 0.2
+_KT, _J = 0.15, 1e-5  # illustrative torque constant [N m/A] and inertia [kg m^2]
+#: Plant gain ``lens Kt / J`` [m/s^2/A] for positions at the work surface.
+GALVANO_GAIN = GALVANO_LENS * _KT / _J
+#: Illustrative motor: R [ohm], L [H], work-surface back-EMF ``Kt / lens`` [V s/m].
+GALVANO_MOTOR = MotorModel(
+    resistance=1.0,
+    inductance=0.25e-3,
+    back_emf=_KT / GALVANO_LENS,
+    torque_constant=_KT,
+    inertia=_J,
+)
+#: FFSC weights of §2.5.2 per SI second: primary, secondary band.
+_Q_PRIMARY, _Q_SECONDARY = 1e9, 5e7
+_N_GALVANO_I = 79
+_BAND = 0.0008  # +-0.08 % of the target: the galvano's allowable error (§2.5.4)
+_AMP_DROP = 16.0  # internal voltage drop of the current amplifier [V] (§2.6.3)
+_STEPS = ((1e-4, 37), (1e-3, 73), (1e-2, 351))  # target [m], N (§2.6.3)
+_LIMITS = (None, 72.0, 36.0)  # motor-voltage constraint [V]
+_I_MAX, _V_MAX = 12.0, 5.0  # current [A] and velocity [m/s] limits (§2.6.3)
+_REFERENCE_STEP = 1e-3  # the step whose unconstrained peak sets the supply (§2.6.3)
+_N_SEARCH = 60  # extra steps tried when a book N is infeasible
+
+
+def normalised_plant(plant: ModalPlant, time_unit: float) -> ModalPlant:
+    """``plant`` with time measured in units of ``time_unit`` seconds and gain 1.
+
+    Frequencies become Hz/unit (``f * time_unit``) and the delay ``delay / time_unit``.
+    The gain is set to 1 (the book's [A/unit] when the target is 1).
+    """
+    modes = tuple(Mode(m.freq_hz * time_unit, m.damping, m.residue) for m in plant.modes)
+    return plant.replace(
+        gain=1.0, modes=modes, delay=plant.delay / time_unit, name=f"{plant.name} (normalised)"
+    )
+
+
+def primary_mode_variants(plant: ModalPlant, percents: np.ndarray) -> list[ModalPlant]:
+    """Copies of ``plant`` with the first vibration mode's frequency moved by ``percents``."""
+    idx = next(i for i, m in enumerate(plant.modes) if m.freq_hz > 0)
+    out = []
+    for p in percents:
+        modes = list(plant.modes)
+        m = modes[idx]
+        modes[idx] = Mode(m.freq_hz * (1 + p / 100.0), m.damping, m.residue)
+        out.append(plant.replace(modes=tuple(modes), name=f"{plant.name} f1 {p:+.0f}%"))
+    return out
+
+
+def ffsc_bands(plant: ModalPlant, time_unit: float = 1.0) -> list[tuple[float, float, float, int]]:
+    """Band weights of §2.5.2 (+-6 % around both modes, 50 points) for ``fsc_input``.
+
+    The weights 1e9 and 5e7 are taken per SI second (as the HDD weights of Table 2.4).
+    For a ``plant`` whose time unit is ``time_unit`` seconds (see :func:`normalised_plant`)
+    they become ``q * time_unit**2``: ``|Uc|^2`` of (2.43) carries time squared, while
+    the jerk term of (2.44) does not, so the designed input is the same.
+    """
+    f1, f2 = (m.freq_hz for m in plant.modes if m.freq_hz > 0)
+    s = time_unit**2
+    return [
+        (0.94 * f1, 1.06 * f1, _Q_PRIMARY * s, 50),
+        (0.94 * f2, 1.06 * f2, _Q_SECONDARY * s, 50),
+    ]
+
+
+@dataclass(frozen=True)
+class GalvanoIResult:
+    """FSC and FFSC designs and the outputs of the primary-mode variants (normalised)."""
+
+    fsc: FeedforwardInput
+    ffsc: FeedforwardInput
+    percents: np.ndarray
+    t: np.ndarray
+    y_fsc: np.ndarray
+    y_ffsc: np.ndarray
+    settle_fsc: np.ndarray
+    settle_ffsc: np.ndarray
+    residual_fsc: np.ndarray
+    residual_ffsc: np.ndarray
+
+
+def galvano_i(dt: float = GALVANO_TS, N: int = _N_GALVANO_I) -> GalvanoIResult:
+    """§2.5: FSC vs FFSC on the normalised galvano model, primary mode -6 % .. +6 %."""
+    plant = normalised_plant(galvano_scanner(), N * dt)
+    dtn = 1.0 / N
+    fsc = fsc_input(plant, dtn, N, 1.0, input_weight=1.0)
+    bands = ffsc_bands(plant, N * dt)
+    ffsc = fsc_input(plant, dtn, N, 1.0, input_weight=1.0, band_weights=bands)
+    percents = np.arange(-6, 7, dtype=float)
+    variants = primary_mode_variants(plant, percents)
+    res_fsc = seek_response(variants, fsc, horizon=3.0)
+    res_ffsc = seek_response(variants, ffsc, horizon=3.0)
+    after = res_fsc.t >= 1.0 + plant.delay
+    return GalvanoIResult(
+        fsc=fsc,
+        ffsc=ffsc,
+        percents=percents,
+        t=res_fsc.t,
+        y_fsc=res_fsc.yc,
+        y_ffsc=res_ffsc.yc,
+        settle_fsc=settling_time(res_fsc.t, res_fsc.yc, 1.0, _BAND),
+        settle_ffsc=settling_time(res_ffsc.t, res_ffsc.yc, 1.0, _BAND),
+        residual_fsc=np.abs(res_fsc.yc[:, after] - 1.0).max(axis=1),
+        residual_ffsc=np.abs(res_ffsc.yc[:, after] - 1.0).max(axis=1),
+    )
+
+
+@dataclass(frozen=True)
+class ConstrainedDesign:
+    """One voltage-constrained FFSC design of §2.6.3 and its electrical waveforms.
+
+    ``book_N`` is the book's step number; when a limit of this step is infeasible there
+    (``infeasible`` lists the binding constraint), ``N`` is the smallest larger step
+    number at which all limits of the step are feasible.
+    """
+
+    target: float
+    N: int
+    book_N: int
+    voltage_limit: float | None
+    ff: FeedforwardInput
+    current: np.ndarray
+    velocity: np.ndarray
+    voltage: np.ndarray
+    supply: float
+    pamp: float
+    infeasible: tuple[str, ...] = ()
+    book_N_free_peak: float = float("nan")
+    book_N_free_pamp: float = float("nan")
+
+
+def _waveforms(plant: ModalPlant, ff: FeedforwardInput) -> tuple[np.ndarray, np.ndarray]:
+    """Held current and the output velocity at the samples, from the design model."""
+    A, B, n = augmented_design_model(plant, ff.dt)
+    vel_row = np.zeros(n + 1)
+    vel_row[1:n:2] = 1.0
+    pos_row = np.zeros(n + 1)
+    pos_row[0:n:2] = 1.0
+    lm = lifted_model(A, B, ff.N, np.zeros(n + 1), dt=ff.dt, position=pos_row, velocity=vel_row)
+    return ff.u, lm.states(ff.jerk)[: ff.N] @ vel_row
+
+
+def _design_step(
+    plant: ModalPlant, dt: float, target: float, N: int, motor: MotorModel
+) -> tuple[int, dict[float | None, FeedforwardInput], tuple[str, ...], FeedforwardInput | None]:
+    """FFSC designs of one step for every limit, at ``N`` or the first feasible N above.
+
+    Returns ``(N_used, designs by limit, binding constraints of the limits infeasible at
+    the book's N, unconstrained design at the book's N)``.
+    """
+    bands = ffsc_bands(plant)
+
+    def design(n: int, limit: float | None) -> FeedforwardInput:
+        cons: list[object] = [CurrentLimit(_I_MAX), VelocityLimit(_V_MAX)]
+        if limit is not None:
+            cons.append(VoltageLimit(limit, motor=motor))
+        return fsc_input(
+            plant, dt, n, target, input_weight=1.0, band_weights=bands, constraints=cons
+        )
+
+    binding: list[str] = []
+    for n in range(N, N + _N_SEARCH + 1):
+        designs: dict[float | None, FeedforwardInput] = {}
+        for limit in _LIMITS:
+            try:
+                designs[limit] = design(n, limit)
+            except InfeasibleConstraintsError as err:
+                if n > N:
+                    break
+                binding += [b for b in err.binding if b not in binding]
+        if n == N:
+            at_book_N = designs.get(None)
+        if len(designs) == len(_LIMITS):
+            return n, designs, tuple(binding), at_book_N
+    raise InfeasibleConstraintsError(
+        f"{target * 1e3:g} mm step: no N in {N}..{N + _N_SEARCH} meets every limit", binding
+    )
+
+
+def galvano_ii(
+    dt: float = GALVANO_II_TS, motor: MotorModel = GALVANO_MOTOR, gain: float = GALVANO_GAIN
+) -> list[ConstrainedDesign]:
+    """§2.6.3: FFSC with current, velocity and voltage constraints for three step sizes.
+
+    The supply of an unconstrained design is the reference (1 mm) step's unconstrained
+    peak voltage plus the amplifier drop (the book's 162 V rule), raised to the design's
+    own peak if that is higher (the amplifier would saturate otherwise).
+    """
+    plant = galvano_scanner().replace(gain=gain, name="galvano-scanner (illustrative)")
+    steps = [(t, N, *_design_step(plant, dt, t, N, motor)) for t, N in _STEPS]
+    waves = {
+        (t, lim): (*(w := _waveforms(plant, ff)), motor.voltage(w[0], w[1], dt))
+        for t, _, _, ffs, _, _ in steps
+        for lim, ff in ffs.items()
+    }
+    v_ref = float(np.max(np.abs(waves[(_REFERENCE_STEP, None)][2])))
+    designs = []
+    for target, book_N, n, ffs, binding, free_book in steps:
+        free_peak = free_pamp = float("nan")
+        if free_book is not None:
+            c, v = _waveforms(plant, free_book)
+            vm = motor.voltage(c, v, dt)
+            free_peak = float(np.max(np.abs(vm)))
+            vp_book = supply_voltage(max(v_ref, free_peak), _AMP_DROP)
+            free_pamp = amplifier_power(c, vm, vp_book, dt)
+        for limit, ff in ffs.items():
+            current, velocity, voltage = waves[(target, limit)]
+            peak = float(np.max(np.abs(voltage)))
+            vp = supply_voltage(max(v_ref, peak) if limit is None else limit, _AMP_DROP)
+            designs.append(
+                ConstrainedDesign(
+                    target=target,
+                    N=n,
+                    book_N=book_N,
+                    voltage_limit=limit,
+                    ff=ff,
+                    current=current,
+                    velocity=velocity,
+                    voltage=voltage,
+                    supply=vp,
+                    pamp=amplifier_power(current, voltage, vp, dt),
+                    infeasible=binding,
+                    book_N_free_peak=free_peak,
+                    book_N_free_pamp=free_pamp,
+                )
+            )
+    return designs
+
+
+def _plot_galvano_i(res: GalvanoIResult, outdir: Path) -> list[Path]:
+    import matplotlib.pyplot as plt
+
+    paths = []
+    fig, (ax_u, ax_s) = plt.subplots(2, 1, figsize=(7, 7))
+    plant = normalised_plant(galvano_scanner(), _N_GALVANO_I * GALVANO_TS)
+    f1, f2 = (m.freq_hz for m in plant.modes if m.freq_hz > 0)
+    for ff, style, name in ((res.fsc, "--", "FSC"), (res.ffsc, "-", "FFSC")):
+        edges = np.arange(ff.N + 1) * ff.dt
+        ax_u.stairs(ff.u, edges, linestyle=style, label=name)
+        # spectrum on the time-normalised grid, plotted against f / f1 as in Fig. 2.26
+        f = np.linspace(0.0, 3.5, 1200)
+        ax_s.semilogy(f, np.abs(ff.spectrum(f * f1)) + 1e-12, style, label=name)
+    ax_u.set_xlabel("time [s/unit] (final time = 1)")
+    ax_u.set_ylabel("input u_c [A/unit]")
+    ax_u.set_title("Galvano I: FSC and FFSC inputs (Fig. 2.25, illustrative model)")
+    ax_u.legend()
+    ax_u.grid(True, alpha=0.3)
+    for fm in (1.0, f2 / f1):
+        ax_s.axvline(fm, color="k", linestyle=":", linewidth=0.8)
+    ax_s.set_xlabel("frequency [Hz/unit] (primary mode = 1)")
+    ax_s.set_ylabel("|U_c| [A s/unit^2]")
+    ax_s.set_title("Spectra of the inputs (Fig. 2.26)")
+    ax_s.legend()
+    ax_s.grid(True, alpha=0.3)
+    fig.tight_layout()
+    paths.append(outdir / "galvano_fig_2_25_2_26_inputs.png")
+    fig.savefig(paths[-1], dpi=110)
+    plt.close(fig)
+
+    fig, axes = plt.subplots(2, 1, figsize=(7, 7), sharex=True, sharey=True)
+    cmap = plt.get_cmap("viridis")
+    for ax, y, name in ((axes[0], res.y_fsc, "FSC"), (axes[1], res.y_ffsc, "FFSC")):
+        for i, p in enumerate(res.percents):
+            lbl = f"{p:+.0f} %" if i % 3 == 0 else None
+            ax.plot(res.t, y[i], color=cmap((p + 6) / 12), linewidth=0.9, label=lbl)
+        for b in (1 + _BAND, 1 - _BAND):
+            ax.axhline(b, color="k", linestyle=":", linewidth=0.8)
+        ax.set_ylim(1 - 6 * _BAND, 1 + 6 * _BAND)
+        ax.set_xlim(0.8, 3.0)
+        ax.set_ylabel("output y [rad/unit]")
+        ax.set_title(f"{name}: primary mode -6 % .. +6 % (band +-0.08 %)")
+        ax.grid(True, alpha=0.3)
+    axes[0].legend(fontsize=8, ncol=5, loc="lower right")
+    axes[1].set_xlabel("time [s/unit]")
+    fig.tight_layout()
+    paths.append(outdir / "galvano_fig_2_28_outputs.png")
+    fig.savefig(paths[-1], dpi=110)
+    plt.close(fig)
+    return paths
+
+
+def _limit_label(limit: float | None) -> str:
+    return "no voltage limit" if limit is None else f"|V| <= {limit:g} V"
+
+
+def _plot_galvano_ii(designs: list[ConstrainedDesign], outdir: Path) -> list[Path]:
+    import matplotlib.pyplot as plt
+
+    paths = []
+    fig, axes = plt.subplots(3, 2, figsize=(11, 8), sharex="col")
+    for col, target in enumerate((1e-3, 1e-2)):
+        ds = [d for d in designs if d.target == target]
+        for d in ds:
+            t = np.arange(d.N + 1) * d.ff.dt * 1e3
+            lbl = _limit_label(d.voltage_limit)
+            axes[0, col].stairs(d.voltage, t, label=lbl)
+            axes[1, col].stairs(d.current, t, label=lbl)
+            axes[2, col].plot(t[:-1], d.velocity, label=lbl)
+        for lim in (lim for lim in _LIMITS if lim is not None):
+            for sign in (1, -1):
+                axes[0, col].axhline(sign * lim, color="k", linestyle=":", linewidth=0.7)
+        for sign in (1, -1):
+            axes[2, col].axhline(sign * _V_MAX, color="k", linestyle=":", linewidth=0.7)
+        axes[0, col].set_title(f"{target * 1e3:g} mm step, N = {ds[0].N}")
+        axes[2, col].set_xlabel("time [ms]")
+    for row, name in enumerate(("motor voltage (2.84) [V]", "current [A]", "velocity [m/s]")):
+        axes[row, 0].set_ylabel(name)
+        for ax in axes[row]:
+            ax.grid(True, alpha=0.3)
+    axes[0, 0].legend(fontsize=8)
+    fig.suptitle("Galvano II: voltage-constrained FFSC trajectories (Fig. 2.36, illustrative)")
+    fig.tight_layout()
+    paths.append(outdir / "galvano_fig_2_36_waveforms.png")
+    fig.savefig(paths[-1], dpi=110)
+    plt.close(fig)
+
+    fig, ax = plt.subplots(figsize=(7, 4.5))
+    v_free = next(
+        float(np.max(np.abs(d.voltage)))
+        for d in designs
+        if d.target == _REFERENCE_STEP and d.voltage_limit is None
+    )
+    for target, book_N in ((t, n) for t, n in _STEPS):
+        ds = [d for d in designs if d.target == target]
+        x = [v_free if d.voltage_limit is None else d.voltage_limit for d in ds]
+        n_txt = f"N = {ds[0].N}"
+        if ds[0].N != book_N:
+            n_txt += f"; limits infeasible at N = {book_N}"
+        ax.plot(x, [d.pamp for d in ds], "o-", label=f"{target * 1e3:g} mm step ({n_txt})")
+    ax.set_xticks(
+        [36.0, 72.0, v_free],
+        [
+            "36\n(Vp = 52)",
+            "72\n(Vp = 88)",
+            f"{v_free:.0f} (no limit)\n(Vp = {v_free + _AMP_DROP:.0f})",
+        ],
+    )
+    ax.set_xlabel("motor-voltage constraint [V] (supply Vp = constraint + 16 V)")
+    ax.set_ylabel("Pamp (2.89) [W]")
+    ax.set_title("Amplifier loss vs voltage constraint (Fig. 2.39, illustrative motor)")
+    ax.legend(fontsize=8)
+    ax.grid(True, alpha=0.3)
+    fig.tight_layout()
+    paths.append(outdir / "galvano_fig_2_39_energy.png")
+    fig.savefig(paths[-1], dpi=110)
+    plt.close(fig)
+    return paths
+
+
+def _at_velocity_limit(d: ConstrainedDesign) -> float:
+    """Time [s] the design spends within 1 % of the velocity limit (coasting)."""
+    return float(np.count_nonzero(np.abs(d.velocity) >= 0.99 * _V_MAX) * d.ff.dt)
+
+
+def _findings(designs: list[ConstrainedDesign]) -> dict[str, object]:
+    """The qualitative statements of §2.6.3 / Fig. 2.39, evaluated on ``designs``."""
+    pamp = {(d.target, d.voltage_limit): d.pamp for d in designs}
+    targets = [t for t, _ in _STEPS]
+    lowest = {
+        _limit_label(lim): min(targets, key=lambda t, lim=lim: pamp[(t, lim)]) * 1e3
+        for lim in _LIMITS
+    }
+    return {
+        "pamp_decreases_with_voltage_limit": {
+            f"{t * 1e3:g} mm": bool(pamp[(t, None)] > pamp[(t, 72.0)] > pamp[(t, 36.0)])
+            for t in targets
+        },
+        "lowest_pamp_step_mm": lowest,
+        "voltage_limit_binds": {
+            f"{d.target * 1e3:g} mm, {d.voltage_limit:g} V": bool(
+                np.max(np.abs(d.voltage)) >= d.voltage_limit * (1 - 1e-6)
+            )
+            for d in designs
+            if d.voltage_limit is not None
+        },
+    }
+
+
+@register("galvano")
+def run(outdir: Path) -> CaseResult:
+    """Galvano scanner I and II (§2.5, §2.6) with the illustrative model; figures in ``outdir``."""
+    outdir.mkdir(parents=True, exist_ok=True)
+    g1 = galvano_i()
+    g2 = galvano_ii()
+    figures = _plot_galvano_i(g1, outdir) + _plot_galvano_ii(g2, outdir)
+    nominal = int(np.flatnonzero(g1.percents == 0)[0])
+    extra = {
+        "illustrative": {
+            "sampling_period_galvano_I_s": GALVANO_TS,
+            "sampling_period_galvano_II_s": GALVANO_II_TS,
+            "lens_m_per_rad": GALVANO_LENS,
+            "gain_m_per_s2_per_A": GALVANO_GAIN,
+            "motor": {
+                "R_ohm": GALVANO_MOTOR.resistance,
+                "L_H": GALVANO_MOTOR.inductance,
+                "Ke_V_s_per_m": GALVANO_MOTOR.back_emf,
+                "Kt_N_m_per_A": GALVANO_MOTOR.torque_constant,
+                "J_kg_m2": GALVANO_MOTOR.inertia,
+            },
+            "ffsc_weights": "q per SI second (as Table 2.4)",
+        },
+        "galvano_I": {
+            "N": _N_GALVANO_I,
+            "percents": g1.percents,
+            "settling_fsc_s_per_unit": g1.settle_fsc,
+            "settling_ffsc_s_per_unit": g1.settle_ffsc,
+            "nominal_settling_fsc": float(g1.settle_fsc[nominal]),
+            "nominal_settling_ffsc": float(g1.settle_ffsc[nominal]),
+            "worst_residual_fsc": float(g1.residual_fsc.max()),
+            "worst_residual_ffsc": float(g1.residual_ffsc.max()),
+            "peak_input_fsc": float(np.abs(g1.fsc.u).max()),
+            "peak_input_ffsc": float(np.abs(g1.ffsc.u).max()),
+            "book_experiment_s_per_unit": {
+                "FSC nominal": 1.33,
+                "FFSC nominal": 1.39,
+                "FSC +6%": 1.94,
+                "FFSC +6%": 1.44,
+            },
+            "note": "open-loop simulation of the illustrative model; book values are "
+            "experiments with feedback (MMTDOF), not comparable one to one",
+        },
+        "galvano_II": [
+            {
+                "step_mm": d.target * 1e3,
+                "book_N": d.book_N,
+                "N": d.N,
+                "infeasible_at_book_N": list(d.infeasible),
+                "book_N_unconstrained_peak_V": d.book_N_free_peak,
+                "book_N_unconstrained_pamp_W": d.book_N_free_pamp,
+                "voltage_limit_V": d.voltage_limit,
+                "peak_voltage_V": float(np.max(np.abs(d.voltage))),
+                "peak_current_A": float(np.max(np.abs(d.current))),
+                "peak_velocity_m_per_s": float(np.max(np.abs(d.velocity))),
+                "constant_velocity_ms": _at_velocity_limit(d) * 1e3,
+                "supply_V": d.supply,
+                "pamp_W": d.pamp,
+            }
+            for d in g2
+        ],
+        "galvano_II_findings": _findings(g2),
+    }
+    return CaseResult(
+        name="galvano",
+        title="Galvano scanner I/II: FSC vs FFSC, voltage-constrained FFSC (§2.5-§2.6)",
+        comparisons=[],
+        figures=figures,
+        extra=extra,
+    )
