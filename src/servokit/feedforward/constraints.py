@@ -33,7 +33,7 @@ import scipy.linalg
 import scipy.optimize
 import scipy.sparse
 
-from servokit.errors import ServokitTypeError, ServokitValueError, check_finite
+from servokit.errors import ServokitTypeError, ServokitValueError, check_finite, check_positive
 
 if TYPE_CHECKING:
     from servokit.feedforward.fsc import LiftedModel
@@ -70,13 +70,6 @@ class InfeasibleConstraintsError(ServokitValueError):
         self.binding = tuple(binding)
 
 
-def _positive(name: str, value: float) -> float:
-    v = float(check_finite(name, value))
-    if v <= 0:
-        raise ServokitValueError(f"{name} must be > 0 (got {v})")
-    return v
-
-
 @dataclass(frozen=True)
 class MotorModel:
     """Electrical and mechanical constants of a current-driven actuator (Fig. 2.33).
@@ -107,7 +100,7 @@ class MotorModel:
     def voltage(self, current: np.ndarray, velocity: np.ndarray, dt: float) -> np.ndarray:
         """Discrete motor voltage (2.84) for held currents ``uc[0..N-1]`` (``uc[N] = 0``)."""
         i = np.asarray(current, dtype=float)
-        di = np.diff(np.append(i, 0.0)) / _positive("dt", dt)
+        di = np.diff(np.append(i, 0.0)) / check_positive("dt", dt)
         return self.resistance * i + self.inductance * di + self.back_emf * np.asarray(velocity)
 
 
@@ -138,7 +131,7 @@ class SignalLimit:
     name: str = "signal"
 
     def __post_init__(self) -> None:
-        _positive(f"{self.name} limit max_abs", self.max_abs)
+        check_positive(f"{self.name} limit max_abs", self.max_abs)
 
     def signal(self, model: LiftedModel) -> tuple[np.ndarray, np.ndarray]:
         """Lifted ``Z = offset + gain @ U`` (eq. 2.68): ``(offset (N,), gain (N, N))``."""
@@ -176,7 +169,7 @@ class _RowLimit:
     max_abs: float
 
     def __post_init__(self) -> None:
-        _positive(f"{type(self).__name__}.max_abs", self.max_abs)
+        check_positive(f"{type(self).__name__}.max_abs", self.max_abs)
 
     @property
     def name(self) -> str:
