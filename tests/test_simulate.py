@@ -182,3 +182,61 @@ def test_plants_with_different_delays_are_refused():
     p = sk.models.hdd_benchmark()
     with pytest.raises(ValueError, match="delay"):
         simulate([p, p.replace(delay=0.0)], dt=1e-4, n_samples=3)
+
+
+def test_tdof_nominal_plant_has_zero_feedback_and_open_loop_response():
+    from servokit.simulate import tdof_response
+
+    plant = sk.models.hdd_sampled_data()
+    dt = HDD_SAMPLED_DATA_TS
+    C = sk.models.controller_eq_4_69(dt)
+    u = 1e-4 * np.sin(2 * np.pi * np.arange(20) / 20)
+    res = tdof_response(plant, plant, controller=C, dt=dt, n_samples=80, substeps=6,
+                        feedforward=u, ff_dt=dt / 2)
+    open_loop = simulate(plant, dt=dt, n_samples=80, substeps=6, feedforward=u, ff_dt=dt / 2)
+    assert np.max(np.abs(res.sim.yc - open_loop.yc)) < 1e-12 * np.max(np.abs(open_loop.yc))
+
+
+def test_tdof_reference_is_the_discretised_model_output():
+    from servokit.simulate import tdof_response
+
+    nominal = sk.models.hdd_sampled_data()
+    plants = [nominal.replace(gain=0.9 * nominal.gain), nominal.replace(gain=1.1 * nominal.gain)]
+    dt = HDD_SAMPLED_DATA_TS
+    C = sk.models.controller_eq_4_69(dt)
+    u = 1e-4 * np.sin(2 * np.pi * np.arange(12) / 12)
+    res = tdof_response(plants, nominal, controller=C, dt=dt, n_samples=200, substeps=4,
+                        feedforward=u, ff_dt=2 * dt)
+    # M(z): exact ZOH discretisation of the nominal model with its delay (cf. eq. 4.75)
+    held = np.zeros(200)
+    held[:24] = np.repeat(u, 2)
+    ym = control.forced_response(nominal.discretize(dt), U=held).outputs
+    assert np.max(np.abs(res.reference - ym)) < 1e-12 * np.max(np.abs(ym))
+    # feedback pulls the perturbed plants towards the model: smaller error than open loop
+    ol = simulate(plants, dt=dt, n_samples=200, substeps=4, feedforward=u, ff_dt=2 * dt)
+    err_fb = np.abs(res.sim.yd - ym).max()
+    err_ol = np.abs(ol.yd - ym).max()
+    assert err_fb < 0.5 * err_ol
+
+
+def test_unstable_loop_is_refused():
+    plant = sk.models.hdd_sampled_data()
+    dt = HDD_SAMPLED_DATA_TS / 4
+    C = sk.models.controller_fig_4_57(dt)  # sized for a different plant gain (§4.5.4)
+    with pytest.raises(ValueError, match="unstable"):
+        simulate(plant, dt=dt, n_samples=10, controller=C)
+    with pytest.raises(ValueError, match="overflowed"):
+        simulate(plant, dt=dt, n_samples=4000, controller=C, check_stability=False,
+                 reference=np.ones(4000))
+
+
+def test_multirate_stability_check_matches_simulated_growth():
+    plant = sk.models.hdd_sampled_data()
+    dt, m = HDD_SAMPLED_DATA_TS, 4
+    C = sk.models.controller_eq_4_69()
+    Ip = control.tf([1, 1, 1, 1], [1, 0, 0, 0], dt / m)
+    res = simulate(plant, dt=dt, n_samples=400, substeps=4, controller=C, multirate=(m, Ip),
+                   reference=np.ones(400))
+    assert abs(res.yd[0, -1] - 1.0) < 1e-3  # stable, integral action
+    with pytest.raises(ValueError, match="unstable"):
+        simulate(plant, dt=dt, n_samples=10, substeps=4, controller=C, multirate=(m, 8 * Ip))

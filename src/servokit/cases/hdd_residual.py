@@ -58,7 +58,7 @@ from servokit.sampled.unobservable import (
     unobservable_magnitude,
     unobservable_plot,
 )
-from servokit.simulate import settling_time, simulate
+from servokit.simulate import settling_time, tdof_response
 
 __all__ = [
     "TdofSetup",
@@ -90,12 +90,19 @@ def crossover_gain(plant: ModalPlant, controller: control.LTI, freq_hz: float) -
     return plant.gain / abs(complex(loop))
 
 
+def reference_plant(gain: float, delay: float) -> ModalPlant:
+    """``Pf(s) e^{-s delay}`` of eq. (4.74): rigid body plus one well-damped mode."""
+    return ModalPlant(
+        gain,
+        (Mode(0.0, 0.0, 1.0), Mode(PF_FREQ_HZ, PF_DAMPING, PF_RESIDUE)),
+        delay=delay,
+        name="Pf (4.74)",
+    )
+
+
 def reference_model(gain: float, dt: float, delay: float) -> control.StateSpace:
     """``Mf(z)``: exact ZOH discretisation of ``Pf(s) e^{-s delay}``, eqs. (4.74)-(4.75)."""
-    pf = ModalPlant(
-        gain, (Mode(0.0, 0.0, 1.0), Mode(PF_FREQ_HZ, PF_DAMPING, PF_RESIDUE)), delay=delay
-    )
-    return pf.discretize(dt)
+    return reference_plant(gain, delay).discretize(dt)
 
 
 @dataclass(frozen=True)
@@ -164,24 +171,39 @@ def tdof_seeks(setup: TdofSetup, n_samples: int = 320, substeps: int = 8) -> lis
         acc = np.asarray(sampled_polynomial(6, n, tau_ff, SEEK_TRACKS), dtype=float)[:n]
         srs = shock_response_spectrum(acc, tau_ff, [mode.freq_hz], SRS_DAMPING).magnitude[0]
         fa = acc / plant.gain
-        # Ip: ZOH + up-sampling of Fa to tau_fb, then Mf gives Fp at tau_fb.
-        up = np.zeros(n_samples)
-        held = np.repeat(fa, k)[:n_samples]
-        up[: held.size] = held
-        fp = np.asarray(control.forced_response(setup.mf, U=up).outputs, dtype=float)
-        res = simulate(
-            plant, dt=tau, n_samples=n_samples, substeps=substeps, feedforward=fa,
-            ff_dt=tau_ff, controller=setup.controller, reference=fp,
+        # Fp = Mf Ip Fa: the TDOF reference is Pf's exact output at tau_fb (Fig. 4.57)
+        tdof = tdof_response(
+            plant,
+            reference_plant(plant.gain, MF_DELAY),
+            controller=setup.controller,
+            dt=tau,
+            n_samples=n_samples,
+            substeps=substeps,
+            feedforward=fa,
+            ff_dt=tau_ff,
         )
+        res, fp = tdof.sim, tdof.reference
         t_end = n * tau_ff
         yc = res.yc[0]
         after = res.t >= t_end
-        runs.append(SeekRun(
-            tau_ff, n, fa, float(srs), res.t, yc, res.td, res.yd[0], fp,
-            residual_amplitude(res.t, yc - SEEK_TRACKS, t_end, mode.freq_hz, mode.damping, 2e-3),
-            float(np.abs(yc[after] - SEEK_TRACKS).max()),
-            float(settling_time(res.t, yc, SEEK_TRACKS, SETTLE_BAND)[0]),
-        ))
+        runs.append(
+            SeekRun(
+                tau_ff,
+                n,
+                fa,
+                float(srs),
+                res.t,
+                yc,
+                res.td,
+                res.yd[0],
+                fp,
+                residual_amplitude(
+                    res.t, yc - SEEK_TRACKS, t_end, mode.freq_hz, mode.damping, 2e-3
+                ),
+                float(np.abs(yc[after] - SEEK_TRACKS).max()),
+                float(settling_time(res.t, yc, SEEK_TRACKS, SETTLE_BAND)[0]),
+            )
+        )
     return runs
 
 
@@ -201,52 +223,104 @@ def _section_4_3(outdir: Path) -> tuple[list[Comparison], list[Path]]:
     tau = 25e-6
     rows = []
     for label, f, mn, mx in (
-        ("sampling", 1 / tau, 1.0, 2.0), ("Nyquist", 0.5 / tau, 0.0, 1.0),
+        ("sampling", 1 / tau, 1.0, 2.0),
+        ("Nyquist", 0.5 / tau, 0.0, 1.0),
         ("one-third", 1 / (3 * tau), 0.134, 0.5),
     ):
         r = unobservable_magnitude(f, tau)
         rows += [
-            Comparison(f"yu min at the {label} frequency", mn, float(r.minimum), "",
-                       0.01, "§4.3.1, Figs. 4.4-4.8"),
-            Comparison(f"yu max at the {label} frequency", mx, float(r.worst), "",
-                       0.01, "§4.3.1, Figs. 4.4-4.8"),
+            Comparison(
+                f"yu min at the {label} frequency",
+                mn,
+                float(r.minimum),
+                "",
+                0.01,
+                "§4.3.1, Figs. 4.4-4.8",
+            ),
+            Comparison(
+                f"yu max at the {label} frequency",
+                mx,
+                float(r.worst),
+                "",
+                0.01,
+                "§4.3.1, Figs. 4.4-4.8",
+            ),
         ]
     iv = unacceptable_sampling_frequencies(40e3, 0.01, 10, 0.2, (5e3, 200e3))
     peaks = [i.peak_hz for i in iv]
     rows += [
-        Comparison("unacceptable fs (wd 40 kHz, Ns 10, level 0.2)", b,
-                   _nearest(peaks, b * 1e3) / 1e3, "kHz", 0.01, "§4.3.2.3, Fig. 4.24")
+        Comparison(
+            "unacceptable fs (wd 40 kHz, Ns 10, level 0.2)",
+            b,
+            _nearest(peaks, b * 1e3) / 1e3,
+            "kHz",
+            0.01,
+            "§4.3.2.3, Fig. 4.24",
+        )
         for b in (13.3, 20.0, 40.0, 80.0)
     ]
     req = required_measurement_time(40e3, 23.8e-6, 0.01, 0.2, max_samples=40)
-    rows.append(Comparison("tau*Ns for yui <= 0.2 (tau 23.8 us)", 0.26,
-                           req.crossing_time_s * 1e3, "ms", 0.10, "§4.3.2.3, Fig. 4.25"))
+    rows.append(
+        Comparison(
+            "tau*Ns for yui <= 0.2 (tau 23.8 us)",
+            0.26,
+            req.crossing_time_s * 1e3,
+            "ms",
+            0.10,
+            "§4.3.2.3, Fig. 4.25",
+        )
+    )
     fs = np.geomspace(5e3, 200e3, 1500)
     curves = {
         f"Ns = {ns}": unobservable_magnitude(
-            40e3, 1 / fs, damping=0.01, n_samples=ns, n_phases=360).rms
+            40e3, 1 / fs, damping=0.01, n_samples=ns, n_phases=360
+        ).rms
         for ns in (5, 10, 20)
     }
     fig = outdir / "hdd_residual_fig4_24_yui_vs_fs.png"
-    unobservable_plot(fs / 1e3, curves, xlabel="Sampling frequency [kHz]", ylabel="yui [-]",
-                      title="Fig. 4.24: yui vs sampling frequency (wd = 40 kHz, zeta = 0.01)",
-                      level=0.2, path=fig, logx=True)
+    unobservable_plot(
+        fs / 1e3,
+        curves,
+        xlabel="Sampling frequency [kHz]",
+        ylabel="yui [-]",
+        title="Fig. 4.24: yui vs sampling frequency (wd = 40 kHz, zeta = 0.01)",
+        level=0.2,
+        path=fig,
+        logx=True,
+    )
     fo = np.linspace(100.0, 100e3, 1000)
     fig0 = outdir / "hdd_residual_fig4_03_yuw_steady_state.png"
     steady = unobservable_magnitude(fo, tau, n_phases=360).worst
-    unobservable_plot(fo / 1e3, {"steady state": steady},
-                      xlabel="Oscillation frequency [kHz]", ylabel="yuw [-]",
-                      title="Fig. 4.3: worst-case unobservable magnitude (tau = 25 us)", path=fig0)
-    maps = {ns: unobservable_magnitude(fo, tau, damping=0.01, n_samples=ns, n_phases=360)
-            for ns in (5, 10, 20)}
+    unobservable_plot(
+        fo / 1e3,
+        {"steady state": steady},
+        xlabel="Oscillation frequency [kHz]",
+        ylabel="yuw [-]",
+        title="Fig. 4.3: worst-case unobservable magnitude (tau = 25 us)",
+        path=fig0,
+    )
+    maps = {
+        ns: unobservable_magnitude(fo, tau, damping=0.01, n_samples=ns, n_phases=360)
+        for ns in (5, 10, 20)
+    }
     fig1 = outdir / "hdd_residual_fig4_21_yuw_damped.png"
-    unobservable_plot(fo / 1e3, {f"Ns = {k}": m.worst for k, m in maps.items()},
-                      xlabel="Damped natural frequency [kHz]", ylabel="yuw [-]",
-                      title="Fig. 4.21: yuw (tau = 25 us, zeta = 0.01)", path=fig1)
+    unobservable_plot(
+        fo / 1e3,
+        {f"Ns = {k}": m.worst for k, m in maps.items()},
+        xlabel="Damped natural frequency [kHz]",
+        ylabel="yuw [-]",
+        title="Fig. 4.21: yuw (tau = 25 us, zeta = 0.01)",
+        path=fig1,
+    )
     fig2 = outdir / "hdd_residual_fig4_23_yui_damped.png"
-    unobservable_plot(fo / 1e3, {f"Ns = {k}": m.rms for k, m in maps.items()},
-                      xlabel="Damped natural frequency [kHz]", ylabel="yui [-]",
-                      title="Fig. 4.23: yui (tau = 25 us, zeta = 0.01)", path=fig2)
+    unobservable_plot(
+        fo / 1e3,
+        {f"Ns = {k}": m.rms for k, m in maps.items()},
+        xlabel="Damped natural frequency [kHz]",
+        ylabel="yui [-]",
+        title="Fig. 4.23: yui (tau = 25 us, zeta = 0.01)",
+        path=fig2,
+    )
     return rows, [fig0, fig1, fig2, fig]
 
 
@@ -259,37 +333,71 @@ def _section_4_4(outdir: Path) -> tuple[list[Comparison], list[Path]]:
     src = "§4.4.1.2, Fig. 4.28"
     # Tolerances: half a unit of the last printed digit, at least 1 %.
     rows = [
-        Comparison("SRS peak, 0.5 ms half-sine with ZOH", b,
-                   _nearest(spectrum_peaks(f, zoh.magnitude), b * 1e3) / 1e3, "kHz",
-                   max(0.01, 0.05 / b), src)
+        Comparison(
+            "SRS peak, 0.5 ms half-sine with ZOH",
+            b,
+            _nearest(spectrum_peaks(f, zoh.magnitude), b * 1e3) / 1e3,
+            "kHz",
+            max(0.01, 0.05 / b),
+            src,
+        )
         for b in (1.4, 38.6, 41.4, 78.6, 81.4)
     ]
-    rows.append(Comparison("SRS peak, 0.5 ms half-sine without ZOH", 1.4,
-                           _nearest(spectrum_peaks(f, cont.magnitude), 1.4e3) / 1e3, "kHz",
-                           0.05 / 1.4, src))
+    rows.append(
+        Comparison(
+            "SRS peak, 0.5 ms half-sine without ZOH",
+            1.4,
+            _nearest(spectrum_peaks(f, cont.magnitude), 1.4e3) / 1e3,
+            "kHz",
+            0.05 / 1.4,
+            src,
+        )
+    )
     f60 = f[f < 60e3]
     one = shock_response_spectrum(half_sine(1e-3), tz, f60, 0.0, duration=1e-3)
     rows += [
-        Comparison("SRS peak, 1 ms half-sine with ZOH", b,
-                   _nearest(spectrum_peaks(f60, one.magnitude), b * 1e3) / 1e3, "kHz",
-                   max(0.01, 0.05 / b), "§4.4.1.2, Fig. 4.32")
+        Comparison(
+            "SRS peak, 1 ms half-sine with ZOH",
+            b,
+            _nearest(spectrum_peaks(f60, one.magnitude), b * 1e3) / 1e3,
+            "kHz",
+            max(0.01, 0.05 / b),
+            "§4.4.1.2, Fig. 4.32",
+        )
         for b in (0.7, 39.3, 40.7)
     ]
     poly = polynomial_wave(40, tz, 1.0)
     band = f[(f > 30e3) & (f < 50e3)]
     p5 = shock_response_spectrum(poly, tz, band, 0.005)
-    rows.append(Comparison("largest residual, 40-sample polynomial wave (zeta 0.005)", 38.7,
-                           band[np.argmax(p5.magnitude)] / 1e3, "kHz", 0.01,
-                           "§4.4.1.3, Fig. 4.36"))
+    rows.append(
+        Comparison(
+            "largest residual, 40-sample polynomial wave (zeta 0.005)",
+            38.7,
+            band[np.argmax(p5.magnitude)] / 1e3,
+            "kHz",
+            0.01,
+            "§4.4.1.3, Fig. 4.36",
+        )
+    )
     fig1 = outdir / "hdd_residual_fig4_28_srs_half_sine.png"
-    srs_plot([zoh, cont], ["with ZOH (25 us)", "without ZOH"], path=fig1, unit="m/s^2",
-             title="Fig. 4.28: residual SRS of a 0.5 ms half-sine (zeta = 0)")
+    srs_plot(
+        [zoh, cont],
+        ["with ZOH (25 us)", "without ZOH"],
+        path=fig1,
+        unit="m/s^2",
+        title="Fig. 4.28: residual SRS of a 0.5 ms half-sine (zeta = 0)",
+    )
     p0 = shock_response_spectrum(poly, tz, f, 0.0)
     p5f = shock_response_spectrum(poly, tz, f, 0.005)
     fig2 = outdir / "hdd_residual_fig4_37_srs_vs_dft.png"
-    srs_plot([p0, p5f], ["SRS, zeta = 0", "SRS, zeta = 0.005"], normalize=True, path=fig2,
-             reference=(f, amplitude_spectrum(poly, tz, f), "amplitude spectrum (DFT)"),
-             title="Fig. 4.37: SRS vs DFT, 40-sample polynomial wave")
+    srs_plot(
+        [p0, p5f],
+        ["SRS, zeta = 0", "SRS, zeta = 0.005"],
+        normalize=True,
+        path=fig2,
+        reference=(f, amplitude_spectrum(poly, tz, f), "amplitude spectrum (DFT)"),
+        title="Fig. 4.37: SRS vs DFT, 40-sample polynomial wave",
+    )
     return rows, [fig1, fig2]
 
 
@@ -300,11 +408,17 @@ def _section_4_5_3(outdir: Path) -> tuple[list[Comparison], list[Path]]:
     iv10 = [i.peak_hz for i in unacceptable_sampling_frequencies(f, zeta, 10, 0.1, (0.9e3, 15e3))]
     iv20 = [i.peak_hz for i in unacceptable_sampling_frequencies(f, zeta, 20, 0.1, (0.9e3, 15e3))]
     rows = [
-        Comparison(f"unacceptable fs, Ns 10{note}", b, _nearest(iv10, b * 1e3) / 1e3, "kHz",
-                   0.01, src)
+        Comparison(
+            f"unacceptable fs, Ns 10{note}", b, _nearest(iv10, b * 1e3) / 1e3, "kHz", 0.01, src
+        )
         for b, note in (
-            (1.02, ""), (1.37, ""), (2.05, ""), (2.73, ""), (4.10, ""),
-            (8.20, " (printed 82.0)"), (12.3, " (printed 123)"),
+            (1.02, ""),
+            (1.37, ""),
+            (2.05, ""),
+            (2.73, ""),
+            (4.10, ""),
+            (8.20, " (printed 82.0)"),
+            (12.3, " (printed 123)"),
         )
     ]
     rows += [
@@ -312,18 +426,34 @@ def _section_4_5_3(outdir: Path) -> tuple[list[Comparison], list[Path]]:
         for b in (2.05, 4.10, 8.20)
     ]
     req = required_measurement_time(f, 233e-6, zeta, 0.1, max_samples=40)
-    rows.append(Comparison("tau*Ns for yui <= 0.1 (tau 233 us)", 3.0, req.crossing_time_s * 1e3,
-                           "ms", 0.10, "§4.5.3, Fig. 4.55"))
+    rows.append(
+        Comparison(
+            "tau*Ns for yui <= 0.1 (tau 233 us)",
+            3.0,
+            req.crossing_time_s * 1e3,
+            "ms",
+            0.10,
+            "§4.5.3, Fig. 4.55",
+        )
+    )
     fs = np.geomspace(0.9e3, 15e3, 1500)
     curves = {
         f"Ns = {ns}": unobservable_magnitude(
-            f, 1 / fs, damping=zeta, n_samples=ns, n_phases=360).rms
+            f, 1 / fs, damping=zeta, n_samples=ns, n_phases=360
+        ).rms
         for ns in (5, 10, 20)
     }
     fig1 = outdir / "hdd_residual_fig4_54_yui_vs_fs_hdd.png"
-    unobservable_plot(fs / 1e3, curves, xlabel="Sampling frequency [kHz]", ylabel="yui [-]",
-                      title="Fig. 4.54: yui vs sampling frequency (4.1 kHz mode, zeta = 0.01)",
-                      level=0.1, path=fig1, logx=True)
+    unobservable_plot(
+        fs / 1e3,
+        curves,
+        xlabel="Sampling frequency [kHz]",
+        ylabel="yui [-]",
+        title="Fig. 4.54: yui vs sampling frequency (4.1 kHz mode, zeta = 0.01)",
+        level=0.1,
+        path=fig1,
+        logx=True,
+    )
     times = {}
     for fs_k in (4.1e3, 4.3e3, 4.5e3):
         r = required_measurement_time(f, 1 / fs_k, zeta, 0.1, max_samples=40)
@@ -334,8 +464,9 @@ def _section_4_5_3(outdir: Path) -> tuple[list[Comparison], list[Path]]:
     import matplotlib.pyplot as plt
 
     figure, ax = plt.subplots(figsize=(7, 4))
-    for (label, rms), fs_k, style in zip(times.items(), (4.1e3, 4.3e3, 4.5e3), ("-", "--", "-."),
-                                         strict=True):
+    for (label, rms), fs_k, style in zip(
+        times.items(), (4.1e3, 4.3e3, 4.5e3), ("-", "--", "-."), strict=True
+    ):
         ax.plot(ns / fs_k * 1e3, rms, style, label=label)
     ax.axhline(0.1, color="k", lw=0.8, ls=":", label="level 0.1")
     ax.set_xlabel("Measurement time tau x Ns [ms]")
@@ -367,8 +498,7 @@ def _section_4_5_4(outdir: Path) -> tuple[list[Comparison], list[Path], dict]:
     rows += [
         Comparison("Mf pole pair: z coefficient", -0.9245, float(quad[1]), "", 0.01, src),
         Comparison("Mf pole pair: constant", 0.5648, float(quad[2]), "", 0.01, src),
-        Comparison("Mf gain (plant gain from the 1 kHz crossover)", -3.157e-6, gain, "",
-                   0.01, src),
+        Comparison("Mf gain (plant gain from the 1 kHz crossover)", -3.157e-6, gain, "", 0.01, src),
     ]
     runs = tdof_seeks(setup)
     srs_rank = _rank([r.srs_at_mode for r in runs])
@@ -376,10 +506,22 @@ def _section_4_5_4(outdir: Path) -> tuple[list[Comparison], list[Path], dict]:
     for run, b_rank, s_rank, r_rank in zip(runs, (1, 3, 2), srs_rank, res_rank, strict=True):
         us = f"{run.tau_ff * 1e6:.0f} us"
         rows += [
-            Comparison(f"rank of SRS at 4.1 kHz, tau_ff {us} (1 = smallest)", b_rank, s_rank,
-                       "", 0.0, "§4.5.4.3, Fig. 4.61"),
-            Comparison(f"rank of simulated residual, tau_ff {us}", b_rank, r_rank, "", 0.0,
-                       "§4.5.4.4, Figs. 4.62-4.63"),
+            Comparison(
+                f"rank of SRS at 4.1 kHz, tau_ff {us} (1 = smallest)",
+                b_rank,
+                s_rank,
+                "",
+                0.0,
+                "§4.5.4.3, Fig. 4.61",
+            ),
+            Comparison(
+                f"rank of simulated residual, tau_ff {us}",
+                b_rank,
+                r_rank,
+                "",
+                0.0,
+                "§4.5.4.4, Figs. 4.62-4.63",
+            ),
         ]
     margins = control.stability_margins(
         control.ss(setup.plant.discretize(setup.tau_fb)) * control.ss(setup.controller)
@@ -392,21 +534,32 @@ def _section_4_5_4(outdir: Path) -> tuple[list[Comparison], list[Path], dict]:
         "phase_margin_at_1kHz_deg": 180.0 + float(np.degrees(np.angle(loop_1k))),
         "gain_margin_db": float(20 * np.log10(margins[0])),
         "seeks": [
-            {"tau_ff_s": r.tau_ff, "N": r.n, "srs_at_4100Hz": r.srs_at_mode,
-             "residual_4100Hz_tracks": r.residual, "peak_error_after_seek_tracks": r.peak_error,
-             "settling_time_s": r.settling, "settling_band_tracks": SETTLE_BAND}
+            {
+                "tau_ff_s": r.tau_ff,
+                "N": r.n,
+                "srs_at_4100Hz": r.srs_at_mode,
+                "residual_4100Hz_tracks": r.residual,
+                "peak_error_after_seek_tracks": r.peak_error,
+                "settling_time_s": r.settling,
+                "settling_band_tracks": SETTLE_BAND,
+            }
             for r in runs
         ],
     }
     f = np.linspace(100.0, 10e3, 2000)
     spectra = [
-        shock_response_spectrum(r.accel * setup.plant.gain, r.tau_ff, f, SRS_DAMPING)
-        for r in runs
+        shock_response_spectrum(r.accel * setup.plant.gain, r.tau_ff, f, SRS_DAMPING) for r in runs
     ]
     labels = [f"tau_ff = {r.tau_ff * 1e6:.0f} us, N = {r.n}" for r in runs]
     fig1 = outdir / "hdd_residual_fig4_61_srs_seek_inputs.png"
-    srs_plot(spectra, labels, path=fig1, unit="track/s^2", marks_hz=(setup.plant.modes[1].freq_hz,),
-             title="Fig. 4.61: residual SRS of the seek accelerations (zeta = 0.01)")
+    srs_plot(
+        spectra,
+        labels,
+        path=fig1,
+        unit="track/s^2",
+        marks_hz=(setup.plant.modes[1].freq_hz,),
+        title="Fig. 4.61: residual SRS of the seek accelerations (zeta = 0.01)",
+    )
     fig2 = outdir / "hdd_residual_fig4_62_tdof_seek.png"
     _seek_plot(runs, fig2)
     fig3 = outdir / "hdd_residual_fig4_60_feedforward.png"
@@ -421,8 +574,9 @@ def _inputs_plot(runs: list[SeekRun], setup: TdofSetup, path: Path) -> None:
     for r, style in zip(runs, ("-", "--", "-."), strict=True):
         label = f"tau_ff = {r.tau_ff * 1e6:.0f} us"
         t_ff = np.arange(r.n + 1) * r.tau_ff
-        a1.step(t_ff * 1e3, np.r_[r.accel, 0.0] * setup.plant.gain, style, where="post",
-                label=label)
+        a1.step(
+            t_ff * 1e3, np.r_[r.accel, 0.0] * setup.plant.gain, style, where="post", label=label
+        )
         a2.plot(r.td * 1e3, r.reference, style, label=label)
     a1.set_ylabel("Fa [track/s^2]")
     a1.set_title("Fig. 4.60: (a) acceleration feedforward Fa, (b) position reference Fp")

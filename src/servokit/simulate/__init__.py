@@ -9,14 +9,17 @@ from servokit.simulate.metrics import (
     settling_time,
     step_metrics,
 )
+from servokit.simulate.tdof import TdofResult, tdof_response
 
 __all__ = [
     "HeldInput",
     "SimulationResult",
     "StepMetrics",
+    "TdofResult",
     "seek_response",
     "seek_time",
     "settling_time",
     "simulate",
     "step_metrics",
+    "tdof_response",
 ]

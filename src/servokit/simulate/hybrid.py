@@ -103,6 +103,35 @@ def _ss(name: str, sys: object, dt: float) -> tuple[np.ndarray, ...]:
     )
 
 
+def _check_closed_loop(
+    plants: Sequence[ModalPlant],
+    controller: control.LTI,
+    dt: float,
+    multirate: tuple[int, control.LTI] | None,
+) -> None:
+    """Raise if the discrete loop (plant with delay behind its holds, controller) is unstable.
+
+    With a multirate path the fast series ``P_d(dt/m) F`` driven by the zero-inserted
+    controller output is lifted over one period: ``A^m, A^(m-1) B, C, D``.
+    """
+    for i, p in enumerate(plants):
+        if multirate is None:
+            g = control.ss(p.discretize(dt))
+        else:
+            m, F = multirate
+            fast = control.ss(p.discretize(dt / m)) * control.ss(F)
+            Am1 = np.linalg.matrix_power(fast.A, m - 1)  # m is a small multirate number
+            g = control.ss(Am1 @ fast.A, Am1 @ fast.B, fast.C, fast.D, dt)
+        poles = control.poles(control.feedback(g * control.ss(controller), 1))
+        rho = float(np.max(np.abs(poles))) if poles.size else 0.0
+        if rho >= 1.0 - 1e-10:
+            raise ServokitValueError(
+                f"the closed loop of controller and plants[{i}] ({p.name or 'plant'}) is unstable "
+                f"(largest closed-loop pole |z| = {rho:.4g}); redesign the controller or check "
+                "the plant gain and units (check_stability=False simulates it anyway)"
+            )
+
+
 def simulate(
     plants: ModalPlant | Sequence[ModalPlant],
     *,
@@ -117,6 +146,7 @@ def simulate(
     output_disturbance: Signal | np.ndarray | None = None,
     input_disturbance: Signal | np.ndarray | None = None,
     x0: np.ndarray | None = None,
+    check_stability: bool = True,
 ) -> SimulationResult:
     """Simulate plant variants under feedforward and/or digital feedback.
 
@@ -147,6 +177,9 @@ def simulate(
     output_disturbance, input_disturbance : callable or array, optional
         ``dc(t)`` added to the output (exactly) and ``d(t)`` added to the plant input
         (held on the fine grid), evaluated on the fine grid.
+    check_stability : bool
+        With a controller, refuse a loop that is unstable for any variant (closed-loop
+        poles of the exact discrete loop, lifted over ``dt`` with a multirate path).
     x0 : array_like, optional
         Initial modal state, shape (2M,) or (V, 2M) in ``ModalPlant.to_statespace`` order.
 
@@ -255,57 +288,66 @@ def simulate(
             filt = _ss("multirate filter", F, dt / m)
             xf = np.zeros((V, filt[0].shape[0]))
         loop = True
+        if check_stability:
+            _check_closed_loop(plist, controller, dt, None if filt is None else (m, F))
     elif reference is not None or multirate is not None:
         raise ServokitValueError("reference and multirate need a controller; pass controller=...")
 
-    open_drive = None if loop else apply(windows(0, K), B2).reshape(V, K, M, 2)
-    for k in range(K):
-        xs[:, k] = x
-        yk = x[..., 0].sum(axis=-1) + dc[:, k * S]
-        yd[:, k] = yk
-        if loop:
-            e = r[k] - yk
-            ufb = xc @ Cc + Dc * e
-            xc = xc @ Ac.T + e[:, None] * Bc
-            if filt is None:
-                fb = np.repeat(ufb[:, None], S, axis=1)
+    # an unstable loop run with check_stability=False overflows: reported below, not warned
+    with np.errstate(over="ignore", invalid="ignore"):
+        open_drive = None if loop else apply(windows(0, K), B2).reshape(V, K, M, 2)
+        for k in range(K):
+            xs[:, k] = x
+            yk = x[..., 0].sum(axis=-1) + dc[:, k * S]
+            yd[:, k] = yk
+            if loop:
+                e = r[k] - yk
+                ufb = xc @ Cc + Dc * e
+                xc = xc @ Ac.T + e[:, None] * Bc
+                if filt is None:
+                    fb = np.repeat(ufb[:, None], S, axis=1)
+                else:
+                    Af, Bf, Cf, Df = filt
+                    sub = np.empty((V, m))
+                    inp = ufb  # zero insertion: only the first sub-sample carries the value
+                    for i in range(m):
+                        sub[:, i] = xf @ Cf + Df * inp
+                        xf = xf @ Af.T + inp[:, None] * Bf
+                        inp = np.zeros(V)
+                    fb = np.repeat(sub, S // m, axis=1)
+                ubuf[:, dd + 1 + k * S : dd + 1 + (k + 1) * S] += fb
+                inc = (windows(k, k + 1) @ B2).reshape(V, M, 2)
             else:
-                Af, Bf, Cf, Df = filt
-                sub = np.empty((V, m))
-                inp = ufb  # zero insertion: only the first sub-sample carries the value
-                for i in range(m):
-                    sub[:, i] = xf @ Cf + Df * inp
-                    xf = xf @ Af.T + inp[:, None] * Bf
-                    inp = np.zeros(V)
-                fb = np.repeat(sub, S // m, axis=1)
-            ubuf[:, dd + 1 + k * S : dd + 1 + (k + 1) * S] += fb
-            inc = (windows(k, k + 1) @ B2).reshape(V, M, 2)
-        else:
-            inc = open_drive[:, k]
-        x = (PS @ x[..., None])[..., 0] + inc
+                inc = open_drive[:, k]
+            x = (PS @ x[..., None])[..., 0] + inc
 
-    # outputs between the samples: free response of the stored states + forced response
-    CP = P[:, :, :S, 0, :]  # (V, M, S, 2): first row of Phi^i
-    y = xs.reshape(V, K, 2 * M) @ CP.transpose(0, 1, 3, 2).reshape(V, 2 * M, S)
-    # impulse responses C Phi^l G (l = 0..S-1) summed over modes
-    H2 = np.concatenate(
-        [np.einsum("vmlc,vmc->vl", CP, bank.Gnew), np.einsum("vmlc,vmc->vl", CP, bank.Gold)], axis=1
-    )  # (V, 2S)
-    idx = np.arange(S)
-    W = np.concatenate([np.zeros((Vu, K, 1)), windows(0, K)], axis=2)  # leading zero pad
-    if Vu == 1:
-        # shared input: its per-block Toeplitz Wt[l, k, i] = w[k, i-1-l] is built once
-        lag = np.clip(idx[None, :] - idx[:, None], 0, None)  # [l, i] -> i - l (0 = pad)
-        Wt_new = W[0][:, lag].transpose(1, 0, 2)  # (S, K, S)
-        Wt_old = W[0][:, S + lag].transpose(1, 0, 2)
-        Wt_old[(lag == 0)[:, None, :].repeat(K, axis=1)] = 0.0
-        Wt = np.concatenate([Wt_new, Wt_old], axis=0).reshape(2 * S, K * S)
-        y += (H2 @ Wt).reshape(V, K, S)
-    else:
-        lag = np.clip(idx[:, None] - idx[None, :], 0, None)  # [i, j] -> i - j (0 if i <= j)
-        Hp = np.concatenate([np.zeros((V, 1)), H2[:, :S], np.zeros((V, 1)), H2[:, S:]], axis=1)
-        T2 = np.concatenate([Hp[:, lag.T], Hp[:, S + 1 + lag.T]], axis=1)  # (V, 2S, S)
-        y += W[:, :, 1:] @ T2
-    yc = y.reshape(V, Nt) + dc
+        # outputs between the samples: free response of the stored states + forced response
+        CP = P[:, :, :S, 0, :]  # (V, M, S, 2): first row of Phi^i
+        y = xs.reshape(V, K, 2 * M) @ CP.transpose(0, 1, 3, 2).reshape(V, 2 * M, S)
+        # impulse responses C Phi^l G (l = 0..S-1) summed over modes
+        H2 = np.concatenate(
+            [np.einsum("vmlc,vmc->vl", CP, bank.Gnew), np.einsum("vmlc,vmc->vl", CP, bank.Gold)],
+            axis=1,
+        )  # (V, 2S)
+        idx = np.arange(S)
+        W = np.concatenate([np.zeros((Vu, K, 1)), windows(0, K)], axis=2)  # leading zero pad
+        if Vu == 1:
+            # shared input: its per-block Toeplitz Wt[l, k, i] = w[k, i-1-l] is built once
+            lag = np.clip(idx[None, :] - idx[:, None], 0, None)  # [l, i] -> i - l (0 = pad)
+            Wt_new = W[0][:, lag].transpose(1, 0, 2)  # (S, K, S)
+            Wt_old = W[0][:, S + lag].transpose(1, 0, 2)
+            Wt_old[(lag == 0)[:, None, :].repeat(K, axis=1)] = 0.0
+            Wt = np.concatenate([Wt_new, Wt_old], axis=0).reshape(2 * S, K * S)
+            y += (H2 @ Wt).reshape(V, K, S)
+        else:
+            lag = np.clip(idx[:, None] - idx[None, :], 0, None)  # [i, j] -> i - j (0 if i <= j)
+            Hp = np.concatenate([np.zeros((V, 1)), H2[:, :S], np.zeros((V, 1)), H2[:, S:]], axis=1)
+            T2 = np.concatenate([Hp[:, lag.T], Hp[:, S + 1 + lag.T]], axis=1)  # (V, 2S, S)
+            y += W[:, :, 1:] @ T2
+        yc = y.reshape(V, Nt) + dc
+    if not np.all(np.isfinite(yc)):
+        raise ServokitValueError(
+            "the simulated output overflowed (an unstable loop or plant); check the controller"
+        )
     u = np.broadcast_to(ubuf[:, dd + 1 :], (V, Nt))
     return SimulationResult(t=t, yc=yc, td=t[::S], yd=yd, u=u, substeps=S)
