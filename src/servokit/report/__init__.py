@@ -9,7 +9,9 @@ from __future__ import annotations
 from dataclasses import dataclass, field
 from pathlib import Path
 
-__all__ = ["Comparison", "CaseResult"]
+import numpy as np
+
+__all__ = ["Comparison", "CaseResult", "nearest"]
 
 
 @dataclass(frozen=True)
@@ -46,3 +48,10 @@ class CaseResult:
     comparisons: list[Comparison] = field(default_factory=list)
     figures: list[Path] = field(default_factory=list)
     extra: dict = field(default_factory=dict)
+
+
+def nearest(found: object, value: float) -> float:
+    """The entry of ``found`` closest to ``value`` (NaN if empty): pairs a computed peak,
+    root or frequency with the book's value for a :class:`Comparison`."""
+    arr = np.asarray(found, dtype=float).ravel()
+    return float(arr[np.argmin(np.abs(arr - value))]) if arr.size else float("nan")
