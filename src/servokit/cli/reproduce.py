@@ -61,7 +61,13 @@ def reproduce(
                 f"{c.rel_tol:.0%}",
                 "[green]yes[/green]" if c.ok else "[red]no[/red]",
             )
-        console.print(table)
+        if r.comparisons:
+            console.print(table)
+        else:
+            console.print(
+                f"{r.title}  [{r.name}]: the book prints no number this model can "
+                "reproduce; see the figures and the case's notes"
+            )
         for f in r.figures:
             console.print(f"  figure: {f}")
     console.print(f"{n_ok}/{n_all} book numbers within tolerance; figures in {out}/")
