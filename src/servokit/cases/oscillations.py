@@ -36,6 +36,29 @@ from servokit.sampled.unobservable import (
 __all__ = ["oscillations_case"]
 
 
+def _yui_vs_fs_figure(
+    freq_hz: float, damping: float, fs: np.ndarray, level: float, title: str, path: Path
+) -> Path:
+    """yui of one mode against the sampling frequency for Ns = 5, 10, 20 (Figs. 4.24, 4.54)."""
+    curves = {
+        f"Ns = {ns}": unobservable_magnitude(
+            freq_hz, 1 / fs, damping=damping, n_samples=ns, n_phases=360
+        ).rms
+        for ns in (5, 10, 20)
+    }
+    unobservable_plot(
+        fs / 1e3,
+        curves,
+        xlabel="Sampling frequency [kHz]",
+        ylabel="yui [-]",
+        title=title,
+        level=level,
+        path=path,
+        logx=True,
+    )
+    return path
+
+
 def _section_4_3(outdir: Path) -> tuple[list[Comparison], list[Path]]:
     tau = 25e-6
     rows = []
@@ -87,23 +110,13 @@ def _section_4_3(outdir: Path) -> tuple[list[Comparison], list[Path]]:
             "§4.3.2.3, Fig. 4.25",
         )
     )
-    fs = np.geomspace(5e3, 200e3, 1500)
-    curves = {
-        f"Ns = {ns}": unobservable_magnitude(
-            40e3, 1 / fs, damping=0.01, n_samples=ns, n_phases=360
-        ).rms
-        for ns in (5, 10, 20)
-    }
-    fig = outdir / "hdd_residual_fig4_24_yui_vs_fs.png"
-    unobservable_plot(
-        fs / 1e3,
-        curves,
-        xlabel="Sampling frequency [kHz]",
-        ylabel="yui [-]",
-        title="Fig. 4.24: yui vs sampling frequency (wd = 40 kHz, zeta = 0.01)",
-        level=0.2,
-        path=fig,
-        logx=True,
+    fig = _yui_vs_fs_figure(
+        40e3,
+        0.01,
+        np.geomspace(5e3, 200e3, 1500),
+        0.2,
+        "Fig. 4.24: yui vs sampling frequency (wd = 40 kHz, zeta = 0.01)",
+        outdir / "hdd_residual_fig4_24_yui_vs_fs.png",
     )
     fo = np.linspace(100.0, 100e3, 1000)
     fig0 = outdir / "hdd_residual_fig4_03_yuw_steady_state.png"
@@ -253,23 +266,13 @@ def _section_4_5_3(outdir: Path) -> tuple[list[Comparison], list[Path]]:
             "§4.5.3, Fig. 4.55",
         )
     )
-    fs = np.geomspace(0.9e3, 15e3, 1500)
-    curves = {
-        f"Ns = {ns}": unobservable_magnitude(
-            f, 1 / fs, damping=zeta, n_samples=ns, n_phases=360
-        ).rms
-        for ns in (5, 10, 20)
-    }
-    fig1 = outdir / "hdd_residual_fig4_54_yui_vs_fs_hdd.png"
-    unobservable_plot(
-        fs / 1e3,
-        curves,
-        xlabel="Sampling frequency [kHz]",
-        ylabel="yui [-]",
-        title="Fig. 4.54: yui vs sampling frequency (4.1 kHz mode, zeta = 0.01)",
-        level=0.1,
-        path=fig1,
-        logx=True,
+    fig1 = _yui_vs_fs_figure(
+        f,
+        zeta,
+        np.geomspace(0.9e3, 15e3, 1500),
+        0.1,
+        "Fig. 4.54: yui vs sampling frequency (4.1 kHz mode, zeta = 0.01)",
+        outdir / "hdd_residual_fig4_54_yui_vs_fs_hdd.png",
     )
     times = {}
     for fs_k in (4.1e3, 4.3e3, 4.5e3):
