@@ -235,3 +235,15 @@ def test_public_namespace_resolves_every_name() -> None:
     for name in ff_pkg.__all__:
         assert getattr(ff_pkg, name) is not None, name
     assert set(ff_pkg._LAZY) <= set(ff_pkg.__all__)
+
+
+def test_zero_steps_and_bad_bands_are_reported_not_skipped():
+    from servokit.feedforward.ffsc import StepsBelowOrderError
+
+    rigid = hdd_benchmark().rigid_body()
+    with pytest.raises(StepsBelowOrderError, match="N must be >= 1"):
+        fsc_input(rigid, HDD_BENCHMARK_TS, 0, 1.0)
+    # a user mistake inside the design must surface, not read as "no N settles"
+    with pytest.raises(ServokitValueError, match="f_low_hz <= f_high_hz"):
+        choose_N(hdd_benchmark(), HDD_BENCHMARK_TS, 1.0, range(5, 8), design_plant=rigid,
+                 band_weights=[(5000.0, 1000.0, 1.0, 10)])

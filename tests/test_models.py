@@ -294,3 +294,22 @@ def test_get_discrete_controller_by_name_and_errors(tmp_path):
     f.write_text("gain = 1.0\nzeros = [-1.0]\npoles = [-2.0]\n")
     with pytest.raises(ValueError, match="continuous"):
         sk.models.get_discrete_controller(str(f))
+
+
+def test_freqresp_at_a_pole_raises():
+    with pytest.raises(ValueError, match="pole"):
+        sk.models.hdd_benchmark().freqresp([10.0, 0.0])
+    undamped = ModalPlant(1.0, (Mode(100.0, 0.0, 1.0),))
+    with pytest.raises(ValueError, match="100 Hz is a pole"):
+        undamped.freqresp([100.0])
+
+
+def test_toml_wrong_container_types(tmp_path):
+    f = tmp_path / "p.toml"
+    f.write_text("gain = 1.0\nmodes = 5\n")
+    with pytest.raises(sk.models.PlantFileError, match="'modes' must be a list"):
+        sk.models.load_plant(f)
+    g = tmp_path / "c.toml"
+    g.write_text("num = 5\nden = [1.0, 2.0]\n")
+    with pytest.raises(sk.models.PlantFileError, match="'num' must be a non-empty list"):
+        sk.models.load_controller(g)

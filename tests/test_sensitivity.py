@@ -211,7 +211,7 @@ def test_bad_arguments_raise(hdd):
     with pytest.raises(ServokitValueError, match="controller_d must be discrete"):
         sampled_data_sensitivity(plant, control.tf([1], [1, 1]), TS, [100.0])
     with pytest.raises(ServokitValueError, match="controller_d has dt"):
-        sampled_data_sensitivity(plant, controller_eq_4_69(1e-4), TS, [100.0])
+        sampled_data_sensitivity(plant, control.tf([0.5], [1, -0.5], 1e-4), TS, [100.0])
     with pytest.raises(ServokitValueError, match="freq_hz"):
         sampled_data_sensitivity(plant, ctrl, TS, [0.0, 100.0])
     with pytest.raises(ServokitValueError, match="freq_hz"):

@@ -189,7 +189,7 @@ def test_tdof_nominal_plant_has_zero_feedback_and_open_loop_response():
 
     plant = sk.models.hdd_sampled_data()
     dt = HDD_SAMPLED_DATA_TS
-    C = sk.models.controller_eq_4_69(dt)
+    C = sk.models.controller_eq_4_69()
     u = 1e-4 * np.sin(2 * np.pi * np.arange(20) / 20)
     res = tdof_response(plant, plant, controller=C, dt=dt, n_samples=80, substeps=6,
                         feedforward=u, ff_dt=dt / 2)
@@ -203,7 +203,7 @@ def test_tdof_reference_is_the_discretised_model_output():
     nominal = sk.models.hdd_sampled_data()
     plants = [nominal.replace(gain=0.9 * nominal.gain), nominal.replace(gain=1.1 * nominal.gain)]
     dt = HDD_SAMPLED_DATA_TS
-    C = sk.models.controller_eq_4_69(dt)
+    C = sk.models.controller_eq_4_69()
     u = 1e-4 * np.sin(2 * np.pi * np.arange(12) / 12)
     res = tdof_response(plants, nominal, controller=C, dt=dt, n_samples=200, substeps=4,
                         feedforward=u, ff_dt=2 * dt)
@@ -240,3 +240,13 @@ def test_multirate_stability_check_matches_simulated_growth():
     assert abs(res.yd[0, -1] - 1.0) < 1e-3  # stable, integral action
     with pytest.raises(ValueError, match="unstable"):
         simulate(plant, dt=dt, n_samples=10, substeps=4, controller=C, multirate=(m, 8 * Ip))
+
+
+def test_metrics_and_simulate_reject_bad_arguments():
+    with pytest.raises(ValueError, match="target"):
+        settling_time(np.arange(3.0), np.zeros(3), np.nan, 0.1)
+    with pytest.raises(TypeError, match="n_samples"):
+        simulate(sk.models.hdd_benchmark(), dt=1e-4, n_samples="a")
+    improper = control.tf([1.0, 2.0, 3.0], [1.0, 0.5], 1e-4)
+    with pytest.raises(ValueError, match="not proper"):
+        simulate(sk.models.hdd_benchmark(), dt=1e-4, n_samples=3, controller=improper)

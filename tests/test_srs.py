@@ -214,3 +214,10 @@ def test_many_frequencies_processed_in_blocks_agree():
     full = shock_response_spectrum(u, TZOH, f, 0.005, kind="initial").magnitude
     few = shock_response_spectrum(u, TZOH, f[[0, 1234, 2499]], 0.005, kind="initial").magnitude
     np.testing.assert_allclose(full[[0, 1234, 2499]], few, rtol=1e-10)
+
+
+def test_held_samples_rejects_non_positive_hold():
+    from servokit.sampled.srs import held_samples
+
+    with pytest.raises(ServokitValueError, match="dt_hold must be > 0"):
+        held_samples(lambda t: t, 1e-3, -1.0)

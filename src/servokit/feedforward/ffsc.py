@@ -32,11 +32,13 @@ from typing import Any, Literal
 import numpy as np
 
 from servokit.errors import ServokitTypeError, ServokitValueError, check_finite
+from servokit.feedforward.constraints import InfeasibleConstraintsError
 from servokit.feedforward.fsc import final_state_control, lifted_model
 from servokit.models._zoh import zoh_pair
 from servokit.models.modal import ModalPlant, modal_matrices
 
 __all__ = [
+    "StepsBelowOrderError",
     "FeedforwardInput",
     "NSearchResult",
     "augmented_design_model",
@@ -45,6 +47,11 @@ __all__ = [
     "fsc_input",
     "held_spectrum_matrix",
 ]
+
+
+class StepsBelowOrderError(ServokitValueError):
+    """The step number N is too small for the design model (below its order)."""
+
 
 BandWeight = tuple[float, float, float, int]
 
@@ -267,13 +274,15 @@ def fsc_input(
     if isinstance(N, bool) or not isinstance(N, int | np.integer):
         raise ServokitTypeError(f"N must be an integer number of steps, got {N!r}")
     N = int(N)
+    if N < 1:
+        raise StepsBelowOrderError(f"N must be >= 1 step, got N={N}")
     rho = 1.0 / N if input_weight is None else float(check_finite("input_weight", input_weight))
-    if N < 1 or rho <= 0:
-        raise ServokitValueError(f"need N >= 1 and input_weight > 0, got N={N}, {rho}")
+    if rho <= 0:
+        raise ServokitValueError(f"input_weight must be > 0, got {rho}")
 
     A, B, n = augmented_design_model(design_plant, dt)
     if N < n + 1:
-        raise ServokitValueError(
+        raise StepsBelowOrderError(
             f"N={N} is below the order {n + 1} of the integrator-augmented model of "
             f"{design_plant.name or 'the plant'}; use N >= {n + 1}"
         )
@@ -412,8 +421,8 @@ def choose_N(
     for i, n_steps in enumerate(Ns):
         try:
             ff = fsc_input(design, dt, n_steps, target, **design_kw)
-        except ServokitValueError:
-            inputs.append(None)  # N too small for the design model: not a candidate
+        except (StepsBelowOrderError, InfeasibleConstraintsError):
+            inputs.append(None)  # too few steps, or the limits cannot be met: not a candidate
             continue
         times = np.asarray(
             seek_time_fn(plant_list, ff, target, band=band, grid=grid, horizon=horizon),

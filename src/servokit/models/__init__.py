@@ -24,6 +24,7 @@ from servokit.models.controllers import (
     controller_fig_4_57,
     cpc_eq_4_72,
     get_discrete_controller,
+    require_proper,
     vcm_controller_table_5_2,
     zpk,
 )
@@ -41,6 +42,7 @@ __all__ = [
     "CATALOGUE",
     "CONTROLLERS",
     "get_discrete_controller",
+    "require_proper",
     "HDD_BENCHMARK_TS",
     "HDD_SAMPLED_DATA_TS",
     "VCM_PES_TS",

@@ -26,6 +26,7 @@ __all__ = [
     "VCM_PES_TS",
     "CONTROLLERS",
     "get_discrete_controller",
+    "require_proper",
 ]
 
 #: PES sampling period of the dual-stage HDD of chapter 5 (30 kHz, §5.2.1.2) [s].
@@ -47,9 +48,12 @@ def zpk(
     return control.tf(num, den, dt)
 
 
-def controller_eq_4_69(dt: float = HDD_SAMPLED_DATA_TS) -> control.TransferFunction:
-    """C(z) = 0.872 (z-0.490)(z-0.865)(z-0.908) / ((z-0.0182)(z-0.409)(z-1)), eq. (4.69)."""
-    return zpk([0.490, 0.865, 0.908], [0.0182, 0.409, 1.0], 0.872, dt)
+def controller_eq_4_69() -> control.TransferFunction:
+    """C(z) = 0.872 (z-0.490)(z-0.865)(z-0.908) / ((z-0.0182)(z-0.409)(z-1)), eq. (4.69).
+
+    Its z-domain coefficients hold for the sampling period of §4.5.2 only (153.5 us).
+    """
+    return zpk([0.490, 0.865, 0.908], [0.0182, 0.409, 1.0], 0.872, HDD_SAMPLED_DATA_TS)
 
 
 def cpc_eq_4_72() -> control.TransferFunction:
@@ -128,3 +132,15 @@ def get_discrete_controller(name_or_file: str, dt: float | None = None) -> contr
             f"period {dt:g} s"
         )
     return ctrl
+
+
+def require_proper(name: str, sys: control.LTI) -> None:
+    """Raise unless the SISO transfer function ``sys`` is proper (realisable, causal)."""
+    if isinstance(sys, control.TransferFunction):
+        num = np.trim_zeros(np.atleast_1d(np.asarray(sys.num[0][0], dtype=float)), "f")
+        den = np.trim_zeros(np.atleast_1d(np.asarray(sys.den[0][0], dtype=float)), "f")
+        if len(num) > len(den):
+            raise ServokitValueError(
+                f"{name} is not proper (more zeros than poles) and cannot be realised; "
+                "add poles or a delay"
+            )

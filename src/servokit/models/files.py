@@ -91,6 +91,8 @@ def load_plant(path: str | Path) -> ModalPlant:
     if delay < 0:
         raise PlantFileError(f"{path}: field 'delay' must be >= 0 seconds, got {delay}")
     raw_modes = data.get("modes")
+    if raw_modes is not None and not isinstance(raw_modes, list):
+        raise PlantFileError(f"{path}: field 'modes' must be a list of [[modes]] tables")
     if not raw_modes:
         raise PlantFileError(f"{path}: missing field 'modes'; add at least one [[modes]] table")
     modes = []
@@ -166,6 +168,9 @@ def load_controller(path: str | Path) -> control.TransferFunction:
     if "num" in data or "den" in data:
         if "num" not in data or "den" not in data:
             raise PlantFileError(f"{path}: give both 'num' and 'den'")
+        for key in ("num", "den"):
+            if not isinstance(data[key], list) or not data[key]:
+                raise PlantFileError(f"{path}: field '{key}' must be a non-empty list of numbers")
         num = [_number(path, f"num[{i}]", v) for i, v in enumerate(data["num"])]
         den = [_number(path, f"den[{i}]", v) for i, v in enumerate(data["den"])]
         if not any(den):

@@ -166,8 +166,15 @@ class ModalPlant:
             raise ServokitValueError("freq_hz must be finite")
         s = 2j * np.pi * f[..., None]
         w, z, r = self.arrays()
-        with np.errstate(divide="ignore", invalid="ignore"):
-            modal = np.sum(r / (s * s + 2 * z * w * s + w * w), axis=-1)
+        den = s * s + 2 * z * w * s + w * w
+        hit = np.any(den == 0, axis=-1)
+        if np.any(hit):
+            bad = f[hit].ravel()[0]
+            raise ServokitValueError(
+                f"freq_hz = {bad:g} Hz is a pole of {self.name or 'the plant'} (an undamped mode "
+                "or the rigid body at 0 Hz); evaluate the response away from it"
+            )
+        modal = np.sum(r / den, axis=-1)
         return modal * np.exp(-s[..., 0] * self.delay)
 
     def to_statespace(self) -> control.StateSpace:

@@ -24,6 +24,7 @@ import control
 import numpy as np
 
 from servokit.errors import ServokitTypeError, ServokitValueError, check_positive
+from servokit.models.controllers import require_proper
 from servokit.models.modal import ModalPlant
 
 __all__ = ["Multirate", "zoh_response", "eval_discrete", "check_discrete"]
@@ -61,6 +62,7 @@ def _lti(name: str, sys: object) -> control.LTI:
         )
     if sys.ninputs != 1 or sys.noutputs != 1:
         raise ServokitValueError(f"{name} must be SISO (got {sys.noutputs}x{sys.ninputs})")
+    require_proper(name, sys)
     sys_dt = sys.dt
     # dt=True is python-control's "discrete, period unspecified": unusable here
     if sys_dt is None or isinstance(sys_dt, bool) or float(sys_dt) <= 0:

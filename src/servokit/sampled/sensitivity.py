@@ -272,18 +272,18 @@ def _alias_sums(
         used = hi
         if band_limit_hz is None:
             active &= ~(rel_tail <= tol)
+    if not (np.all(np.isfinite(gsum)) and np.all(np.isfinite(gabs))):
+        bad = f[~(np.isfinite(gabs) & np.isfinite(gsum))]
+        raise ServokitValueError(
+            f"freq_hz holds {bad[0]:.6g} Hz where an alias hits a pole of the plant "
+            "(a multiple of 1/dt for a rigid body, or an undamped mode); remove it"
+        )
     if band_limit_hz is None and np.any(active):
         worst = f[active][np.argmax(rel_tail[active])]
         raise ServokitValueError(
             f"alias sum not converged to tol={tol:g} within max_terms={max_terms} "
             f"(e.g. at {worst:.6g} Hz, relative tail {rel_tail[active].max():.2e}); "
             "increase max_terms or loosen tol"
-        )
-    if not (np.all(np.isfinite(gsum)) and np.all(np.isfinite(gabs))):
-        bad = f[~np.isfinite(gabs)]
-        raise ServokitValueError(
-            f"freq_hz holds {bad[0]:.6g} Hz where an alias hits a pole of the plant "
-            "(a multiple of 1/dt for a rigid body, or an undamped mode); remove it"
         )
     tail = 0.0 if band_limit_hz is not None else float(rel_tail.max())
     return g0, gsum, gabs, used, tail

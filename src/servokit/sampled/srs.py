@@ -42,7 +42,7 @@ from typing import TYPE_CHECKING, Literal
 
 import numpy as np
 
-from servokit.errors import ServokitTypeError, ServokitValueError, check_finite
+from servokit.errors import ServokitTypeError, ServokitValueError, check_finite, check_positive
 from servokit.sampled.unobservable import damped_sine_extrema
 
 if TYPE_CHECKING:
@@ -108,6 +108,8 @@ def half_sine(duration: float, amplitude: float = 1.0) -> Callable[[np.ndarray],
 
 def held_samples(accel: Callable[[np.ndarray], np.ndarray], duration: float, dt_hold: float):
     """Samples ``uc(n Tzoh)``, ``n = 0..round(Tsrs / Tzoh) - 1``, of a ZOH input (4.59)."""
+    check_positive("dt_hold", dt_hold, "seconds")
+    check_positive("duration", duration, "seconds")
     n = int(round(float(duration) / float(dt_hold)))
     if n < 1 or not np.isclose(n * dt_hold, duration, rtol=1e-9, atol=0.0):
         raise ServokitValueError(

@@ -28,6 +28,7 @@ import control
 import numpy as np
 
 from servokit.errors import ServokitTypeError, ServokitValueError, check_finite
+from servokit.models.controllers import require_proper
 from servokit.models.modal import ModalPlant
 from servokit.simulate._bank import PlantBank, as_plant_list
 
@@ -92,6 +93,9 @@ def _ss(name: str, sys: object, dt: float) -> tuple[np.ndarray, ...]:
             f"{name} must be discrete with dt = {dt:.6g} s (got dt = {sys.dt}); "
             "discretise it with control.sample_system"
         )
+    if sys.ninputs != 1 or sys.noutputs != 1:
+        raise ServokitValueError(f"{name} must be single-input single-output")
+    require_proper(name, sys)
     s = control.ss(sys)
     if s.ninputs != 1 or s.noutputs != 1:
         raise ServokitValueError(f"{name} must be single-input single-output")
@@ -191,6 +195,10 @@ def simulate(
     dt = float(check_finite("dt", dt))
     if dt <= 0:
         raise ServokitValueError(f"dt must be > 0 seconds (got {dt})")
+    if isinstance(n_samples, bool) or not isinstance(n_samples, int | np.integer):
+        raise ServokitTypeError(f"n_samples must be an integer, got {n_samples!r}")
+    if isinstance(substeps, bool) or not isinstance(substeps, int | np.integer):
+        raise ServokitTypeError(f"substeps must be an integer, got {substeps!r}")
     if int(n_samples) != n_samples or n_samples < 1:
         raise ServokitValueError(f"n_samples must be a positive integer (got {n_samples})")
     if int(substeps) != substeps or substeps < 1:

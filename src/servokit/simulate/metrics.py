@@ -49,6 +49,8 @@ def settling_time(t: np.ndarray, y: np.ndarray, target: float, band: float) -> n
         Settling time per row [s]; ``inf`` where the output is outside the band at the
         end of the record (not settled within it).
     """
+    target = float(check_finite("target", target))
+    band = float(check_finite("band", band))
     if band <= 0:
         raise ServokitValueError(f"band must be > 0 (got {band})")
     t = np.asarray(t, dtype=float)
