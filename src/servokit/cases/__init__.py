@@ -16,25 +16,30 @@ from servokit.report import CaseResult
 __all__ = ["register", "registry", "run_all"]
 
 CaseFn = Callable[[Path], CaseResult]
-_REGISTRY: dict[str, CaseFn] = {}
+_REGISTRY: dict[str, tuple[int, CaseFn]] = {}
 
 
-def register(name: str) -> Callable[[CaseFn], CaseFn]:
-    """Register ``fn(outdir) -> CaseResult`` under ``name`` for ``servokit reproduce``."""
+def register(name: str, order: int = 100) -> Callable[[CaseFn], CaseFn]:
+    """Register ``fn(outdir) -> CaseResult`` under ``name`` for ``servokit reproduce``.
+
+    Cases run by ascending ``order``, then name (the HDD benchmark seek, the main job,
+    comes first).
+    """
 
     def deco(fn: CaseFn) -> CaseFn:
-        _REGISTRY[name] = fn
+        _REGISTRY[name] = (order, fn)
         return fn
 
     return deco
 
 
 def registry() -> dict[str, CaseFn]:
-    """All registered cases, importing every case module first."""
+    """All registered cases in run order, importing every case module first."""
     for info in pkgutil.iter_modules(__path__):
         if not info.name.startswith("_"):
             importlib.import_module(f"{__name__}.{info.name}")
-    return dict(sorted(_REGISTRY.items()))
+    ranked = sorted(_REGISTRY.items(), key=lambda item: (item[1][0], item[0]))
+    return {name: fn for name, (_, fn) in ranked}
 
 
 def run_all(outdir: Path, only: list[str] | None = None) -> list[CaseResult]:

@@ -454,7 +454,7 @@ def _findings(designs: list[ConstrainedDesign]) -> dict[str, object]:
     }
 
 
-@register("galvano")
+@register("galvano", order=10)
 def run(outdir: Path) -> CaseResult:
     """Galvano scanner I and II (§2.5, §2.6) with the illustrative model; figures in ``outdir``."""
     outdir.mkdir(parents=True, exist_ok=True)

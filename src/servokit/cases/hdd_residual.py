@@ -329,7 +329,7 @@ def _seek_plot(runs: list[SeekRun], path: Path) -> None:
     plt.close(fig)
 
 
-@register("hdd-residual")
+@register("hdd-residual", order=40)
 def hdd_residual_case(outdir: Path) -> CaseResult:
     """§4.5.4: SRS and simulated residual vibrations of the three 500-track seeks."""
     outdir = Path(outdir)

@@ -213,7 +213,7 @@ def _search_plot(searches: dict[str, NSearchResult], path: Path) -> Path:
     return path
 
 
-@register("hdd-seek")
+@register("hdd-seek", order=0)
 def hdd_seek_case(outdir: Path) -> CaseResult:
     """Reproduce §2.4.2: seek times of Designs 1-2, the improvement and Fig. 2.15's peak."""
     outdir = Path(outdir)

@@ -217,7 +217,7 @@ def _margins(mr: Multirate, n: int = 20_000) -> dict[str, float]:
             "phase_crossover_hz": float(f[ip]), "gain_margin_db": float(-20 * np.log10(mag[ip]))}
 
 
-@register("hdd-sensitivity")
+@register("hdd-sensitivity", order=20)
 def run(outdir: Path) -> CaseResult:
     """§4.5.2: Figs. 4.41-4.51 and the disturbance ratios (4.70)-(4.71)."""
     outdir = Path(outdir)

@@ -300,7 +300,7 @@ def _section_4_5_3(outdir: Path) -> tuple[list[Comparison], list[Path]]:
     return rows, [fig1, fig2]
 
 
-@register("sampled-oscillations")
+@register("sampled-oscillations", order=30)
 def oscillations_case(outdir: Path) -> CaseResult:
     """§4.3, §4.4, §4.5.3: unobservable magnitudes and shock response spectra."""
     outdir = Path(outdir)

@@ -5,6 +5,7 @@ from __future__ import annotations
 from pathlib import Path
 
 import typer
+from rich.markup import escape
 from rich.table import Table
 
 from servokit.cli._app import app, console, emit_json
@@ -54,11 +55,11 @@ def reproduce(
             n_all += 1
             n_ok += c.ok
             table.add_row(
-                f"{c.quantity} [{c.unit}]" if c.unit else c.quantity,
+                escape(f"{c.quantity} [{c.unit}]" if c.unit else c.quantity),
                 f"{c.book:.6g}",
                 f"{c.servokit:.6g}",
                 f"{c.ratio:.4f}",
-                f"{c.rel_tol:.0%}",
+                f"{c.rel_tol * 100:.3g}%",
                 "[green]yes[/green]" if c.ok else "[red]no[/red]",
             )
         if r.comparisons:
