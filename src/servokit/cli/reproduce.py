@@ -56,8 +56,8 @@ def reproduce(
             n_ok += c.ok
             table.add_row(
                 escape(f"{c.quantity} [{c.unit}]" if c.unit else c.quantity),
-                f"{c.book:.6g}",
-                f"{c.servokit:.6g}",
+                f"{c.book:.7g}",
+                f"{c.servokit:.7g}",
                 f"{c.ratio:.4f}",
                 f"{c.rel_tol * 100:.3g}%",
                 "[green]yes[/green]" if c.ok else "[red]no[/red]",
