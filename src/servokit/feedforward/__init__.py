@@ -7,7 +7,7 @@
 * bang-bang and minimum-jerk inputs (2.10)-(2.15), sampled-data polynomials (Table 2.1),
   constraint objects for the constrained FSC QP and the amplifier energy (2.89).
 
-The names of the sympy-based and QP-based modules are imported lazily on first use so
+The names of the sympy-based modules (polynomials, minimum jerk) are imported lazily on first use so
 that ``import servokit.feedforward`` stays fast.
 """
 
@@ -16,9 +16,23 @@ from __future__ import annotations
 import importlib
 from typing import Any
 
+from servokit.feedforward.constraints import (
+    CurrentLimit,
+    InfeasibleConstraintsError,
+    InputLimit,
+    MotorModel,
+    PositionLimit,
+    SignalLimit,
+    VelocityLimit,
+    VoltageLimit,
+    constraint_rows,
+    solve_fsc_qp,
+)
+from servokit.feedforward.energy import amplifier_power, supply_voltage
 from servokit.feedforward.ffsc import (
     FeedforwardInput,
     NSearchResult,
+    StepsBelowOrderError,
     augmented_design_model,
     band_frequencies,
     choose_N,
@@ -33,91 +47,64 @@ from servokit.feedforward.fsc import (
     min_norm_final_state,
 )
 
-#: name -> submodule for the lazily imported names
-_LAZY: dict[str, str] = {
-    # minimum_jerk.py: bang-bang (2.10) and minimum jerk (2.14)-(2.15), Fig. 2.10
-    "RigidBodyTrajectory": "minimum_jerk",
-    "MinimumJerkZOHResponse": "minimum_jerk",
-    "bang_bang_time": "minimum_jerk",
-    "bang_bang_input": "minimum_jerk",
-    "bang_bang_trajectory": "minimum_jerk",
-    "minimum_jerk_input": "minimum_jerk",
-    "minimum_jerk_trajectory": "minimum_jerk",
-    "held_input_response": "minimum_jerk",
-    "minimum_jerk_zoh_response": "minimum_jerk",
-    "minimum_jerk_zoh_plot": "minimum_jerk",
-    # polynomial.py: Table 2.1, (2.24)-(2.25)
-    "POLYNOMIAL_ORDERS": "polynomial",
-    "boundary_condition_split": "polynomial",
-    "polynomial_formula": "polynomial",
-    "sampled_polynomial": "polynomial",
-    "rigid_body_zoh_states": "polynomial",
-    # constraints.py: constrained FSC QP (2.62)-(2.72), (2.84)-(2.88)
-    "InfeasibleConstraintsError": "constraints",
-    "MotorModel": "constraints",
-    "SignalLimit": "constraints",
-    "InputLimit": "constraints",
-    "CurrentLimit": "constraints",
-    "VelocityLimit": "constraints",
-    "PositionLimit": "constraints",
-    "VoltageLimit": "constraints",
-    "constraint_rows": "constraints",
-    "solve_fsc_qp": "constraints",
-    # energy.py: amplifier energy (2.89)
-    "amplifier_power": "energy",
-    "supply_voltage": "energy",
-}
+#: sympy-based modules, imported on first use of one of their names (their ``__all__``)
+_LAZY_MODULES = ("polynomial", "minimum_jerk")
 
 __all__ = [
+    "CurrentLimit",
     "FeedforwardInput",
+    "InfeasibleConstraintsError",
+    "InputLimit",
     "LiftedModel",
+    "MotorModel",
     "NSearchResult",
+    "PositionLimit",
+    "SignalLimit",
+    "StepsBelowOrderError",
+    "VelocityLimit",
+    "VoltageLimit",
+    "amplifier_power",
     "augmented_design_model",
     "band_frequencies",
     "choose_N",
+    "constraint_rows",
     "final_state_control",
     "fsc_input",
     "held_spectrum_matrix",
     "lifted_model",
     "lifted_state_map",
     "min_norm_final_state",
-    "RigidBodyTrajectory",
-    "MinimumJerkZOHResponse",
-    "bang_bang_time",
-    "bang_bang_input",
-    "bang_bang_trajectory",
-    "minimum_jerk_input",
-    "minimum_jerk_trajectory",
-    "held_input_response",
-    "minimum_jerk_zoh_response",
-    "minimum_jerk_zoh_plot",
+    "solve_fsc_qp",
+    "supply_voltage",
+    # polynomial.py: Table 2.1, (2.24)-(2.25)
     "POLYNOMIAL_ORDERS",
     "boundary_condition_split",
     "polynomial_formula",
-    "sampled_polynomial",
     "rigid_body_zoh_states",
-    "InfeasibleConstraintsError",
-    "MotorModel",
-    "SignalLimit",
-    "InputLimit",
-    "CurrentLimit",
-    "VelocityLimit",
-    "PositionLimit",
-    "VoltageLimit",
-    "constraint_rows",
-    "solve_fsc_qp",
-    "amplifier_power",
-    "supply_voltage",
+    "sampled_polynomial",
+    # minimum_jerk.py: bang-bang (2.10), minimum jerk (2.14)-(2.15), Fig. 2.10
+    "MinimumJerkZOHResponse",
+    "RigidBodyTrajectory",
+    "bang_bang_input",
+    "bang_bang_time",
+    "bang_bang_trajectory",
+    "held_input_response",
+    "minimum_jerk_input",
+    "minimum_jerk_trajectory",
+    "minimum_jerk_zoh_plot",
+    "minimum_jerk_zoh_response",
 ]
 
 
 def __getattr__(name: str) -> Any:
-    module = _LAZY.get(name)
-    if module is None:
-        raise AttributeError(f"module {__name__!r} has no attribute {name!r}")
-    value = getattr(importlib.import_module(f"{__name__}.{module}"), name)
-    globals()[name] = value
-    return value
+    if name in __all__:
+        for module_name in _LAZY_MODULES:
+            module = importlib.import_module(f"{__name__}.{module_name}")
+            if name in module.__all__:
+                value = getattr(module, name)
+                globals()[name] = value
+                return value
+    raise AttributeError(f"module {__name__!r} has no attribute {name!r}")
 
 
 def __dir__() -> list[str]:
