@@ -12,11 +12,11 @@ from servokit.errors import ServokitValueError
 from servokit.feedforward import (
     FeedforwardInput,
     band_frequencies,
-    choose_N,
     fsc_input,
     held_spectrum_matrix,
 )
 from servokit.models import HDD_BENCHMARK_TS, ModalPlant, Mode, hdd_benchmark
+from servokit.simulate import choose_N
 
 TS = HDD_BENCHMARK_TS
 

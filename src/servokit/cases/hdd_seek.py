@@ -24,10 +24,10 @@ from pathlib import Path
 import numpy as np
 
 from servokit.cases import register
-from servokit.feedforward import FeedforwardInput, NSearchResult, choose_N, fsc_input
+from servokit.feedforward import FeedforwardInput, fsc_input
 from servokit.models import HDD_BENCHMARK_TS, ModalPlant, hdd_benchmark_variants
 from servokit.report import CaseResult, Comparison
-from servokit.simulate import seek_response, settling_time
+from servokit.simulate import NSearchResult, choose_N, seek_response, settling_time
 
 __all__ = [
     "SeekDesign",

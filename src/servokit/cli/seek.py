@@ -52,7 +52,8 @@ def seek_cmd(
     file is evaluated on itself.
     """
     from servokit.cases.hdd_seek import seek_plot, simulate_seek, table_2_4_weights
-    from servokit.feedforward import choose_N, fsc_input
+    from servokit.feedforward import fsc_input
+    from servokit.simulate import choose_N
 
     if method not in ("fsc", "ffsc"):
         raise ServokitValueError(f"--method must be 'fsc' or 'ffsc', got {method!r}")

@@ -3,7 +3,6 @@
 * :func:`final_state_control` — minimum-norm final-state control, eq. (2.35);
 * :func:`fsc_input` — minimum-jerk FSC (2.40)-(2.42) and frequency-shaped FFSC
   (2.44)-(2.61), (2.74)-(2.75) for modal plants, optionally constrained (2.62)-(2.72);
-* :func:`choose_N` — step number minimising the worst-case seek time over a plant set;
 * bang-bang and minimum-jerk inputs (2.10)-(2.15), sampled-data polynomials (Table 2.1),
   constraint objects for the constrained FSC QP and the amplifier energy (2.89).
 
@@ -31,11 +30,9 @@ from servokit.feedforward.constraints import (
 from servokit.feedforward.energy import amplifier_power, supply_voltage
 from servokit.feedforward.ffsc import (
     FeedforwardInput,
-    NSearchResult,
     StepsBelowOrderError,
     augmented_design_model,
     band_frequencies,
-    choose_N,
     fsc_input,
     held_spectrum_matrix,
 )
@@ -57,7 +54,6 @@ __all__ = [
     "InputLimit",
     "LiftedModel",
     "MotorModel",
-    "NSearchResult",
     "PositionLimit",
     "SignalLimit",
     "StepsBelowOrderError",
@@ -66,7 +62,6 @@ __all__ = [
     "amplifier_power",
     "augmented_design_model",
     "band_frequencies",
-    "choose_N",
     "constraint_rows",
     "final_state_control",
     "fsc_input",

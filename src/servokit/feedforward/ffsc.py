@@ -14,8 +14,8 @@ Implements
 * (2.62)-(2.72): with constraints, the same cost and final-state equality plus the
   constraints' inequality rows, solved as a QP by
   :func:`servokit.feedforward.constraints.solve_fsc_qp`;
-* a search for the step number N minimising the worst-case seek time over a plant set
-  (§2.4.2: "N was determined by trial and error").
+* the search for N over a plant set (§2.4.2) is :func:`servokit.simulate.choose_N`: it
+  evaluates designs by simulation, a layer above this one.
 
 Constraint objects are duck-typed: each has ``rows(model: LiftedModel) -> (G, h)`` giving
 inequality rows ``G U <= h`` on the decision (jerk) vector, where ``model`` is the
@@ -25,14 +25,13 @@ inequality rows ``G U <= h`` on the decision (jerk) vector, where ``model`` is t
 
 from __future__ import annotations
 
-from collections.abc import Callable, Iterable, Sequence
+from collections.abc import Iterable, Sequence
 from dataclasses import dataclass, field
 from typing import Any, Literal
 
 import numpy as np
 
 from servokit.errors import ServokitTypeError, ServokitValueError, check_finite
-from servokit.feedforward.constraints import InfeasibleConstraintsError
 from servokit.feedforward.fsc import final_state_control, lifted_model
 from servokit.models._zoh import zoh_pair
 from servokit.models.modal import ModalPlant, modal_matrices
@@ -40,10 +39,8 @@ from servokit.models.modal import ModalPlant, modal_matrices
 __all__ = [
     "StepsBelowOrderError",
     "FeedforwardInput",
-    "NSearchResult",
     "augmented_design_model",
     "band_frequencies",
-    "choose_N",
     "fsc_input",
     "held_spectrum_matrix",
 ]
@@ -329,121 +326,3 @@ def _constrained(
     scale[scale == 0] = 1.0
     U = solve_fsc_qp(P, np.zeros(N), Sigma / scale[:, None], X / scale, G, h, groups=groups)
     return np.asarray(U, dtype=float)
-
-
-@dataclass(frozen=True, eq=False)
-class NSearchResult:
-    """Result of :func:`choose_N`: the best step number and the worst-case seek time per N.
-
-    Attributes
-    ----------
-    N : int
-        Step number with the smallest worst-case seek time (smallest N on ties).
-    seek_time : float
-        That worst-case seek time [s].
-    worst_plant : int
-        Index of the plant that sets it.
-    ff : FeedforwardInput
-        The input designed with ``N``.
-    N_values : ndarray (K,)
-    worst_seek_times : ndarray (K,)
-        Worst-case seek time [s] for every N tried (inf if some plant never settles).
-    """
-
-    N: int
-    seek_time: float
-    worst_plant: int
-    ff: FeedforwardInput
-    N_values: np.ndarray
-    worst_seek_times: np.ndarray
-
-
-def choose_N(
-    plants: ModalPlant | Sequence[ModalPlant],
-    dt: float,
-    target: float,
-    N_range: Iterable[int],
-    *,
-    design_plant: ModalPlant | None = None,
-    band: float = 0.1,
-    grid: float | None = None,
-    horizon: float | None = None,
-    seek_time_fn: Callable[..., np.ndarray] | None = None,
-    **design_kw: Any,
-) -> NSearchResult:
-    """Step number N minimising the worst-case seek time over ``plants`` (§2.4.2).
-
-    Parameters
-    ----------
-    plants : ModalPlant or sequence
-        Plants the input is evaluated on (e.g. ``hdd_benchmark_variants()``).
-    dt, target
-        As in :func:`fsc_input`.
-    N_range : iterable of int
-        Candidate step numbers.
-    design_plant : ModalPlant, optional
-        Model the input is designed on; default the first of ``plants`` (the nominal one).
-    band : float
-        Settling band around ``target`` (plant output units).
-    grid : float, optional
-        Read-out period [s] of the position; default ``dt / 10``.
-    horizon : float, optional
-        Simulated record length [s]; default that of :func:`servokit.simulate.seek_time`.
-    seek_time_fn : callable, optional
-        Replacement for :func:`servokit.simulate.seek_time` (same signature).
-    **design_kw
-        Passed to :func:`fsc_input` (``band_weights``, ``model``, ...).
-
-    Returns
-    -------
-    NSearchResult
-        Best N (smallest on ties), its worst-case seek time and input, and the whole sweep;
-        N values for which the design is impossible (below the model order) or some plant
-        never settles within the record get an infinite seek time.
-
-    Raises
-    ------
-    ServokitValueError
-        Empty ``plants`` or ``N_range``, or no N settles every plant.
-    """
-    plant_list = [plants] if isinstance(plants, ModalPlant) else list(plants)
-    if not plant_list:
-        raise ServokitValueError("plants is empty; pass at least one ModalPlant")
-    Ns = sorted({int(n) for n in N_range})
-    if not Ns:
-        raise ServokitValueError("N_range is empty; pass candidate step numbers, e.g. range(8, 30)")
-    if seek_time_fn is None:
-        from servokit.simulate import seek_time as seek_time_fn
-    design = plant_list[0] if design_plant is None else design_plant
-    worst = np.full(len(Ns), np.inf)
-    which = np.zeros(len(Ns), dtype=int)
-    inputs: list[FeedforwardInput | None] = []
-    for i, n_steps in enumerate(Ns):
-        try:
-            ff = fsc_input(design, dt, n_steps, target, **design_kw)
-        except (StepsBelowOrderError, InfeasibleConstraintsError):
-            inputs.append(None)  # too few steps, or the limits cannot be met: not a candidate
-            continue
-        times = np.asarray(
-            seek_time_fn(plant_list, ff, target, band=band, grid=grid, horizon=horizon),
-            dtype=float,
-        )
-        worst[i] = float(np.max(times))
-        which[i] = int(np.argmax(times))
-        inputs.append(ff)
-    if not np.any(np.isfinite(worst)):
-        raise ServokitValueError(
-            f"no N in {Ns[0]}..{Ns[-1]} settles every plant within +-{band}; "
-            "widen N_range or the band"
-        )
-    best = int(np.argmin(worst))
-    ff_best = inputs[best]
-    assert ff_best is not None
-    return NSearchResult(
-        N=Ns[best],
-        seek_time=float(worst[best]),
-        worst_plant=int(which[best]),
-        ff=ff_best,
-        N_values=np.array(Ns),
-        worst_seek_times=worst,
-    )

@@ -9,12 +9,15 @@ from servokit.simulate.metrics import (
     settling_time,
     step_metrics,
 )
+from servokit.simulate.search import NSearchResult, choose_N
 from servokit.simulate.tdof import TdofResult, tdof_response
 
 __all__ = [
     "HeldInput",
+    "NSearchResult",
     "SimulationResult",
     "StepMetrics",
+    "choose_N",
     "TdofResult",
     "seek_response",
     "seek_time",
