@@ -469,6 +469,13 @@ def solve_fsc_qp(
 
     # with an empty null space every row is constant and was checked above
     w = np.zeros(0) if Z.shape[1] == 0 else None
+    if w is None:
+        # the unconstrained optimum, when it meets every limit, is the answer: exact, and it
+        # spares the interior-point solvers the degenerate case of limits touching it
+        w0, *_ = np.linalg.lstsq(Pw, -qw, rcond=None)
+        stationary = np.linalg.norm(Pw @ w0 + qw) <= 1e-10 * max(np.linalg.norm(qw), 1.0)
+        if stationary and _max_violation(Gw, hw, w0) <= _INEQ_RTOL:
+            w = w0
     backends = (solver, "clarabel" if solver == "piqp" else "piqp")
     for name in backends if w is None else ():
         cand = _run_solver(name, Pw, qw, Gw, hw)
