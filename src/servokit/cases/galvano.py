@@ -43,6 +43,7 @@ from pathlib import Path
 
 import numpy as np
 
+from servokit._figures import save_figure
 from servokit.cases import register
 from servokit.feedforward.constraints import (
     CurrentLimit,
@@ -330,10 +331,7 @@ def _plot_galvano_i(res: GalvanoIResult, outdir: Path) -> list[Path]:
     ax_s.set_title("Spectra of the inputs (Fig. 2.26)")
     ax_s.legend()
     ax_s.grid(True, alpha=0.3)
-    fig.tight_layout()
-    paths.append(outdir / "galvano_fig_2_25_2_26_inputs.png")
-    fig.savefig(paths[-1], dpi=110)
-    plt.close(fig)
+    paths.append(save_figure(fig, outdir / "galvano_fig_2_25_2_26_inputs.png"))
 
     fig, axes = plt.subplots(2, 1, figsize=(7, 7), sharex=True, sharey=True)
     cmap = plt.get_cmap("viridis")
@@ -350,10 +348,7 @@ def _plot_galvano_i(res: GalvanoIResult, outdir: Path) -> list[Path]:
         ax.grid(True, alpha=0.3)
     axes[0].legend(fontsize=8, ncol=5, loc="lower right")
     axes[1].set_xlabel("time [s/unit]")
-    fig.tight_layout()
-    paths.append(outdir / "galvano_fig_2_28_outputs.png")
-    fig.savefig(paths[-1], dpi=110)
-    plt.close(fig)
+    paths.append(save_figure(fig, outdir / "galvano_fig_2_28_outputs.png"))
     return paths
 
 
@@ -387,10 +382,7 @@ def _plot_galvano_ii(designs: list[ConstrainedDesign], outdir: Path) -> list[Pat
             ax.grid(True, alpha=0.3)
     axes[0, 0].legend(fontsize=8)
     fig.suptitle("Galvano II: voltage-constrained FFSC trajectories (Fig. 2.36, illustrative)")
-    fig.tight_layout()
-    paths.append(outdir / "galvano_fig_2_36_waveforms.png")
-    fig.savefig(paths[-1], dpi=110)
-    plt.close(fig)
+    paths.append(save_figure(fig, outdir / "galvano_fig_2_36_waveforms.png"))
 
     fig, ax = plt.subplots(figsize=(7, 4.5))
     v_free = next(
@@ -418,10 +410,7 @@ def _plot_galvano_ii(designs: list[ConstrainedDesign], outdir: Path) -> list[Pat
     ax.set_title("Amplifier loss vs voltage constraint (Fig. 2.39, illustrative motor)")
     ax.legend(fontsize=8)
     ax.grid(True, alpha=0.3)
-    fig.tight_layout()
-    paths.append(outdir / "galvano_fig_2_39_energy.png")
-    fig.savefig(paths[-1], dpi=110)
-    plt.close(fig)
+    paths.append(save_figure(fig, outdir / "galvano_fig_2_39_energy.png"))
     return paths
 
 

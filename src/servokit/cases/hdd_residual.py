@@ -27,6 +27,7 @@ from pathlib import Path
 import control
 import numpy as np
 
+from servokit._figures import save_figure
 from servokit.cases import register
 from servokit.feedforward import sampled_polynomial
 from servokit.models import (
@@ -303,9 +304,7 @@ def _inputs_plot(runs: list[SeekRun], setup: TdofSetup, path: Path) -> None:
     for ax in (a1, a2):
         ax.grid(True, alpha=0.3)
         ax.legend()
-    fig.tight_layout()
-    fig.savefig(path, dpi=110)
-    plt.close(fig)
+    save_figure(fig, path)
 
 
 def _seek_plot(runs: list[SeekRun], path: Path) -> None:
@@ -324,9 +323,7 @@ def _seek_plot(runs: list[SeekRun], path: Path) -> None:
     for ax in (a1, a2):
         ax.grid(True, alpha=0.3)
         ax.legend()
-    fig.tight_layout()
-    fig.savefig(path, dpi=110)
-    plt.close(fig)
+    save_figure(fig, path)
 
 
 @register("hdd-residual", order=40)

@@ -23,6 +23,7 @@ from pathlib import Path
 
 import numpy as np
 
+from servokit._figures import save_figure
 from servokit.cases import register
 from servokit.feedforward import FeedforwardInput, fsc_input
 from servokit.models import HDD_BENCHMARK_TS, ModalPlant, hdd_benchmark_variants
@@ -150,8 +151,11 @@ def seek_plot(
     t_in, u_in = ff.time_response(SUBSTEPS, n_after=2)
     ax = axes[0, 0]
     ax.step(t_in * 1e3, u_in, where="post", color="C0")
-    ax.set(xlabel="Time [ms]", ylabel="Input u_c [plant input unit]",
-           title=f"Feedforward input, N = {ff.N}")
+    ax.set(
+        xlabel="Time [ms]",
+        ylabel="Input u_c [plant input unit]",
+        title=f"Feedforward input, N = {ff.N}",
+    )
     ax.grid(alpha=0.3)
 
     ax = axes[0, 1]
@@ -162,8 +166,11 @@ def seek_plot(
             ax.axvspan(lo * 1e-3, hi * 1e-3, color="C1", alpha=0.25)
     for fr in resonances_hz:
         ax.axvline(fr * 1e-3, color="grey", ls=":", lw=0.8)
-    ax.set(xlabel="Frequency [kHz]", ylabel="Spectrum [unit s]",
-           title="Input spectrum (shaded: weighted bands; dotted: modes)")
+    ax.set(
+        xlabel="Frequency [kHz]",
+        ylabel="Spectrum [unit s]",
+        title="Input spectrum (shaded: weighted bands; dotted: modes)",
+    )
     ax.grid(alpha=0.3)
     ax.legend(loc="upper right")
 
@@ -171,25 +178,30 @@ def seek_plot(
     ax = axes[1, 0]
     ax.plot(ms, outcome.y.T, lw=0.7)
     ax.axhline(target, color="k", lw=0.6)
-    ax.set(xlabel="Time [ms]", ylabel=f"Position [{unit}]",
-           title=f"{outcome.y.shape[0]} plant(s), Max(y) = {outcome.y.max():.6f} {unit}")
+    ax.set(
+        xlabel="Time [ms]",
+        ylabel=f"Position [{unit}]",
+        title=f"{outcome.y.shape[0]} plant(s), Max(y) = {outcome.y.max():.6f} {unit}",
+    )
     ax.grid(alpha=0.3)
 
     ax = axes[1, 1]
     ax.plot(ms, outcome.y.T, lw=0.7)
     for s in (-band, band):
         ax.axhline(target + s, color="k", ls="--", lw=0.8)
-    ax.axvline(outcome.worst * 1e3, color="r", lw=1.0,
-               label=f"seek time {outcome.worst * 1e3:.6f} ms")
+    ax.axvline(
+        outcome.worst * 1e3, color="r", lw=1.0, label=f"seek time {outcome.worst * 1e3:.6f} ms"
+    )
     ax.set_ylim(target - 3 * band, target + 3 * band)
-    ax.set(xlabel="Time [ms]", ylabel=f"Position [{unit}]",
-           title=f"Around the target (band +-{band:g} {unit})")
+    ax.set(
+        xlabel="Time [ms]",
+        ylabel=f"Position [{unit}]",
+        title=f"Around the target (band +-{band:g} {unit})",
+    )
     ax.grid(alpha=0.3)
     ax.legend(loc="upper right")
     fig.suptitle(title)
-    fig.tight_layout()
-    fig.savefig(path, dpi=110)
-    plt.close(fig)
+    save_figure(fig, path)
     return path
 
 
@@ -200,16 +212,22 @@ def _search_plot(searches: dict[str, NSearchResult], path: Path) -> Path:
     for d in DESIGNS:
         s = searches[d.key]
         finite = np.isfinite(s.worst_seek_times)
-        ax.plot(s.N_values[finite], s.worst_seek_times[finite] * 1e3, "o-", ms=3,
-                label=f"{d.label}: best N = {s.N} (book N = {d.N})")
+        ax.plot(
+            s.N_values[finite],
+            s.worst_seek_times[finite] * 1e3,
+            "o-",
+            ms=3,
+            label=f"{d.label}: best N = {s.N} (book N = {d.N})",
+        )
     ax.set_yscale("log")
-    ax.set(xlabel="Step number N", ylabel="Worst-case seek time [ms]",
-           title="Step-number search over the 18 plants (input delay not simulated)")
+    ax.set(
+        xlabel="Step number N",
+        ylabel="Worst-case seek time [ms]",
+        title="Step-number search over the 18 plants (input delay not simulated)",
+    )
     ax.grid(alpha=0.3, which="both")
     ax.legend(fontsize=8)
-    fig.tight_layout()
-    fig.savefig(path, dpi=110)
-    plt.close(fig)
+    save_figure(fig, path)
     return path
 
 
@@ -233,38 +251,78 @@ def hdd_seek_case(outdir: Path) -> CaseResult:
         outcome[d.key] = simulate_seek(undelayed, ff, d.tracks)
         delayed[d.key] = simulate_seek(plants, ff, d.tracks)
         searches[d.key] = choose_N(
-            undelayed, HDD_BENCHMARK_TS, d.tracks, search_range(d.tracks),
-            design_plant=nominal, band=BAND, band_weights=d.band_weights(), model="rigid-body",
+            undelayed,
+            HDD_BENCHMARK_TS,
+            d.tracks,
+            search_range(d.tracks),
+            design_plant=nominal,
+            band=BAND,
+            band_weights=d.band_weights(),
+            model="rigid-body",
         )
         figs = ("2.14-2.15", "2.16-2.17", "2.18-2.19", "2.20-2.21")[fig_no]
-        figures.append(seek_plot(
-            outcome[d.key], d.tracks, f"{d.label}, N = {d.N} (cf. book Figs. {figs})",
-            outdir / f"hdd_seek_{d.key}.png", resonances_hz=resonances, bands=d.band_weights(),
-        ))
+        figures.append(
+            seek_plot(
+                outcome[d.key],
+                d.tracks,
+                f"{d.label}, N = {d.N} (cf. book Figs. {figs})",
+                outdir / f"hdd_seek_{d.key}.png",
+                resonances_hz=resonances,
+                bands=d.band_weights(),
+            )
+        )
     figures.append(_search_plot(searches, outdir / "hdd_seek_N_search.png"))
 
     book_ms = {"d1-1": 0.333, "d1-10": 0.879, "d2-1": 0.280, "d2-10": 0.538}
     comps = [
-        Comparison(f"{d.label}: worst seek time", book_ms[d.key], outcome[d.key].worst * 1e3,
-                   "ms", 0.05, src)
+        Comparison(
+            f"{d.label}: worst seek time",
+            book_ms[d.key],
+            outcome[d.key].worst * 1e3,
+            "ms",
+            0.05,
+            src,
+        )
         for d in DESIGNS
     ]
     for tracks, book_pct, k1, k2 in ((1, 16.0, "d1-1", "d2-1"), (10, 39.0, "d1-10", "d2-10")):
         gain = 100.0 * (1.0 - outcome[k2].worst / outcome[k1].worst)
-        comps.append(Comparison(f"FFSC seek-time improvement, {tracks} track(s)", book_pct, gain,
-                                "%", 0.05, src))
+        comps.append(
+            Comparison(
+                f"FFSC seek-time improvement, {tracks} track(s)", book_pct, gain, "%", 0.05, src
+            )
+        )
     peak_book = 1.045537
-    comps.append(Comparison("Design 1, 1 track: Max(y) over the 18 plants", peak_book,
-                            float(outcome["d1-1"].y.max()), "track", 1e-4 / peak_book,
-                            "book Fig. 2.15"))
+    comps.append(
+        Comparison(
+            "Design 1, 1 track: Max(y) over the 18 plants",
+            peak_book,
+            float(outcome["d1-1"].y.max()),
+            "track",
+            1e-4 / peak_book,
+            "book Fig. 2.15",
+        )
+    )
     comps += [
-        Comparison(f"{d.label}: worst seek time, 10 us delay simulated", book_ms[d.key],
-                   delayed[d.key].worst * 1e3, "ms", 0.05, src)
+        Comparison(
+            f"{d.label}: worst seek time, 10 us delay simulated",
+            book_ms[d.key],
+            delayed[d.key].worst * 1e3,
+            "ms",
+            0.05,
+            src,
+        )
         for d in DESIGNS
     ]
     comps += [
-        Comparison(f"{d.label}: N minimising the worst seek time", float(d.N),
-                   float(searches[d.key].N), "", 0.0, src)
+        Comparison(
+            f"{d.label}: N minimising the worst seek time",
+            float(d.N),
+            float(searches[d.key].N),
+            "",
+            0.0,
+            src,
+        )
         for d in DESIGNS
     ]
     extra = {
@@ -279,5 +337,6 @@ def hdd_seek_case(outdir: Path) -> CaseResult:
         },
         "peak_track": {d.key: float(outcome[d.key].y.max()) for d in DESIGNS},
     }
-    return CaseResult("hdd-seek", "HDD benchmark track seek: FSC vs FFSC (book §2.4)",
-                      comps, figures, extra)
+    return CaseResult(
+        "hdd-seek", "HDD benchmark track seek: FSC vs FFSC (book §2.4)", comps, figures, extra
+    )

@@ -17,6 +17,7 @@ from pathlib import Path
 import control
 import numpy as np
 
+from servokit._figures import save_figure
 from servokit.cases import register
 from servokit.models import HDD_SAMPLED_DATA_TS, controller_eq_4_69, hdd_sampled_data
 from servokit.report import CaseResult, Comparison
@@ -43,8 +44,12 @@ BOOK = {
     3600.0: {"yc": 0.18, "yc0": 0.92, "yd": 0.13, "yd0": 0.90},
     ALIAS_HZ: {"yc": 1.85, "yc0": 0.92, "yd": 0.13, "yd0": 0.90},
 }
-_FORMULA = {"yc": ("Ssd", "4.35"), "yc0": ("Tsd", "4.32"), "yd": ("Sd", "4.36"),
-            "yd0": ("Td", "4.33")}
+_FORMULA = {
+    "yc": ("Ssd", "4.35"),
+    "yc0": ("Tsd", "4.32"),
+    "yd": ("Sd", "4.36"),
+    "yd0": ("Td", "4.33"),
+}
 
 
 def multirate_filter_4_68(dt: float = HDD_SAMPLED_DATA_TS, m: int = M) -> control.TransferFunction:
@@ -105,8 +110,13 @@ def disturbance_ratios(freq_hz: float, *, n_samples: int = SIM_SAMPLES) -> dict[
     return {"simulation": sim, "steady_state": exact.ratios(), "traces": traces}
 
 
-def _bode(path: Path, curves: list[tuple[str, np.ndarray, np.ndarray]], title: str,
-          nyquist: float | None = None, db_range: tuple[float, float] | None = None) -> Path:
+def _bode(
+    path: Path,
+    curves: list[tuple[str, np.ndarray, np.ndarray]],
+    title: str,
+    nyquist: float | None = None,
+    db_range: tuple[float, float] | None = None,
+) -> Path:
     import matplotlib.pyplot as plt
 
     fig, (ax_g, ax_p) = plt.subplots(2, 1, figsize=(7.0, 5.5), sharex=True)
@@ -125,9 +135,7 @@ def _bode(path: Path, curves: list[tuple[str, np.ndarray, np.ndarray]], title: s
     ax_p.set_xlabel("Frequency [Hz]")
     ax_g.legend()
     ax_g.set_title(title)
-    fig.tight_layout()
-    fig.savefig(path, dpi=120)
-    plt.close(fig)
+    save_figure(fig, path, dpi=120)
     return path
 
 
@@ -151,9 +159,7 @@ def _time_plot(path: Path, traces: dict[str, np.ndarray], freq_hz: float, title:
         ax.grid(True, alpha=0.3)
         ax.legend(loc="upper right")
     ax_c.set_xlabel("Time in steady state [ms]")
-    fig.tight_layout()
-    fig.savefig(path, dpi=120)
-    plt.close(fig)
+    save_figure(fig, path, dpi=120)
     return path
 
 
@@ -170,16 +176,35 @@ def _frequency_figures(outdir: Path, res: SampledDataSensitivity, mr: Multirate)
     pdm = eval_discrete(mr.discretize(plant, dt), z_slow)
     cz = eval_discrete(ctrl, z_slow)
     figs = [
-        _bode(outdir / "hdd_sensitivity_fig4_41_Fm.png", [("Fm", f_fast, fm)],
-              "Fig. 4.41: multirate filter Fm (Tustin, prewarped at 3.6 kHz)", 0.5 / h),
-        _bode(outdir / "hdd_sensitivity_fig4_42_WPc.png", [("W Pc", f_w, wpc)],
-              "Fig. 4.42: W Pc (Ip, Fm, Hm and plant)", nyq, db_range=(-200, 20)),
-        _bode(outdir / "hdd_sensitivity_fig4_43_Pdm.png", [("Pdm", f_nyq, pdm)],
-              "Fig. 4.43: controlled object Pdm of the discrete-time system"),
-        _bode(outdir / "hdd_sensitivity_fig4_44_C.png", [("C", f_nyq, cz)],
-              "Fig. 4.44: controller C(z) of eq. (4.69)"),
-        _bode(outdir / "hdd_sensitivity_fig4_45_PdmC.png", [("Pdm C", f_nyq, pdm * cz)],
-              "Fig. 4.45: open loop Pdm C of the discrete-time system", db_range=(-40, 60)),
+        _bode(
+            outdir / "hdd_sensitivity_fig4_41_Fm.png",
+            [("Fm", f_fast, fm)],
+            "Fig. 4.41: multirate filter Fm (Tustin, prewarped at 3.6 kHz)",
+            0.5 / h,
+        ),
+        _bode(
+            outdir / "hdd_sensitivity_fig4_42_WPc.png",
+            [("W Pc", f_w, wpc)],
+            "Fig. 4.42: W Pc (Ip, Fm, Hm and plant)",
+            nyq,
+            db_range=(-200, 20),
+        ),
+        _bode(
+            outdir / "hdd_sensitivity_fig4_43_Pdm.png",
+            [("Pdm", f_nyq, pdm)],
+            "Fig. 4.43: controlled object Pdm of the discrete-time system",
+        ),
+        _bode(
+            outdir / "hdd_sensitivity_fig4_44_C.png",
+            [("C", f_nyq, cz)],
+            "Fig. 4.44: controller C(z) of eq. (4.69)",
+        ),
+        _bode(
+            outdir / "hdd_sensitivity_fig4_45_PdmC.png",
+            [("Pdm C", f_nyq, pdm * cz)],
+            "Fig. 4.45: open loop Pdm C of the discrete-time system",
+            db_range=(-40, 60),
+        ),
     ]
     for name, qs, title in (
         ("fig4_46_gamma_sum", ("gamma_sum",), "Fig. 4.46: Σ_{l≠0} |Γm(ω, l)|"),
@@ -188,8 +213,9 @@ def _frequency_figures(outdir: Path, res: SampledDataSensitivity, mr: Multirate)
         ("fig4_49_deltas", ("S_delta", "T_delta"), "Fig. 4.49: |S_Δ| and |T_Δ|"),
     ):
         path = outdir / f"hdd_sensitivity_{name}.png"
-        sensitivity_plot(res, quantities=qs, db=name != "fig4_49_deltas", title=title,
-                         filename=str(path))
+        sensitivity_plot(
+            res, quantities=qs, db=name != "fig4_49_deltas", title=title, filename=str(path)
+        )
         figs.append(path)
     return figs
 
@@ -213,8 +239,12 @@ def _margins(mr: Multirate, n: int = 20_000) -> dict[str, float]:
     pm = 180.0 + np.degrees(np.angle(loop[ic]))
     neg = (np.diff(np.sign(loop.imag)) != 0) & (loop.real[:-1] < 0) & (np.arange(n - 1) > ic)
     ip = int(np.flatnonzero(neg)[0])
-    return {"gain_crossover_hz": float(f[ic]), "phase_margin_deg": float(pm),
-            "phase_crossover_hz": float(f[ip]), "gain_margin_db": float(-20 * np.log10(mag[ip]))}
+    return {
+        "gain_crossover_hz": float(f[ic]),
+        "phase_margin_deg": float(pm),
+        "phase_crossover_hz": float(f[ip]),
+        "gain_margin_db": float(-20 * np.log10(mag[ip])),
+    }
 
 
 @register("hdd-sensitivity", order=20)
@@ -228,9 +258,11 @@ def run(outdir: Path) -> CaseResult:
     res = sampled_data_sensitivity(plant, ctrl, dt, freq, multirate=mr)
     figures = _frequency_figures(outdir, res, mr)
     comps = [Comparison("sampling frequency ωs/2π", 6516.0, 1.0 / dt, "Hz", 0.01, "§4.5.2")]
-    extra: dict[str, object] = {"alias_terms": res.alias_terms,
-                                "tail_estimate": res.tail_estimate,
-                                "margins": _margins(mr)}
+    extra: dict[str, object] = {
+        "alias_terms": res.alias_terms,
+        "tail_estimate": res.tail_estimate,
+        "margins": _margins(mr),
+    }
     low = freq <= 500.0
     extra["max_Ssd_below_500Hz"] = float(res.Ssd[low].max())
     extra["max_Sd_below_500Hz"] = float(np.abs(res.Sd[low]).max())
@@ -241,14 +273,36 @@ def run(outdir: Path) -> CaseResult:
         for key, book in BOOK[f_hz].items():
             attr, feq = _FORMULA[key]
             val = float(np.abs(getattr(at, attr))[0])
-            comps.append(Comparison(f"||{key}||/||dc|| at {label}, formula ({feq})", book, val,
-                                    "", 0.10, f"eq. ({eq}) vs ({feq})"))
-            comps.append(Comparison(f"||{key}||/||dc|| at {label}, simulation", book,
-                                    sim["simulation"][key], "", 0.10, f"eq. ({eq})"))
+            comps.append(
+                Comparison(
+                    f"||{key}||/||dc|| at {label}, formula ({feq})",
+                    book,
+                    val,
+                    "",
+                    0.10,
+                    f"eq. ({eq}) vs ({feq})",
+                )
+            )
+            comps.append(
+                Comparison(
+                    f"||{key}||/||dc|| at {label}, simulation",
+                    book,
+                    sim["simulation"][key],
+                    "",
+                    0.10,
+                    f"eq. ({eq})",
+                )
+            )
         extra[f"steady_state_{f_hz:g}Hz"] = sim["steady_state"]
         extra[f"simulation_{f_hz:g}Hz"] = sim["simulation"]
-        figures.append(_time_plot(outdir / f"hdd_sensitivity_fig{fig.replace('.', '_')}.png",
-                                  sim["traces"], f_hz, f"Fig. {fig}"))
+        figures.append(
+            _time_plot(
+                outdir / f"hdd_sensitivity_fig{fig.replace('.', '_')}.png",
+                sim["traces"],
+                f_hz,
+                f"Fig. {fig}",
+            )
+        )
     return CaseResult(
         name="hdd-sensitivity",
         title="§4.5.2 multirate HDD loop: sampled-data sensitivity and disturbance ratios",

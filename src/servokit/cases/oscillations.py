@@ -15,6 +15,7 @@ from pathlib import Path
 
 import numpy as np
 
+from servokit._figures import save_figure
 from servokit.cases import register
 from servokit.models import hdd_sampled_data
 from servokit.report import CaseResult, Comparison, nearest
@@ -294,9 +295,7 @@ def _section_4_5_3(outdir: Path) -> tuple[list[Comparison], list[Path]]:
     ax.set_title("Fig. 4.55: yui vs measurement time (4.1 kHz mode)")
     ax.grid(True, alpha=0.3)
     ax.legend()
-    figure.tight_layout()
-    figure.savefig(fig2, dpi=110)
-    plt.close(figure)
+    save_figure(figure, fig2)
     return rows, [fig1, fig2]
 
 

@@ -7,6 +7,7 @@ from pathlib import Path
 import numpy as np
 import typer
 
+from servokit._figures import save_figure
 from servokit.cli._app import app, console, emit_json
 from servokit.errors import ServokitValueError
 from servokit.models import get_discrete_controller, get_plant, hdd_benchmark_variants
@@ -70,9 +71,7 @@ def simulate_cmd(
         ax.grid(alpha=0.3)
         if len(plants) < 5:
             ax.legend()
-        fig.tight_layout()
-        fig.savefig(plot, dpi=120)
-        plt.close(fig)
+        save_figure(fig, plot, dpi=120)
     data = {
         "plants": [p.name for p in plants],
         "final": res.yc[:, -1],

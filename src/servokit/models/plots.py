@@ -7,6 +7,7 @@ from pathlib import Path
 
 import numpy as np
 
+from servokit._figures import save_figure
 from servokit.models.modal import ModalPlant
 
 __all__ = ["bode_plot"]
@@ -48,6 +49,5 @@ def bode_plot(
     ax_m.set_title(title or ("Bode plot: " + (plist[0].name or "plant")))
     fig.tight_layout()
     if path is not None:
-        fig.savefig(path, dpi=120)
-        plt.close(fig)
+        save_figure(fig, path, dpi=120)
     return fig

@@ -33,6 +33,7 @@ from typing import TYPE_CHECKING
 import control
 import numpy as np
 
+from servokit._figures import save_figure
 from servokit.errors import ServokitTypeError, ServokitValueError, check_finite
 from servokit.models.modal import ModalPlant
 from servokit.sampled.multirate import (
@@ -558,6 +559,5 @@ def sensitivity_plot(
     mr = f", multirate m = {result.m}" if result.m > 1 else ""
     ax.set_title(title or f"Sampled-data sensitivity (Ts = {result.dt * 1e6:.1f} us{mr})")
     if filename is not None:
-        fig.savefig(filename, dpi=120, bbox_inches="tight")
-        plt.close(fig)
+        save_figure(fig, filename, dpi=120)
     return fig

@@ -42,6 +42,7 @@ from typing import TYPE_CHECKING, Literal
 
 import numpy as np
 
+from servokit._figures import save_figure
 from servokit.errors import ServokitTypeError, ServokitValueError, check_finite, check_positive
 from servokit.sampled.unobservable import damped_sine_extrema
 
@@ -435,6 +436,5 @@ def srs_plot(
     ax.legend()
     fig.tight_layout()
     if path is not None:
-        fig.savefig(path, dpi=110)
-        plt.close(fig)
+        save_figure(fig, path)
     return fig

@@ -42,6 +42,7 @@ from typing import TYPE_CHECKING
 
 import numpy as np
 
+from servokit._figures import save_figure
 from servokit.errors import ServokitTypeError, ServokitValueError, check_finite
 
 if TYPE_CHECKING:
@@ -557,6 +558,5 @@ def unobservable_plot(
     ax.legend()
     fig.tight_layout()
     if path is not None:
-        fig.savefig(path, dpi=110)
-        plt.close(fig)
+        save_figure(fig, path)
     return fig
