@@ -5,7 +5,7 @@ from __future__ import annotations
 import numpy as np
 import pytest
 import scipy.optimize
-from hypothesis import given, settings
+from hypothesis import example, given, settings
 from hypothesis import strategies as st
 
 from servokit.errors import ServokitTypeError, ServokitValueError
@@ -104,6 +104,8 @@ def _feasible_lp(A_eq, b_eq, G, h) -> bool:  # noqa: ANN001
     frac=st.floats(0.3, 1.2),
     vfrac=st.floats(0.5, 1.5),
 )
+@example(N=6, frac=1.0, vfrac=1.0)  # limits touching the unconstrained optimum (degenerate)
+@example(N=8, frac=1.0, vfrac=1.0)
 def test_qp_respects_constraints_or_names_binding(N: int, frac: float, vfrac: float) -> None:
     dt = 0.1
     A, B, lm = _rigid_model(dt, N)

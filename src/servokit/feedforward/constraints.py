@@ -474,7 +474,8 @@ def solve_fsc_qp(
         # spares the interior-point solvers the degenerate case of limits touching it
         w0, *_ = np.linalg.lstsq(Pw, -qw, rcond=None)
         stationary = np.linalg.norm(Pw @ w0 + qw) <= 1e-10 * max(np.linalg.norm(qw), 1.0)
-        if stationary and _max_violation(Gw, hw, w0) <= _INEQ_RTOL:
+        # judged in U-space: in w-space the relative scale vanishes where w0 = 0
+        if stationary and _max_violation(G, h, U_p + Z @ w0) <= _INEQ_RTOL:
             w = w0
     backends = (solver, "clarabel" if solver == "piqp" else "piqp")
     for name in backends if w is None else ():
