@@ -10,11 +10,16 @@ $(BIN)/python:
 	$(PY) -m venv $(VENV)
 	$(BIN)/pip install --quiet --upgrade pip
 
+# the demo needs only the package; tests add the test and dask extras (CI tests dask too)
+$(VENV)/.installed-demo: $(BIN)/python pyproject.toml
+	$(BIN)/pip install --quiet -e .
+	touch $@
+
 $(STAMP): $(BIN)/python pyproject.toml
-	$(BIN)/pip install --quiet -e ".[test]"
+	$(BIN)/pip install --quiet -e ".[test,dask]"
 	touch $(STAMP)
 
-demo: $(STAMP)
+demo: $(VENV)/.installed-demo
 	MPLBACKEND=Agg $(BIN)/servokit reproduce --out $(OUT)
 
 test: $(STAMP)

@@ -512,4 +512,5 @@ def run(outdir: Path) -> CaseResult:
         comparisons=[],
         figures=figures,
         extra=extra,
+        chapter=2,
     )

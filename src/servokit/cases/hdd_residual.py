@@ -338,4 +338,5 @@ def hdd_residual_case(outdir: Path) -> CaseResult:
         comparisons=rows,
         figures=figures,
         extra=extra,
+        chapter=4,
     )

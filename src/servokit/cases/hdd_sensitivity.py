@@ -309,4 +309,5 @@ def run(outdir: Path) -> CaseResult:
         comparisons=comps,
         figures=figures,
         extra=extra,
+        chapter=4,
     )

@@ -315,4 +315,5 @@ def oscillations_case(outdir: Path) -> CaseResult:
         title="Unobservable oscillations and shock response spectra (§4.3-§4.5.3)",
         comparisons=rows,
         figures=figures,
+        chapter=4,
     )

@@ -19,6 +19,11 @@ class Comparison:
     """One published number of the book against the value servokit computes.
 
     ``rel_tol`` is the tolerance the issue states; ``ok`` compares the ratio with it.
+    ``kind`` says what the row is: ``"reproduced"`` (an independent reproduction),
+    ``"fitted"`` (rests on a parameter fitted to the book; name it in ``note``),
+    ``"assumed"`` (rests on a value the book omits), ``"spec"`` (a specification the book
+    states for its design) or ``"consistency"`` (a check that cannot fail independently).
+    ``note`` says what was read, fitted or assumed.
     """
 
     quantity: str
@@ -27,6 +32,8 @@ class Comparison:
     unit: str = ""
     rel_tol: float = 0.05
     source: str = ""
+    kind: str = "reproduced"
+    note: str = ""
 
     @property
     def ratio(self) -> float:
@@ -48,6 +55,7 @@ class CaseResult:
     comparisons: list[Comparison] = field(default_factory=list)
     figures: list[Path] = field(default_factory=list)
     extra: dict = field(default_factory=dict)
+    chapter: int = 0
 
 
 def nearest(found: object, value: float) -> float:
