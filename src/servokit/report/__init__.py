@@ -11,7 +11,7 @@ from pathlib import Path
 
 import numpy as np
 
-__all__ = ["Comparison", "CaseResult", "nearest"]
+__all__ = ["Comparison", "CaseResult", "nearest", "printed_tolerance"]
 
 
 @dataclass(frozen=True)
@@ -34,6 +34,26 @@ class Comparison:
     source: str = ""
     kind: str = "reproduced"
     note: str = ""
+    book_text: str = ""
+
+    @classmethod
+    def printed(
+        cls, quantity: str, book_text: str, servokit: float, *, floor: float = 0.0, **kwargs
+    ) -> Comparison:
+        """A row whose tolerance is the book's printed precision.
+
+        ``book_text`` is the number exactly as printed (``"0.26"``, ``"3.5"``, ``"1.51e3"``);
+        the tolerance is half a unit of its last printed digit relative to the value,
+        but at least ``floor``.
+        """
+        return cls(
+            quantity,
+            float(book_text),
+            servokit,
+            rel_tol=printed_tolerance(book_text, floor=floor),
+            book_text=book_text,
+            **kwargs,
+        )
 
     @property
     def ratio(self) -> float:
@@ -56,6 +76,21 @@ class CaseResult:
     figures: list[Path] = field(default_factory=list)
     extra: dict = field(default_factory=dict)
     chapter: int = 0
+
+
+def printed_tolerance(book_text: str, *, floor: float = 0.0) -> float:
+    """Relative half-unit of the last printed digit of ``book_text`` (at least ``floor``).
+
+    ``"0.26"`` -> 0.005 / 0.26; ``"3"`` -> 0.5 / 3; ``"1.51e3"`` -> 5 / 1510.
+    """
+    text = book_text.strip().lower()
+    mantissa, _, exponent = text.partition("e")
+    decimals = len(mantissa.split(".")[1]) if "." in mantissa else 0
+    half_unit = 0.5 * 10.0 ** (-decimals + (int(exponent) if exponent else 0))
+    value = abs(float(book_text))
+    if value == 0:
+        return max(half_unit, floor)
+    return max(half_unit / value, floor)
 
 
 def nearest(found: object, value: float) -> float:
