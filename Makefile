@@ -4,7 +4,7 @@ BIN := $(VENV)/bin
 STAMP := $(VENV)/.installed
 OUT ?= out
 
-.PHONY: demo test bench lint clean
+.PHONY: demo test test-all bench lint clean
 
 $(BIN)/python:
 	$(PY) -m venv $(VENV)
@@ -24,6 +24,9 @@ demo: $(VENV)/.installed-demo
 
 test: $(STAMP)
 	MPLBACKEND=Agg $(BIN)/python -m pytest
+
+test-all: $(STAMP)
+	MPLBACKEND=Agg $(BIN)/python -m pytest -m ""
 
 bench: $(STAMP)
 	MPLBACKEND=Agg $(BIN)/python bench/run.py

@@ -338,5 +338,10 @@ def hdd_seek_case(outdir: Path) -> CaseResult:
         "peak_track": {d.key: float(outcome[d.key].y.max()) for d in DESIGNS},
     }
     return CaseResult(
-        "hdd-seek", "HDD benchmark track seek: FSC vs FFSC (book §2.4)", comps, figures, extra, chapter=2
+        "hdd-seek",
+        "HDD benchmark track seek: FSC vs FFSC (book §2.4)",
+        comps,
+        figures,
+        extra,
+        chapter=2,
     )

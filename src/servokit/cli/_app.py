@@ -9,7 +9,10 @@ from __future__ import annotations
 
 import json
 import sys
-from typing import Any
+from collections.abc import Iterator
+from contextlib import contextmanager
+from pathlib import Path
+from typing import Annotated, Any
 
 import numpy as np
 import typer
@@ -23,9 +26,82 @@ app = typer.Typer(
     no_args_is_help=True,
     add_completion=False,
     pretty_exceptions_enable=False,
+    # units are written "[s]"; rich markup would eat them (and strike the rest through)
+    rich_markup_mode=None,
 )
 # piped output (make demo into a log) keeps the book-vs-servokit tables on one line each
 console = Console(width=None if sys.stdout.isatty() else 120)
+
+
+# ---- shared options: one name, one help text per concept (docs/CONVENTIONS.md) ----
+JsonOpt = Annotated[
+    bool, typer.Option("--json", help="machine-readable JSON on stdout (nothing else on stdout)")
+]
+PlotOpt = Annotated[
+    Path | None,
+    typer.Option("--plot", help="write the figure to this file (.png or .svg)", metavar="FILE"),
+]
+MaxMemoryOpt = Annotated[
+    float,
+    typer.Option(
+        "--max-memory-mb", help="refuse requests estimated above this memory [MB]", min=1.0
+    ),
+]
+SeedOpt = Annotated[int, typer.Option("--seed", help="random seed")]
+
+
+def sub_app(name: str, help: str) -> typer.Typer:
+    """Create a command group ``servokit <name> ...`` registered on :data:`app`."""
+    group = typer.Typer(help=help, no_args_is_help=True, rich_markup_mode=None)
+    app.add_typer(group, name=name)
+    return group
+
+
+def example(*lines: str) -> str:
+    """Epilog text ending every ``--help`` with runnable example(s)."""
+    return "Example: " + "  |  ".join(lines)
+
+
+def plot_target(path: Path | None) -> Path | None:
+    """Validate a ``--plot`` path before any work (directory/extension refused)."""
+    from servokit.errors import check_plot_path
+
+    return None if path is None else check_plot_path(path)
+
+
+def wrote(path: Path | str) -> None:
+    """Report a written file with its real path (on stderr when stdout carries JSON)."""
+    typer.echo(f"wrote {Path(path)}", err=True)
+
+
+def warn(message: str) -> None:
+    """One warning line on stderr."""
+    typer.echo(f"servokit: warning: {message}", err=True)
+
+
+@contextmanager
+def progress(total: int, description: str, *, enabled: bool = True) -> Iterator[Any]:
+    """A rich progress bar on stderr; yields ``advance(n=1)``.
+
+    Use it for work that may take more than a few seconds; it never writes to stdout, so
+    ``--json`` output stays clean.
+    """
+    if not enabled or total <= 1:
+        yield lambda n=1: None
+        return
+    from rich.progress import BarColumn, Progress, TextColumn, TimeRemainingColumn
+
+    bar = Progress(
+        TextColumn("{task.description}"),
+        BarColumn(),
+        TextColumn("{task.completed}/{task.total}"),
+        TimeRemainingColumn(),
+        console=Console(stderr=True),
+        transient=True,
+    )
+    with bar:
+        task = bar.add_task(description, total=total)
+        yield lambda n=1: bar.advance(task, n)
 
 
 def _jsonable(obj: Any) -> Any:
@@ -85,7 +161,7 @@ def main() -> None:
         sys.exit(exc.exit_code)
     except typer.Abort:
         sys.exit(1)
-    except (ServokitError, ValueError, TypeError, FileNotFoundError) as exc:
+    except (ServokitError, ValueError, TypeError, OSError, OverflowError, MemoryError) as exc:
         msg = str(exc).splitlines()[0] if str(exc) else type(exc).__name__
         typer.echo(f"servokit: error: {msg}", err=True)
         sys.exit(2)
