@@ -26,7 +26,7 @@ def test_plant_show_json():
 
 def test_plant_bode_plot(tmp_path: Path):
     out = tmp_path / "bode.png"
-    r = run("plant", "bode", "hdd-sampled-data", "--plot", str(out), "--json", "--n", "50")
+    r = run("plant", "bode", "hdd-sampled-data", "--plot", str(out), "--json", "--n-freq", "50")
     assert r.returncode == 0, r.stderr
     assert out.stat().st_size > 10_000
     data = json.loads(r.stdout)
