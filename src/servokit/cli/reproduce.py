@@ -10,7 +10,7 @@ from rich.markup import escape
 from rich.table import Table
 
 from servokit.cli._app import app, console, emit_json, example
-from servokit.errors import check_out_dir
+from servokit.errors import ServokitValueError, check_out_dir
 
 _CASES_DIR = Path(__file__).resolve().parent.parent / "cases"
 _REGISTER = re.compile(r"@register\(\s*\"([^\"]+)\"(?:\s*,\s*order\s*=\s*(-?\d+))?")
@@ -41,8 +41,13 @@ def reproduce(
     json_out: bool = typer.Option(False, "--json", help="machine-readable output"),
 ) -> None:
     out = check_out_dir(out)
-    from servokit.cases import run_all
+    from servokit.cases import registry, run_all
 
+    unknown = [c for c in case or [] if c not in registry()]
+    if unknown:  # before run_all creates --out
+        raise ServokitValueError(
+            f"--case {unknown[0]!r} is unknown; choose one of {', '.join(registry())}"
+        )
     results = run_all(out, only=case or None)
     if json_out:
         emit_json(

@@ -125,20 +125,7 @@ def srs_cmd(
             raise ServokitValueError("--freq must be > 0 Hz")
     if dt is not None:
         check_positive("--dt", dt, "s")
-    accel, dur, length = _input(input_, dt, duration, n_samples, target, max_memory_mb)
-    check_memory(
-        n * _ARRAYS_PER_FREQ * 16 + _BLOCK_BYTES + length * 8 * 4,
-        what=f"--n-freq {n}",
-        max_memory_mb=max_memory_mb,
-    )
-    # a continuous input is integrated on panels of half a period of the fastest oscillator
-    steps = length if dur is None or dt is not None else 2 * fmax * dur * _GL_NODES
-    check_work(
-        n * steps,
-        what=f"--n-freq {n} x {steps:.3g} input steps (--n-samples, --input or --duration)",
-        limit=MAX_CELLS,
-        about="about half a minute",
-    )
+    accel, dur = _input(input_, dt, duration, n_samples, target, (n, fmax, max_memory_mb))
     plot = plot_target(plot)
     freq = np.linspace(fmin, fmax, n)
     with flag_names(_FLAGS):
@@ -184,22 +171,45 @@ def srs_cmd(
     _print(spec, input_, kind, peaks, values)
 
 
-def _input(input_: str, dt, duration, n_samples, target, max_memory_mb):  # noqa: ANN001
-    """The input as (accel, duration or None, number of held samples/panels estimate)."""
+def _check_size(n: int, length: float, steps: float, max_memory_mb: float) -> None:
+    """Memory and work of ``n`` oscillators over ``length`` held samples / ``steps`` updates."""
+    check_memory(
+        n * _ARRAYS_PER_FREQ * 16 + _BLOCK_BYTES + length * 8 * 4,
+        what=f"--n-freq {n} with {length:.3g} input samples",
+        max_memory_mb=max_memory_mb,
+    )
+    check_work(
+        n * steps,
+        what=f"--n-freq {n} x {steps:.3g} input steps (--n-samples, --input or --duration)",
+        limit=MAX_CELLS,
+        about="about half a minute",
+    )
+
+
+def _input(input_: str, dt, duration, n_samples, target, size):  # noqa: ANN001
+    """The input as (accel, duration or None); its size is checked before it is built.
+
+    ``size`` is ``(n_freq, fmax, max_memory_mb)``.
+    """
     from servokit.sampled.srs import half_sine, polynomial_wave
 
+    n, fmax, max_mb = size
     if input_ == "half-sine":
         check_positive("--duration", duration, "s")
-        return half_sine(duration), duration, 0 if dt is None else duration / dt
+        # a continuous input is integrated on panels of half a period of the fastest oscillator
+        steps = 2 * fmax * duration * _GL_NODES if dt is None else duration / dt
+        _check_size(n, 0 if dt is None else steps, steps, max_mb)
+        return half_sine(duration), duration
     u = None if input_ == "polynomial" else _read_samples(input_)
     if dt is None:
         raise ServokitValueError("--dt is required for held samples (the hold period [s])")
     if u is not None:
-        return u, None, u.size
-    n = check_count("--n-samples", n_samples)
-    check_memory(n * 8 * 10, what=f"--n-samples {n}", max_memory_mb=max_memory_mb)
+        _check_size(n, u.size, u.size, max_mb)
+        return u, None
+    length = check_count("--n-samples", n_samples)
+    _check_size(n, length, length, max_mb)
     with flag_names(_FLAGS):
-        return polynomial_wave(n, dt, float(check_finite("--target", target))), None, n
+        return polynomial_wave(length, dt, float(check_finite("--target", target))), None
 
 
 def _spectrum(accel, dt, freq, damping, kind, dur, *, show: bool):  # noqa: ANN001
