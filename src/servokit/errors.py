@@ -17,6 +17,7 @@ __all__ = [
     "check_count",
     "check_memory",
     "check_plot_path",
+    "check_range",
     "check_work",
     "check_out_dir",
     "check_input_file",
@@ -102,6 +103,18 @@ def check_memory(
             f"{what} needs about {need:.4g} MB, above the {limit:g} MB limit; "
             f"reduce it or raise {flag}"
         )
+
+
+def check_range(
+    lo: float, hi: float, flags: tuple[str, str] = ("--fmin", "--fmax"), unit: str = "Hz"
+) -> tuple[float, float]:
+    """Return ``(lo, hi)`` if both are finite and ``0 < lo < hi``, else raise naming ``flags``."""
+    check_finite(f"{flags[0]}/{flags[1]}", [lo, hi])
+    if not 0 < lo < hi:
+        raise ServokitValueError(
+            f"need 0 < {flags[0]} < {flags[1]} [{unit}] (got {float(lo):g}, {float(hi):g})"
+        )
+    return float(lo), float(hi)
 
 
 def check_work(n_ops: float, *, what: str, limit: float, about: str) -> None:

@@ -23,10 +23,9 @@ from servokit.cli._app import (
 )
 from servokit.errors import (
     DEFAULT_MAX_MEMORY_MB,
-    ServokitValueError,
     check_count,
-    check_finite,
     check_memory,
+    check_range,
 )
 
 plant_app = sub_app("plant", "Inspect plants: catalogue names or TOML plant files.")
@@ -99,9 +98,7 @@ def bode(
     json_out: JsonOpt = False,
 ) -> None:
     """Exact frequency response (delay included); optional Bode plot."""
-    check_finite("--fmin/--fmax", [fmin, fmax])
-    if not 0 < fmin < fmax:
-        raise ServokitValueError(f"need 0 < --fmin < --fmax [Hz] (got {fmin:g}, {fmax:g})")
+    fmin, fmax = check_range(fmin, fmax)
     n = check_count("--n-freq", n_freq, lo=2)
     plot = plot_target(plot)
     p = load_plant(plant, "PLANT")

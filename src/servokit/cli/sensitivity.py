@@ -25,7 +25,13 @@ from servokit.cli._app import (
     progress,
     wrote,
 )
-from servokit.errors import DEFAULT_MAX_MEMORY_MB, ServokitValueError, check_count, check_memory
+from servokit.errors import (
+    DEFAULT_MAX_MEMORY_MB,
+    ServokitValueError,
+    check_count,
+    check_memory,
+    check_range,
+)
 
 _FLAGS = {
     "freq_hz": "--fmin/--fmax",
@@ -94,11 +100,7 @@ def sensitivity_cmd(
     """Sensitivity of a digital loop including the intersample response (eqs. 4.13-4.38)."""
     import numpy as np
 
-    from servokit.errors import check_finite
-
-    check_finite("--fmin/--fmax", [fmin, fmax])
-    if not 0 < fmin < fmax:
-        raise ServokitValueError(f"need 0 < --fmin < --fmax [Hz] (got {fmin:g}, {fmax:g})")
+    fmin, fmax = check_range(fmin, fmax)
     n = check_count("--n-freq", n_freq, lo=2)
     if not (np.isfinite(tol) and 0 < tol < 1):
         raise ServokitValueError(f"--tol must be in (0, 1) (got {tol:g})")

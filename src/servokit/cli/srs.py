@@ -31,6 +31,7 @@ from servokit.errors import (
     check_input_file,
     check_memory,
     check_positive,
+    check_range,
     check_work,
 )
 
@@ -115,9 +116,7 @@ def srs_cmd(
     """Shock response spectrum on the relative-acceleration model (eqs. 4.53-4.61)."""
     import numpy as np
 
-    check_finite("--fmin/--fmax", [fmin, fmax])
-    if not 0 < fmin < fmax:
-        raise ServokitValueError(f"need 0 < --fmin < --fmax [Hz] (got {fmin:g}, {fmax:g})")
+    fmin, fmax = check_range(fmin, fmax)
     n = check_count("--n-freq", n_freq, lo=2)
     if at:
         check_finite("--freq", at)

@@ -28,6 +28,7 @@ from servokit.errors import (
     check_finite,
     check_memory,
     check_positive,
+    check_range,
     check_work,
 )
 
@@ -171,10 +172,7 @@ def sampling_cmd(
     _check_level(level)
     ns = check_count("--n-samples", n_samples)
     check_finite("--fs-min/--fs-max", [fs_min, fs_max])
-    lo = fs_min or freq / 5
-    hi = fs_max or freq * 4
-    if not 0 < lo < hi:
-        raise ServokitValueError(f"need 0 < --fs-min < --fs-max [Hz] (got {lo:g}, {hi:g})")
+    lo, hi = check_range(fs_min or freq / 5, fs_max or freq * 4, ("--fs-min", "--fs-max"))
     points = _SCAN_POINTS + (_PLOT_POINTS if plot is not None else 0)
     _check_work(ns, points * _PHASES_SCAN * ns, "--n-samples", max_memory_mb)
     plot = plot_target(plot)
