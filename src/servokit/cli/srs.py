@@ -48,8 +48,9 @@ _FLAGS = {
 _CHUNK = 500  # oscillators per call: one progress step
 _ARRAYS_PER_FREQ = 12  # complex arrays per oscillator (lam, states, peaks, ...)
 _BLOCK_BYTES = 4_000_000 * 16 * 3  # the library's time blocks (complex cells)
-# oscillator x hold-sample (or x Gauss node) updates one request may cost: about half a minute
-MAX_CELLS = 3e9
+# oscillator x hold-sample (or x Gauss node) updates one request may cost: 1e8 per CPU
+# second measured, so about twenty seconds
+MAX_CELLS = 2e9
 _GL_NODES = 12  # Gauss-Legendre nodes per panel of a continuous input (library)
 _JSON_KEYS = (
     "input, dt_s, duration_s, damping, kind, freq_hz, magnitude, peaks_hz, "
@@ -181,7 +182,7 @@ def _check_size(n: int, length: float, steps: float, max_memory_mb: float) -> No
         n * steps,
         what=f"--n-freq {n} x {steps:.3g} input steps (--n-samples, --input or --duration)",
         limit=MAX_CELLS,
-        about="about half a minute",
+        about="about twenty seconds",
     )
 
 
