@@ -11,6 +11,7 @@ from hypothesis import strategies as st
 from servokit.errors import ServokitValueError
 from servokit.feedback import (
     complex_lag,
+    design_peak_filter,
     discretize_filter,
     inverse_pair,
     lag,
@@ -136,3 +137,26 @@ def test_prewarped_tustin_keeps_the_peak_frequency():
 def test_bad_filter_arguments_raise(call):
     with pytest.raises(ServokitValueError):
         call()
+
+
+@pytest.mark.parametrize(
+    "method, offset",
+    [
+        ("stable", np.pi / 2),
+        ("frequency-shift", np.pi / 2),
+        ("phase-shift", 0.0),
+        ("transient", -np.pi / 2),
+    ],
+)
+def test_zero_placements_offsets(method, offset):
+    sh = 0.7 * np.exp(-0.4j)
+    assert np.exp(1j * peak_filter_phase(sh, method)) == pytest.approx(np.exp(1j * (offset - 0.4)))
+
+
+def test_design_peak_filter_makes_sh_f_real_at_w1():
+    sh = control.tf([1.0], [1 / 3000.0, 1])
+    flt, phi = design_peak_filter(sh, 1000.0, 0.02, 0.5)
+    g = complex(sh(2j * np.pi * 1000)) * at(flt, 1000)
+    assert g.imag == pytest.approx(0.0, abs=1e-9) and g.real > 0  # (5.21)
+    with pytest.raises(ServokitValueError):
+        peak_filter_phase(1.0, "sideways")

@@ -64,3 +64,25 @@ def test_unstable_or_discrete_g_is_refused():
         branch_gain_margins(control.tf([1], [1, -1]))
     with pytest.raises(ServokitValueError):
         root_locus(control.tf([1], [1, 0.5], 0.1), np.array([1.0]))
+
+
+def test_locus_roots_solve_the_characteristic_equation():
+    g = control.tf([2e4, 3e8], [1, 300, 4e8]) * control.tf([1], [1, 5e3])
+    locus = root_locus(g, np.array([0.5, 3.0]))
+    for k, row in zip(locus.gains[1:], locus.roots[1:], strict=True):
+        vals = [1 + k * complex(g(r)) for r in row]
+        assert np.max(np.abs(vals)) < 1e-6
+
+
+@pytest.mark.parametrize(
+    "method, expected", [("stable", 180.0), ("phase-shift", -90.0), ("transient", 0.0)]
+)
+def test_zero_placements_give_their_departure_angles_without_nearby_plant_poles(method, expected):
+    """(5.18) -> 180°, (5.38) -> -90° (upper pole), corrected (5.51) -> 0°, up to O(ζ1)."""
+    sh = control.tf([1.0], [1 / 3000.0, 1]) * control.tf([1.0], [1 / 9000.0, 1])
+    g = sh * peak_filter(
+        1000.0, 0.001, 1.0, peak_filter_phase(complex(sh(2j * np.pi * 1e3)), method)
+    )
+    poles, ang = departure_angles(g)
+    a = ang[np.argmax(poles.imag)]
+    assert (a - expected + 180) % 360 - 180 == pytest.approx(0.0, abs=0.2)

@@ -8,6 +8,7 @@
 
 from servokit.feedback.filters import (
     complex_lag,
+    design_peak_filter,
     discretize_filter,
     inverse_pair,
     lag,
@@ -23,6 +24,7 @@ from servokit.feedback.margins import Margins, loop_response, stability_margins
 __all__ = [
     "Margins",
     "complex_lag",
+    "design_peak_filter",
     "discretize_filter",
     "inverse_pair",
     "lag",

@@ -12,6 +12,14 @@ Book corrections
 * (5.17) peak filter: the book restricts φ to [−π/2, π/2] in (5.18) but itself uses
   φ = 2.5414 rad and 4.2603 rad in §5.5.2; F is 2π-periodic in φ, so any real φ is
   accepted.
+* (5.51) LTV transient-stage zero: printed φ = arg Sh(jω1) + π. The residue of
+  Sh F at the filter pole p1 ≈ jω1 is ≈ K ω1 |Sh| e^{j(arg Sh + π/2 − φ)} / 2, so the
+  departure angle is 180° + arg Sh + 90° − φ: (5.18) gives 180° (as printed), "+ π"
+  gives 90°, not the 0° of (5.53) (nor the −180° plant departure of (5.52)). The
+  printed departures need the residue of (5.18) reversed, φ = arg Sh(jω1) − π/2, which
+  :func:`peak_filter_phase` uses for ``method="transient"``.
+* (5.38) phase-shift zero φ = arg Sh(jω1): the same residue gives a filter departure of
+  −90° for the upper-half-plane pole; the book's "+90°" (5.41) is the lower pole's.
 * (5.92)-(5.94) complex lag: checked by hand; ωp ωz = ωm² and the phase of the lag at
   ωm is exactly −2φm (zero angle π/2 − φm, pole angle π/2 + φm), as printed.
 """
@@ -32,6 +40,8 @@ __all__ = [
     "pi_controller",
     "peak_filter",
     "peak_filter_phase",
+    "design_peak_filter",
+    "ZERO_PLACEMENTS",
     "pseudo_plant",
     "discretize_filter",
 ]
@@ -193,13 +203,43 @@ def pseudo_plant(loop: control.LTI) -> control.LTI:
     return control.feedback(loop, 1)
 
 
-def peak_filter_phase(sh_at_w1: complex) -> float:
-    """Zero placement φ = arg Sh(jω1) + π/2 of eq. (5.18), wrapped into (−π, π].
+#: Zero placements of the peak filter: offset added to arg Sh(jω1) [rad].
+ZERO_PLACEMENTS = {
+    "stable": np.pi / 2,  # (5.18) and the frequency-shift method (5.42)
+    "frequency-shift": np.pi / 2,  # (5.42): (5.18) at the pseudo plant's resonance
+    "phase-shift": 0.0,  # (5.38)
+    "transient": -np.pi / 2,  # (5.51) corrected (printed "+ π"), the LTV transient stage
+}
 
-    The book states φ ∈ [−π/2, π/2]; the formula itself gives any angle, and the
-    departure angle of 180° from the filter poles holds for the full-circle value.
+
+def peak_filter_phase(sh_at_w1: complex, method: str = "stable") -> float:
+    """Zero-placement phase φ of the peak filter from Sh(jω1), wrapped into (−π, π].
+
+    ``"stable"`` / ``"frequency-shift"``: φ = arg Sh(jω1) + π/2, eqs. (5.18), (5.42)
+    (filter poles depart at 180°; for the frequency-shift method ω1 is the pseudo
+    plant's resonance); ``"phase-shift"``: φ = arg Sh(jω1), eq. (5.38), filter poles
+    depart at ∓90°; ``"transient"``: φ = arg Sh(jω1) − π/2, eq. (5.51) corrected (see the
+    module docstring), filter poles depart at 0° and plant poles at −180°. The book states
+    φ ∈ [−π/2, π/2]; the formulas give any angle and F is 2π-periodic in φ, so the full
+    circle is kept.
     """
-    return float(np.angle(complex(sh_at_w1) * 1j))
+    if method not in ZERO_PLACEMENTS:
+        raise ServokitValueError(
+            f"method must be one of {', '.join(ZERO_PLACEMENTS)} (got {method!r})"
+        )
+    return float(np.angle(complex(sh_at_w1) * np.exp(1j * ZERO_PLACEMENTS[method])))
+
+
+def design_peak_filter(
+    sh: control.LTI, freq_hz: float, damping: float, gain: float, method: str = "stable"
+) -> tuple[control.TransferFunction, float]:
+    """Peak filter (5.17) at ``freq_hz`` with its zero placed on the pseudo plant ``sh``.
+
+    Returns ``(F, phi)``. ``sh`` is continuous (Sh = PC/(1+PC), see :func:`pseudo_plant`).
+    """
+    f1 = check_positive("freq_hz", freq_hz, "Hz")
+    phi = peak_filter_phase(complex(sh(2j * np.pi * f1)), method)
+    return peak_filter(f1, damping, gain, phi), phi
 
 
 def discretize_filter(filt: control.LTI, dt: float, freq_hz: float) -> control.LTI:

@@ -53,20 +53,29 @@ def root_locus_plot(
     path: str | Path,
     title: str,
     window_hz: tuple[float, float] | None = None,
+    real_window_hz: tuple[float, float] | None = None,
 ) -> Path:
-    """Branches of a root locus in [kHz]: filter branches solid, others dashed (Figs. 5.16-5.22)."""
+    """Branches of a root locus in [kHz]: filter branches solid, others dashed (Figs. 5.16-5.22).
+
+    With ``window_hz`` only branches starting in that band of |Im s|/2π are drawn and the
+    axes zoom on it (upper half-plane); ``real_window_hz`` sets the real-axis range.
+    """
     import matplotlib.pyplot as plt
 
     fig, ax = plt.subplots(figsize=(6.5, 5))
     r = locus.roots / (2e3 * np.pi)
     for j in range(r.shape[1]):
-        if window_hz is not None and not window_hz[0] <= abs(r[0, j].imag) * 1e3 <= window_hz[1]:
+        if window_hz is not None and not window_hz[0] <= r[0, j].imag * 1e3 <= window_hz[1]:
             continue
         style = "-" if filter_branch[j] else "--"
         label = "filter pole" if filter_branch[j] else "plant pole"
         ax.plot(r[:, j].real, r[:, j].imag, style, lw=1.2, label=label)
         ax.plot(r[0, j].real, r[0, j].imag, "kx")
     ax.axvline(0.0, color="k", lw=0.6)
+    if window_hz is not None:
+        ax.set_ylim(window_hz[0] / 1e3, window_hz[1] / 1e3)
+    if real_window_hz is not None:
+        ax.set_xlim(real_window_hz[0] / 1e3, real_window_hz[1] / 1e3)
     ax.set_xlabel("Real axis [kHz]  (s / 2π)")
     ax.set_ylabel("Imaginary axis [kHz]  (s / 2π)")
     handles, labels = ax.get_legend_handles_labels()

@@ -27,7 +27,14 @@ from scipy.optimize import linear_sum_assignment
 from servokit.errors import ServokitValueError
 from servokit.feedback.margins import stability_margins
 
-__all__ = ["RootLocus", "departure_angles", "root_locus", "branch_gain_margins"]
+__all__ = [
+    "RootLocus",
+    "PeakFilterLocus",
+    "departure_angles",
+    "root_locus",
+    "branch_gain_margins",
+    "peak_filter_locus",
+]
 
 
 def _polys(g: control.TransferFunction) -> tuple[np.ndarray, np.ndarray, float]:
@@ -46,7 +53,7 @@ def _polys(g: control.TransferFunction) -> tuple[np.ndarray, np.ndarray, float]:
     scale_n = w_ref ** np.arange(num.size - 1, -1, -1.0)
     nd = den * scale_d
     # numerator in the same normalised variable, divided by the same leading coefficient
-    nn = num * scale_n / nd[0] * w_ref ** (num.size - den.size)
+    nn = num * scale_n / nd[0]
     return nn, nd / nd[0], w_ref
 
 
@@ -140,3 +147,51 @@ def branch_gain_margins(
         mate = int(np.argmin(np.abs(locus.start - np.conj(p))))
         crit[j] = crit[mate] = min(crit[j], crit[mate])
     return locus.start, crit
+
+
+@dataclass(frozen=True)
+class PeakFilterLocus:
+    """Root-locus facts of G = Sh F for one peak filter (upper-half-plane poles).
+
+    Gains are critical values of the multiplier k on F (1 + k Sh F = 0); divide by the
+    designed filter gain for a margin relative to the design.
+    """
+
+    filter_pole: complex
+    plant_pole: complex
+    filter_departure_deg: float
+    plant_departure_deg: float
+    filter_k_crit: float
+    plant_k_crit: float
+
+    @property
+    def k_crit(self) -> float:
+        """The smallest critical multiplier of the two branches."""
+        return min(self.filter_k_crit, self.plant_k_crit)
+
+
+def peak_filter_locus(
+    sh: control.TransferFunction, flt: control.TransferFunction, plant_hz: float
+) -> PeakFilterLocus:
+    """Departure angles and branch gain margins of the filter pole and of the pseudo-plant
+    pole nearest ``plant_hz`` (Figs. 5.12-5.22)."""
+    g = control.tf(sh) * control.tf(flt)
+    poles, angles = departure_angles(g)
+    starts, k_crit = branch_gain_margins(g)
+    p_f = complex(max(control.tf(flt).poles(), key=lambda p: p.imag))
+    sh_poles = np.asarray(control.tf(sh).poles(), dtype=complex)
+    p_h = complex(sh_poles[np.argmin(np.abs(sh_poles - 2j * np.pi * plant_hz))])
+    if p_h.imag < 0:
+        p_h = p_h.conjugate()
+
+    def pick(values: np.ndarray, where: np.ndarray, p: complex) -> float:
+        return float(values[int(np.argmin(np.abs(where - p)))])
+
+    return PeakFilterLocus(
+        filter_pole=p_f,
+        plant_pole=p_h,
+        filter_departure_deg=pick(angles, poles, p_f),
+        plant_departure_deg=pick(angles, poles, p_h),
+        filter_k_crit=pick(k_crit, starts, p_f),
+        plant_k_crit=pick(k_crit, starts, p_h),
+    )
