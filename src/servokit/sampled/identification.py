@@ -35,7 +35,13 @@ import numpy as np
 from servokit.errors import ServokitValueError, check_count, check_memory, check_positive
 from servokit.models.modal import ModalPlant
 
-__all__ = ["Identification", "identify_above_nyquist", "aliased_frequency", "settling_samples"]
+__all__ = [
+    "Identification",
+    "identify_above_nyquist",
+    "identification_plot",
+    "aliased_frequency",
+    "settling_samples",
+]
 
 
 @dataclass(frozen=True)
@@ -87,9 +93,9 @@ def settling_samples(
     return int(np.ceil(np.log(tol) / np.log(rho)))
 
 
-def _project(x: np.ndarray, f_alias: np.ndarray, dt: float) -> np.ndarray:
-    """2/N Σ x_k e^{−jω'kT}: the complex amplitude of each row at its own frequency."""
-    k = np.arange(x.shape[1])
+def _project(x: np.ndarray, f_alias: np.ndarray, dt: float, k0: int) -> np.ndarray:
+    """2/N Σ x_k e^{−jω'kT} over samples k0.. (absolute k, the excitation's time origin)."""
+    k = k0 + np.arange(x.shape[1])
     return 2.0 * np.mean(x * np.exp(-2j * np.pi * f_alias[:, None] * dt * k), axis=1)
 
 
@@ -184,7 +190,7 @@ def identify_above_nyquist(
     fs = 1.0 / dt
     if f.max() >= 0.5 * fs * S:
         raise ServokitValueError(
-            f"frequencies must stay below half the excitation rate {0.5 * fs * S:g} Hz; "
+            f"freq_hz must stay below half the excitation rate {0.5 * fs * S:g} Hz; "
             "raise substeps"
         )
     alias = aliased_frequency(f, dt)
@@ -213,9 +219,9 @@ def identify_above_nyquist(
     for lo in range(0, keep.size, chunk):
         idx = keep[lo : lo + chunk]
         v = _measure_sd(lp, controller, dt, f[idx], S, n_total)
-        sd[lo : lo + idx.size] = _project(v[:, n_settle:], alias[idx], dt)
+        sd[lo : lo + idx.size] = _project(v[:, n_settle:], alias[idx], dt, n_settle)
         yd = _measure_output(plant, lp, controller, dt, f[idx], S, n_total)
-        y[lo : lo + idx.size] = _project(yd[:, n_settle:], alias[idx], dt)
+        y[lo : lo + idx.size] = _project(yd[:, n_settle:], alias[idx], dt, n_settle)
         if progress is not None:
             progress(idx.size)
     fk = f[keep]
@@ -229,3 +235,36 @@ def identify_above_nyquist(
         excluded_hz=f[bad],
         dt=dt,
     )
+
+
+def identification_plot(
+    result: Identification,
+    true_response: np.ndarray,
+    *,
+    path: str,
+    title: str,
+) -> str:
+    """Recovered vs true magnitude [dB] and phase [deg]; multiples of 1/T marked."""
+    import matplotlib.pyplot as plt
+
+    from servokit._figures import save_figure
+
+    f = result.freq_hz / 1e3
+    fig, (ax_m, ax_p) = plt.subplots(2, 1, sharex=True, figsize=(7.5, 6))
+    true = np.asarray(true_response, dtype=complex)
+    ax_m.plot(f, 20 * np.log10(np.abs(true)), "k-", lw=1.0, label="true plant")
+    ax_m.plot(f, 20 * np.log10(np.abs(result.response)), "r.", ms=2.5, label="identified (5.10)")
+    ax_p.plot(f, np.degrees(np.angle(true)), "k-", lw=1.0, label="true plant")
+    ax_p.plot(f, np.degrees(np.angle(result.response)), "r.", ms=2.5, label="identified")
+    fs = 1.0 / result.dt
+    for ax in (ax_m, ax_p):
+        for k in range(1, int(f.max() * 1e3 // (0.5 * fs)) + 1):
+            ax.axvline(0.5 * fs * k / 1e3, color="gray", lw=0.6, ls=":" if k % 2 else "--")
+        ax.grid(True, alpha=0.3)
+    ax_m.set_ylabel("Magnitude [dB]")
+    ax_p.set_ylabel("Phase [deg]")
+    ax_p.set_xlabel("Frequency [kHz]  (dotted: Nyquist multiples, dashed: sampling multiples)")
+    ax_m.legend(loc="best", fontsize=8)
+    ax_m.set_title(title)
+    save_figure(fig, path)
+    return path
