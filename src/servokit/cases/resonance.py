@@ -322,13 +322,7 @@ def peak_filter_case(outdir: Path) -> CaseResult:
                     else "same K as the phase-shift design",
                 )
             )
-        extra[method] = {
-            "phi_rad": phi,
-            "filter_k_crit": loc.filter_k_crit,
-            "plant_k_crit": loc.plant_k_crit,
-            "filter_departure_deg": loc.filter_departure_deg,
-            "plant_departure_deg": loc.plant_departure_deg,
-        }
+        extra[method] = {"phi_rad": phi, **loc.to_dict()}
         slug = method.replace("-", "_")
         figures.append(
             _locus_figure(
@@ -385,12 +379,7 @@ def ltv_locus_case(outdir: Path) -> CaseResult:
         flt, _ = design_peak_filter(ex.sh, F_MODE, zeta, k, method)
         loc = peak_filter_locus(ex.sh, flt, F_MODE)
         rows += _locus_rows(name, loc, book, fig)
-        extra[method] = {
-            "filter_k_crit": loc.filter_k_crit,
-            "plant_k_crit": loc.plant_k_crit,
-            "filter_departure_deg": loc.filter_departure_deg,
-            "plant_departure_deg": loc.plant_departure_deg,
-        }
+        extra[method] = loc.to_dict()
         figures.append(
             _locus_figure(
                 ex, flt, f"Root loci of Sh F, {name} ({fig})", outdir / f"ltv_locus_{method}.png"
