@@ -7,8 +7,9 @@ f0 = 50 Hz, f1 = 7913 Hz, residue a = −3e-5 (assumed: a mode peaking about 28 
 the 50 Hz mode's roll-off, out of phase with it); a lead C (zero fc/3, pole 3 fc,
 crossover fc = 1 kHz) discretised by prewarped Tustin; the plant exactly (ZOH) at 30 kHz.
 The filter zero is placed by (5.18) on the discrete Sh at 7913 Hz; (Kf, ζ) = (2, 0.1) →
-(0.5, 0.01) as printed, γ = 3000 1/s from §5.3.3.3 (Fig. 5.25's γ is not printed). The transient is measured as the time for the error envelope to fall to
-10 % of its first-period value.
+(0.5, 0.01) as printed, γ = 3000 1/s from §5.3.3.3 (Fig. 5.25's γ is not printed). The
+transient is measured as the time for the error envelope to fall to 10 % of its
+first-period value.
 """
 
 from __future__ import annotations

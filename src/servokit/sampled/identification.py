@@ -192,8 +192,7 @@ def identify_above_nyquist(
     fs = 1.0 / dt
     if f.max() >= 0.5 * fs * S:
         raise ServokitValueError(
-            f"freq_hz must stay below half the excitation rate {0.5 * fs * S:g} Hz; "
-            "raise substeps"
+            f"freq_hz must stay below half the excitation rate {0.5 * fs * S:g} Hz; raise substeps"
         )
     alias = aliased_frequency(f, dt)
     nyq = np.isclose(alias, 0.0, atol=1e-9 * fs) | np.isclose(alias, fs, atol=1e-9 * fs)
