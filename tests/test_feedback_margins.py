@@ -122,3 +122,21 @@ def test_high_order_loops_match_an_independent_fine_grid(which):
     # the crossing values themselves: |L| = 1 and L real negative there
     assert np.abs(resp(np.array(m.gain_crossovers_hz))) == pytest.approx(1.0, rel=1e-8)
     assert np.angle(-resp(np.array(m.phase_crossovers_hz))) == pytest.approx(0.0, abs=1e-8)
+
+
+def test_phase_stabilised_peak_gives_a_second_phase_margin():
+    # rigid body with lead, plus an in-phase resonance whose peak rises above 0 dB
+    w1 = 2 * np.pi * 5000.0
+    plant = control.tf([1.0], [1, 0, 0]) + control.tf([5.0], [1, 2 * 0.01 * w1, w1 * w1])
+    wc = 2 * np.pi * 500.0
+    ctrl = control.tf([1 / (wc / 3), 1], [1 / (3 * wc), 1])
+    loop = plant * ctrl * (1 / abs(complex((plant * ctrl)(1j * wc))))
+    m = stability_margins(loop)
+    assert len(m.gain_crossovers_hz) == 3
+    assert m.pm_freq_hz == pytest.approx(500.0, rel=1e-6)
+    assert m.second_phase_margin_deg == pytest.approx(m.phase_margins_deg[1] % 360.0)
+    assert 0.0 <= m.second_phase_margin_deg < 360.0
+    # each crossover's phase margin is 180 + arg L there
+    for f, pm in zip(m.gain_crossovers_hz, m.phase_margins_deg, strict=True):
+        arg = np.degrees(np.angle(complex(loop(2j * np.pi * f))))
+        assert (pm - 180.0 - arg) % 360.0 == pytest.approx(0.0, abs=1e-6)

@@ -136,6 +136,7 @@ def test_cli_identify_bad_input(args, flag, monkeypatch, capsys):
     assert len(lines) == 1 and flag in lines[0]
 
 
+@pytest.mark.slow
 def test_identification_vcm_case(tmp_path):
     from servokit.cases.identification import identification_vcm_case
 
@@ -151,3 +152,17 @@ def test_identification_pzt_case(tmp_path):
 
     r = identification_pzt_case(tmp_path)
     assert r.name == "identification-pzt" and all(c.ok for c in r.comparisons)
+
+
+def test_chapter5_cases_are_registered():
+    from servokit.cases import registry
+
+    names = set(registry())
+    assert {
+        "resonance-filters",
+        "peak-filter-12khz",
+        "ltv-peak-filter-locus",
+        "ltv-peak-filter-transient",
+        "identification-vcm",
+        "identification-pzt",
+    } <= names
