@@ -1,0 +1,29 @@
+"""Mode-switching control (book chapter 3): initial value compensation (IVC),
+switching-condition design and maximal output admissible sets.
+
+The loop conventions are those of (3.12)-(3.17), see :mod:`servokit.switching.loop`.
+"""
+
+from servokit.switching.ivc import (
+    ivc_jmin,
+    ivc_pole_zero,
+    ivc_transfer,
+    ivc_zeros,
+    jmin_cost,
+    lyapunov_cost,
+    match_poles,
+)
+from servokit.switching.loop import SwitchedLoop, free_response, switched_loop
+
+__all__ = [
+    "SwitchedLoop",
+    "switched_loop",
+    "free_response",
+    "ivc_jmin",
+    "ivc_pole_zero",
+    "ivc_transfer",
+    "ivc_zeros",
+    "jmin_cost",
+    "lyapunov_cost",
+    "match_poles",
+]

@@ -1,0 +1,153 @@
+"""The switched loop of book chapter 3: plant, controller and closed loop on [xp; xc].
+
+Conventions (book (3.12)-(3.17)): a discrete plant ``xp[k+1] = Ap xp + Bp u``,
+``y = Cp xp`` (strictly proper) and a discrete controller driven by ``r - y``,
+``xc[k+1] = Ac xc + Bc (r - y)``, ``u = Cc xc + Dc (r - y)``. The closed loop on
+``x = [xp; xc]`` is
+
+    A = [[Ap - Bp Dc Cp, Bp Cc], [-Bc Cp, Ac]],  B = [Bp Dc; Bc],  C = [Cp, 0],
+
+the control input is ``u = Cu x + Dc r`` with ``Cu = [-Dc Cp, Cc]`` ((3.49), (3.87)).
+Note: (3.69) prints ``[-Dc Cc, Cc]``; the input gain on the plant state is ``-Dc Cp``.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import control
+import numpy as np
+
+from servokit.errors import ServokitTypeError, ServokitValueError
+
+__all__ = ["SwitchedLoop", "switched_loop", "free_response"]
+
+
+@dataclass(frozen=True)
+class SwitchedLoop:
+    """Plant, controller and closed-loop matrices of (3.17), all real ndarrays.
+
+    Attributes
+    ----------
+    Ap, Bp, Cp : ndarray
+        Plant (n states, one input, one output).
+    Ac, Bc, Cc, Dc : ndarray
+        Controller (m states), driven by ``r - y``.
+    dt : float
+        Common sampling period [s].
+    """
+
+    Ap: np.ndarray
+    Bp: np.ndarray
+    Cp: np.ndarray
+    Ac: np.ndarray
+    Bc: np.ndarray
+    Cc: np.ndarray
+    Dc: np.ndarray
+    dt: float
+
+    @property
+    def n(self) -> int:
+        """Number of plant states."""
+        return self.Ap.shape[0]
+
+    @property
+    def m(self) -> int:
+        """Number of controller states."""
+        return self.Ac.shape[0]
+
+    @property
+    def A(self) -> np.ndarray:
+        """Closed-loop state matrix of (3.17)."""
+        top = np.hstack([self.Ap - self.Bp @ self.Dc @ self.Cp, self.Bp @ self.Cc])
+        bottom = np.hstack([-self.Bc @ self.Cp, self.Ac])
+        return np.vstack([top, bottom])
+
+    @property
+    def B(self) -> np.ndarray:
+        """Reference input matrix of (3.17)."""
+        return np.vstack([self.Bp @ self.Dc, self.Bc])
+
+    @property
+    def Bu(self) -> np.ndarray:
+        """Input matrix of the additional input r' added to u (3.39)."""
+        return np.vstack([self.Bp, np.zeros((self.m, 1))])
+
+    @property
+    def C(self) -> np.ndarray:
+        """Output matrix ``[Cp, 0]``."""
+        return np.hstack([self.Cp, np.zeros((1, self.m))])
+
+    @property
+    def Cu(self) -> np.ndarray:
+        """Control-input matrix ``[-Dc Cp, Cc]`` of (3.49)/(3.87)."""
+        return np.hstack([-self.Dc @ self.Cp, self.Cc])
+
+    def stack(self, K: np.ndarray) -> np.ndarray:
+        """``[I; K]``: the closed-loop initial state as a function of xp[0] (3.11)."""
+        return np.vstack([np.eye(self.n), np.asarray(K, dtype=float).reshape(self.m, self.n)])
+
+    def poles(self) -> np.ndarray:
+        """Closed-loop poles (eigenvalues of A)."""
+        return np.linalg.eigvals(self.A)
+
+
+def _as_discrete_ss(name: str, sys: object) -> control.StateSpace:
+    if isinstance(sys, control.TransferFunction):
+        sys = control.ss(sys)
+    if not isinstance(sys, control.StateSpace):
+        raise ServokitTypeError(
+            f"{name} must be a python-control StateSpace or TransferFunction "
+            f"(got {type(sys).__name__})"
+        )
+    if sys.dt is None or sys.dt is True or not sys.dt:
+        raise ServokitValueError(f"{name} must be discrete with a numeric dt; discretise it first")
+    if sys.ninputs != 1 or sys.noutputs != 1:
+        raise ServokitValueError(f"{name} must be single-input single-output")
+    return sys
+
+
+def switched_loop(plant_d: object, controller_d: object) -> SwitchedLoop:
+    """Build the closed loop of (3.15)-(3.17) from a discrete plant and controller.
+
+    Parameters
+    ----------
+    plant_d : control.StateSpace or control.TransferFunction
+        Discrete, strictly proper SISO plant. Its state coordinates are the xp the IVC
+        gain acts on, so pass a state space when the states have a physical meaning.
+    controller_d : control.StateSpace or control.TransferFunction
+        Discrete SISO controller with the same ``dt``, driven by ``r - y``.
+
+    Returns
+    -------
+    SwitchedLoop
+    """
+    p = _as_discrete_ss("plant", plant_d)
+    c = _as_discrete_ss("controller", controller_d)
+    if abs(float(p.dt) - float(c.dt)) > 1e-9 * float(p.dt):
+        raise ServokitValueError(
+            f"plant dt = {p.dt:g} s and controller dt = {c.dt:g} s differ; use one sampling period"
+        )
+    if np.any(np.asarray(p.D) != 0):
+        raise ServokitValueError("plant must be strictly proper (D = 0) for the loop of (3.17)")
+    if c.nstates == 0:
+        raise ServokitValueError("controller has no states; IVC needs a dynamic controller")
+    mats = [np.asarray(M, dtype=float) for M in (p.A, p.B, p.C, c.A, c.B, c.C, c.D)]
+    loop = SwitchedLoop(*mats, dt=float(p.dt))
+    if not np.all(np.isfinite(loop.A)):
+        raise ServokitValueError("plant or controller holds NaN/inf coefficients")
+    return loop
+
+
+def free_response(A: np.ndarray, C: np.ndarray, x0: np.ndarray, n_samples: int) -> np.ndarray:
+    """Output ``C A^k x0`` for k = 0..n_samples-1 (columns of x0 give columns of the result).
+
+    Brute-force iteration, used as the independent reference for the closed forms.
+    """
+    x = np.asarray(x0, dtype=float)
+    x = x.reshape(-1, 1) if x.ndim == 1 else x
+    out = np.empty((n_samples, C.shape[0], x.shape[1]))
+    for k in range(n_samples):
+        out[k] = C @ x
+        x = A @ x
+    return out[:, 0, :] if C.shape[0] == 1 else out
