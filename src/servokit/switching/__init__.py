@@ -4,6 +4,7 @@ switching-condition design and maximal output admissible sets.
 The loop conventions are those of (3.12)-(3.17), see :mod:`servokit.switching.loop`.
 """
 
+from servokit.switching.admissible import AdmissibleSet, max_output_admissible_set
 from servokit.switching.ivc import (
     ivc_jmin,
     ivc_pole_zero,
@@ -16,6 +17,8 @@ from servokit.switching.ivc import (
 from servokit.switching.loop import SwitchedLoop, free_response, switched_loop
 
 __all__ = [
+    "AdmissibleSet",
+    "max_output_admissible_set",
     "SwitchedLoop",
     "switched_loop",
     "free_response",
