@@ -71,7 +71,11 @@ def test_bad_input():
         max_output_admissible_set([[0.5]], [[1.0]], 0.1, 1.0)
     with pytest.raises(ServokitValueError, match="Schur"):
         max_output_admissible_set([[1.5]], [[1.0]], -1, 1)
-    # unobservable direction: never finitely determined (unbounded)
-    A = np.diag([0.5, 0.9])
-    with pytest.raises(ServokitValueError, match="observable"):
-        max_output_admissible_set(A, [[1.0, 0.0]], -1, 1, t_max=20)
+    # an unobservable direction is left free (the set is a cylinder)
+    S = max_output_admissible_set(np.diag([0.5, 0.9]), [[1.0, 0.0]], -1, 1)
+    assert S.ray_limit(np.array([0.0, 1.0])) == np.inf
+    # a slow, lightly damped rotation needs many steps: refused within t_max = 3
+    c, s_ = np.cos(0.05), np.sin(0.05)
+    A = 0.999 * np.array([[c, -s_], [s_, c]])
+    with pytest.raises(ServokitValueError, match="t_max"):
+        max_output_admissible_set(A, [[1.0, 0.0]], -1, 1, t_max=3)
