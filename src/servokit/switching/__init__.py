@@ -4,7 +4,13 @@ switching-condition design and maximal output admissible sets.
 The loop conventions are those of (3.12)-(3.17), see :mod:`servokit.switching.loop`.
 """
 
+from servokit.switching.additional import (
+    AdditionalInputIvc,
+    additional_input_response,
+    ivc_additional_input,
+)
 from servokit.switching.admissible import AdmissibleSet, max_output_admissible_set
+from servokit.switching.design import fit_delay_ratio, pade_double_integrator, place_controller
 from servokit.switching.ivc import (
     ivc_jmin,
     ivc_pole_zero,
@@ -17,6 +23,12 @@ from servokit.switching.ivc import (
 from servokit.switching.loop import SwitchedLoop, free_response, switched_loop
 
 __all__ = [
+    "AdditionalInputIvc",
+    "additional_input_response",
+    "ivc_additional_input",
+    "fit_delay_ratio",
+    "pade_double_integrator",
+    "place_controller",
     "AdmissibleSet",
     "max_output_admissible_set",
     "SwitchedLoop",

@@ -1,0 +1,104 @@
+"""Loops of the structure the book uses in §3.3 (its loops are not printed in full).
+
+The book's HDD simulations (§3.3.1 Fig. 3.7, §3.3.2) use a second-order mechanical model
+with the delay as a first-order Padé factor, under a zero-order hold, and a second-order
+lead-lag controller; only the closed-loop poles and some zeros are printed. This module
+builds that structure with the unknowns explicit:
+
+- :func:`pade_double_integrator`: ``g / s^2 * (1 - s Td/2) / (1 + s Td/2)`` discretised
+  exactly (ZOH), with the physical states ``[position, velocity, Padé state]``. Its two
+  discrete zeros depend only on ``Td / dt``; :func:`fit_delay_ratio` recovers that ratio
+  from printed plant zeros.
+- :func:`place_controller`: the controller ``Nc / Dc`` of order m whose closed loop has the
+  given poles, from the Diophantine equation ``Dp Dc + Np Nc = prod (z - p_i)`` (linear in
+  the controller coefficients: n + m equations, 2m + 1 unknowns, square for m = n - 1).
+"""
+
+from __future__ import annotations
+
+from collections.abc import Sequence
+
+import control
+import numpy as np
+from scipy.optimize import minimize_scalar
+
+from servokit.errors import ServokitValueError, check_positive
+
+__all__ = ["pade_double_integrator", "fit_delay_ratio", "place_controller"]
+
+
+def pade_double_integrator(dt: float, delay: float, gain: float = 1.0) -> control.StateSpace:
+    """ZOH discretisation of ``gain / s^2`` behind a first-order Padé delay.
+
+    States ``[position, velocity, w]`` where ``w`` is the Padé state
+    (``Td/2 w' = u - w``, delayed input ``2 w - u``): ``w = 0`` means no stored input.
+
+    Parameters
+    ----------
+    dt : float
+        Sampling period [s].
+    delay : float
+        Delay Td approximated by Padé [s] (> 0).
+    gain : float
+        Acceleration per unit input (e.g. [m/s^2/A]).
+    """
+    dt = check_positive("dt", dt, "s")
+    td = check_positive("delay", delay, "s")
+    a = np.array([[0.0, 1.0, 0.0], [0.0, 0.0, 2.0 * gain], [0.0, 0.0, -2.0 / td]])
+    b = np.array([[0.0], [-gain], [2.0 / td]])
+    c = np.array([[1.0, 0.0, 0.0]])
+    return control.c2d(control.ss(a, b, c, 0), dt, "zoh")
+
+
+def fit_delay_ratio(zeros: Sequence[float]) -> float:
+    """``Td / dt`` whose discrete Padé double integrator has the printed ``zeros``.
+
+    Fits in the bilinear coordinate ``(z - 1) / (z + 1)`` so a large zero (e.g. -56.79)
+    and a small one weigh alike.
+    """
+    target = np.sort(np.asarray(zeros, dtype=float))
+    if target.size != 2:
+        raise ServokitValueError("zeros must hold the plant's two discrete zeros")
+
+    def miss(ratio: float) -> float:
+        z = np.sort(np.real(control.zeros(pade_double_integrator(1.0, ratio))))
+        return float(np.sum(((z - 1) / (z + 1) - (target - 1) / (target + 1)) ** 2))
+
+    res = minimize_scalar(miss, bounds=(0.05, 0.99), method="bounded", options={"xatol": 1e-12})
+    return float(res.x)
+
+
+def place_controller(
+    plant_d: control.StateSpace, poles: Sequence[complex], order: int = 2
+) -> control.TransferFunction:
+    """Controller ``Nc/Dc`` of ``order`` placing the closed-loop poles (Diophantine equation).
+
+    The loop is ``u = C (r - y)``, so the characteristic polynomial is
+    ``Dp Dc + Np Nc`` (monic). Needs ``len(poles) == n + order`` and a unique solution
+    (``order = n - 1`` for coprime Np, Dp).
+    """
+    tf = control.ss2tf(plant_d)
+    dp = np.asarray(tf.den[0][0], dtype=float)
+    npoly = np.asarray(tf.num[0][0], dtype=float)
+    dp, npoly = npoly.dtype.type(1) * dp / dp[0], npoly / dp[0]
+    n = len(dp) - 1
+    poles = np.asarray(poles, dtype=complex)
+    if poles.size != n + order:
+        raise ServokitValueError(
+            f"give {n + order} closed-loop poles (n + order), got {poles.size}"
+        )
+    target = np.real(np.poly(poles))
+    npoly = np.concatenate([np.zeros(n + 1 - len(npoly)), npoly])
+    # unknowns: Dc = z^order + c1 z^(order-1) + ... ; Nc = b0 z^order + ... + b_order
+    cols = []
+    for j in range(1, order + 1):
+        cols.append(np.convolve(dp, np.eye(order + 1)[j]))
+    for j in range(order + 1):
+        cols.append(np.convolve(npoly, np.eye(order + 1)[j]))
+    M = np.array(cols).T[1:]
+    rhs = (target - np.convolve(dp, np.eye(order + 1)[0]))[1:]
+    if M.shape[0] != M.shape[1] or np.linalg.matrix_rank(M) < M.shape[1]:
+        raise ServokitValueError("the poles do not fix the controller uniquely; use order = n - 1")
+    sol = np.linalg.solve(M, rhs)
+    den = np.concatenate([[1.0], sol[:order]])
+    return control.tf(sol[order:], den, plant_d.dt)
