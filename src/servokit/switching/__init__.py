@@ -20,7 +20,7 @@ from servokit.switching.ivc import (
     lyapunov_cost,
     match_poles,
 )
-from servokit.switching.loop import SwitchedLoop, free_response, switched_loop
+from servokit.switching.loop import SwitchedLoop, free_response, siso_zeros, switched_loop
 
 __all__ = [
     "AdditionalInputIvc",
@@ -34,6 +34,7 @@ __all__ = [
     "SwitchedLoop",
     "switched_loop",
     "free_response",
+    "siso_zeros",
     "ivc_jmin",
     "ivc_pole_zero",
     "ivc_transfer",

@@ -39,7 +39,7 @@ import scipy.linalg
 import scipy.signal
 
 from servokit.errors import ServokitValueError, check_count, check_finite
-from servokit.switching.loop import SwitchedLoop, free_response
+from servokit.switching.loop import SwitchedLoop, free_response, left_eig, siso_zeros
 
 __all__ = ["AdditionalInputIvc", "ivc_additional_input", "additional_input_response"]
 
@@ -68,17 +68,16 @@ class AdditionalInputIvc:
 
 
 def _eig(loop: SwitchedLoop) -> tuple[np.ndarray, np.ndarray]:
-    lam, wl = scipy.linalg.eig(loop.A, left=True, right=False)
+    lam, w = left_eig(loop.A)
     if np.min(np.abs(np.subtract.outer(lam, lam)) + np.eye(len(lam))) < 1e-9:
         raise ServokitValueError("the closed loop has repeated poles; (3.46) needs simple roots")
-    return lam, wl.conj()
+    return lam, w
 
 
 def _denominator(loop: SwitchedLoop, pole: float, cancel_input_zeros: bool, g: int) -> np.ndarray:
     den = np.array([1.0, -pole])
     if cancel_input_zeros:
-        nru = control.ss(loop.A, loop.Bu, loop.C, 0, loop.dt)
-        z = np.asarray(control.zeros(nru))
+        z = siso_zeros(loop.A, loop.Bu, loop.C)
         stable = z[np.abs(z) < 1.0]
         den = np.real(np.polymul(den, np.poly(stable))) if stable.size else den
     if len(den) - 1 < g:  # r' = n_k/d must be proper: extra poles at z = 0 (deadbeat)

@@ -24,7 +24,7 @@ from scipy.optimize import minimize_scalar
 
 from servokit.errors import ServokitValueError, check_positive
 
-__all__ = ["pade_double_integrator", "fit_delay_ratio", "place_controller"]
+__all__ = ["pade_double_integrator", "fit_delay_ratio", "place_controller", "lead_lag"]
 
 
 def pade_double_integrator(dt: float, delay: float, gain: float = 1.0) -> control.StateSpace:
@@ -102,3 +102,25 @@ def place_controller(
     sol = np.linalg.solve(M, rhs)
     den = np.concatenate([[1.0], sol[:order]])
     return control.tf(sol[order:], den, plant_d.dt)
+
+
+def lead_lag(plant_d: control.StateSpace, crossover_hz: float) -> control.TransferFunction:
+    """A second-order lead-lag controller with its gain crossover at ``crossover_hz``.
+
+    Lead: zero at fc/3, pole at 3 fc (about 53 deg of lead at fc); lag: zero at fc/5,
+    pole at fc/50 (integral-like gain at low frequency). Discretised by Tustin at the
+    plant's dt; the gain puts ``|P C| = 1`` at fc with the exact discrete ``P``.
+    """
+    fc = check_positive("crossover_hz", crossover_hz, "Hz")
+    dt = float(plant_d.dt)
+    if fc >= 0.5 / dt / 3:
+        raise ServokitValueError(
+            f"crossover_hz must be below a third of Nyquist ({0.5 / dt / 3:g} Hz)"
+        )
+    w = 2 * np.pi * fc
+    s = control.tf("s")
+    shape = (s / (w / 3) + 1) / (s / (3 * w) + 1) * (s / (w / 5) + 1) / (s / (w / 50) + 1)
+    c = control.c2d(shape, dt, "tustin")
+    z = np.exp(1j * w * dt)
+    mag = abs(complex(control.evalfr(control.ss2tf(plant_d), z) * control.evalfr(c, z)))
+    return c / mag

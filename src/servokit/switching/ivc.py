@@ -36,7 +36,7 @@ import numpy as np
 import scipy.linalg
 
 from servokit.errors import ServokitValueError, check_finite
-from servokit.switching.loop import SwitchedLoop, switched_loop
+from servokit.switching.loop import SwitchedLoop, left_eig, siso_zeros, switched_loop
 
 __all__ = [
     "ivc_jmin",
@@ -168,12 +168,12 @@ def ivc_pole_zero(
     ndarray, shape (m, n)
     """
     loop = _loop(plant_d, controller_d)
-    eig, wl = scipy.linalg.eig(loop.A, left=True, right=False)
+    eig, wl = left_eig(loop.A)
     idx = match_poles(poles, eig)
     n, m = loop.n, loop.m
     rows_c, rows_p = [], []
     for i in idx:
-        w = wl[:, i].conj()  # w^T A = lam w^T (left eigenvector, conjugated)
+        w = wl[:, i]  # w^T A = lam w^T
         parts = (np.real, np.imag) if abs(eig[i].imag) > 1e-12 * max(1, abs(eig[i])) else (np.real,)
         for part in parts:
             rows_c.append(part(w[n:]))
@@ -205,4 +205,5 @@ def ivc_transfer(loop: SwitchedLoop, K: np.ndarray | None, state: int) -> contro
 def ivc_zeros(loop: SwitchedLoop, K: np.ndarray | None, state: int) -> np.ndarray:
     """Zeros of :func:`ivc_transfer` (the book lists them without the zero at z = 0 that
     the factor z of (3.26) adds)."""
-    return np.asarray(control.zeros(ivc_transfer(loop, K, state)))
+    x0 = loop.stack(np.zeros((loop.m, loop.n)) if K is None else K)[:, state]
+    return siso_zeros(loop.A, x0, loop.C)

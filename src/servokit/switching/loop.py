@@ -17,10 +17,11 @@ from dataclasses import dataclass
 
 import control
 import numpy as np
+import scipy.linalg
 
 from servokit.errors import ServokitTypeError, ServokitValueError
 
-__all__ = ["SwitchedLoop", "switched_loop", "free_response"]
+__all__ = ["SwitchedLoop", "switched_loop", "free_response", "siso_zeros", "left_eig"]
 
 
 @dataclass(frozen=True)
@@ -151,3 +152,35 @@ def free_response(A: np.ndarray, C: np.ndarray, x0: np.ndarray, n_samples: int) 
         out[k] = C @ x
         x = A @ x
     return out[:, 0, :] if C.shape[0] == 1 else out
+
+
+def siso_zeros(A: np.ndarray, b: np.ndarray, c: np.ndarray) -> np.ndarray:
+    """Finite zeros of ``c (zI - A)^{-1} b``: generalised eigenvalues of the Rosenbrock pencil.
+
+    The state is balanced first (zeros are invariant under diagonal state scaling), which
+    keeps the zeros accurate when the states have very different scales (position vs
+    velocity in SI), where an unbalanced pencil or the numerator polynomial loses digits.
+    """
+    _, (scale, _) = scipy.linalg.matrix_balance(A, permute=False, separate=True)
+    Ab = A * (scale[None, :] / scale[:, None])
+    bb = np.ravel(b) / scale
+    cb = np.ravel(c) * scale
+    bb, cb = bb / max(np.linalg.norm(bb), 1e-300), cb / max(np.linalg.norm(cb), 1e-300)
+    N = A.shape[0]
+    M = np.block([[Ab, bb[:, None]], [cb[None, :], np.zeros((1, 1))]])
+    E = np.zeros((N + 1, N + 1))
+    E[:N, :N] = np.eye(N)
+    z = scipy.linalg.eigvals(M, E)
+    return z[np.isfinite(z) & (np.abs(z) < 1e12)]
+
+
+def left_eig(A: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Eigenvalues and left eigenvectors (columns w with ``w^T A = lam w^T``) of A.
+
+    Computed on the balanced matrix ``D^{-1} A D`` and mapped back (``w = D^{-1} w_b``), so
+    states of very different scales (position, velocity in SI) keep their accuracy.
+    """
+    _, (scale, _) = scipy.linalg.matrix_balance(A, permute=False, separate=True)
+    Ab = A * (scale[None, :] / scale[:, None])
+    lam, wl = scipy.linalg.eig(Ab, left=True, right=False)
+    return lam, wl.conj() / scale[:, None]

@@ -1,0 +1,53 @@
+"""The chapter-3 cases: book numbers from the fitted loops."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from servokit.cases.switching_ivc import (
+    POLES_331,
+    POLES_332,
+    _expand,
+    _zeros_331,
+    book_loop,
+    jmin_loop,
+    switching_ivc_case,
+)
+from servokit.switching import additional_input_response, ivc_additional_input, ivc_jmin
+
+
+def test_fitted_loops_reproduce_printed_poles():
+    for poles in (POLES_331, POLES_332):
+        got = np.sort_complex(book_loop(poles).poles())
+        np.testing.assert_allclose(got, np.sort_complex(np.array(_expand(poles))), atol=1e-3)
+
+
+def test_pole_zero_ivc_zeros_331_within_001():
+    np.testing.assert_allclose(_zeros_331(book_loop(POLES_331)), [-0.390, 0.169, -0.291], atol=0.01)
+
+
+def test_additional_input_zero_332():
+    loop = book_loop(POLES_332)
+    y, _, _ = additional_input_response(loop, ivc_additional_input(loop, 0.6), [1.0, 0, 0], 3)
+    assert -(y[1] - 0.6 * y[0]) / y[0] == pytest.approx(-0.393, abs=5e-4)
+
+
+def test_jmin_case2_has_no_overshoot_case1_has():
+    from servokit.switching import free_response
+
+    loop = jmin_loop()
+    xp = np.array([5e-6, -5e-3])
+    under = {}
+    for qv in (0.0, 1e-6):
+        K = ivc_jmin(loop, None, np.diag([1.0, qv, 0.0, 0.0]))
+        under[qv] = -np.min(free_response(loop.A, loop.C, loop.stack(K) @ xp, 400))
+    assert under[0.0] > 1e-7 and under[1e-6] <= 1e-12
+
+
+@pytest.mark.slow
+def test_case_runs(tmp_path):
+    res = switching_ivc_case(tmp_path)
+    assert all(p.exists() for p in res.figures)
+    misses = [c.quantity for c in res.comparisons if not c.ok]
+    assert misses == ["controller pole = zero of r' -> y"]
