@@ -79,3 +79,12 @@ def test_bad_input():
     A = 0.999 * np.array([[c, -s_], [s_, c]])
     with pytest.raises(ServokitValueError, match="t_max"):
         max_output_admissible_set(A, [[1.0, 0.0]], -1, 1, t_max=3)
+
+
+def test_gauge_is_homogeneous_in_the_bound():
+    loop = random_loop(4, 2, 1)
+    S1 = max_output_admissible_set(loop.A, loop.Cu, -1.0, 1.0)
+    S3 = max_output_admissible_set(loop.A, loop.Cu, -3.0, 3.0)
+    x = np.random.default_rng(1).standard_normal((3, 5))
+    np.testing.assert_allclose(S1.gauge(x), 3.0 * S3.gauge(x), rtol=1e-9)
+    np.testing.assert_array_equal(S1.contains(x), S1.gauge(x) <= 1 + 1e-9)

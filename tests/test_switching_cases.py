@@ -51,3 +51,25 @@ def test_case_runs(tmp_path):
     assert all(p.exists() for p in res.figures)
     misses = [c.quantity for c in res.comparisons if not c.ok]
     assert misses == ["controller pole = zero of r' -> y"]
+
+
+@pytest.mark.slow
+def test_admissible_case_classification_and_brute_force(tmp_path):
+    from servokit.cases.switching_admissible import (
+        TABLE_3_1,
+        U_MAX,
+        _slice,
+        admissible_loop,
+        switching_admissible_case,
+    )
+    from servokit.switching import free_response
+
+    res = switching_admissible_case(tmp_path)
+    assert all(c.ok for c in res.comparisons)
+    gain = res.extra["gain_factor"]
+    loop = admissible_loop()
+    K = ivc_jmin(loop, None, output_weight=loop.Cu)
+    for p, v in TABLE_3_1:  # brute force: IVC keeps |u| within the fitted bound
+        x0 = loop.stack(K) @ (_slice(loop) @ np.array([p, v]))
+        u = free_response(loop.A, loop.Cu, x0, 4000)
+        assert np.max(np.abs(u)) <= U_MAX * gain * (1 + 1e-6)

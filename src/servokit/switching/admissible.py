@@ -94,6 +94,16 @@ class AdmissibleSet:
         inside = np.all(self.H @ X <= self.h[:, None] + tol * (1 + np.abs(self.h[:, None])), 0)
         return bool(inside[0]) if one else inside
 
+    def gauge(self, x: np.ndarray) -> np.ndarray:
+        """``max_i H_i x / h_i`` per column of ``x``: x lies in ``s * set`` iff gauge <= s.
+
+        For a set built with symmetric bounds ``+-b`` this is the bound a state needs
+        (in units of b): the set is homogeneous in the bound.
+        """
+        X = np.asarray(x, dtype=float)
+        X = X.reshape(-1, 1) if X.ndim == 1 else X
+        return np.max(self.H @ X / self.h[:, None], axis=0)
+
     def ray_limit(self, d: np.ndarray) -> float:
         """Largest s with ``s d`` in the set (inf if the ray never leaves it)."""
         Hd = self.H @ np.asarray(d, dtype=float)

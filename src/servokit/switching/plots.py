@@ -18,16 +18,20 @@ def transient_plot(
     panels: Sequence[tuple[str, Mapping[str, np.ndarray]]],
     *,
     xlabel: str,
-    ylabel: str,
+    ylabel: str | Sequence[str],
     title: str,
     path: str | Path,
     band: float | None = None,
 ) -> Path:
-    """One subplot per panel ``(panel title, {curve label: samples})`` sharing ``t``."""
+    """One subplot per panel ``(panel title, {curve label: samples})`` sharing ``t``.
+
+    ``ylabel`` is one label for all panels or one per panel.
+    """
     import matplotlib.pyplot as plt
 
     fig, axes = plt.subplots(1, len(panels), figsize=(4.2 * len(panels), 3.6), squeeze=False)
-    for ax, (name, curves) in zip(axes[0], panels, strict=True):
+    ylabels = [ylabel] * len(panels) if isinstance(ylabel, str) else list(ylabel)
+    for ax, (name, curves), yl in zip(axes[0], panels, ylabels, strict=True):
         for label, y in curves.items():
             ax.plot(t, y, ".-" if len(t) < 80 else "-", ms=3, label=label)
         if band is not None:
@@ -35,7 +39,7 @@ def transient_plot(
                 ax.axhline(b, color="grey", ls=":", lw=0.8)
         ax.set_title(name, fontsize=9)
         ax.set_xlabel(xlabel)
-        ax.set_ylabel(ylabel)
+        ax.set_ylabel(yl)
         ax.grid(alpha=0.3)
         ax.legend(fontsize=7)
     fig.suptitle(title, fontsize=10)
@@ -50,8 +54,12 @@ def admissible_plot(
     ylabel: str,
     title: str,
     path: str | Path,
+    limits: tuple[tuple[float, float], tuple[float, float]] | None = None,
 ) -> Path:
-    """Outlines of 2-D admissible sets with labelled points (switching conditions)."""
+    """Outlines of 2-D admissible sets with labelled points (switching conditions).
+
+    ``limits`` = ((xmin, xmax), (ymin, ymax)) zooms in (e.g. on the conditions).
+    """
     import matplotlib.pyplot as plt
 
     fig, ax = plt.subplots(figsize=(6.0, 4.6))
@@ -61,6 +69,9 @@ def admissible_plot(
         ax.plot(v[:, 0], v[:, 1], ls, color="k" if ls == "-" else "C0", label=label)
     for label, p in (points or {}).items():
         ax.plot(p[0], p[1], "o", ms=6, label=label)
+    if limits is not None:
+        ax.set_xlim(*limits[0])
+        ax.set_ylim(*limits[1])
     ax.set_xlabel(xlabel)
     ax.set_ylabel(ylabel)
     ax.set_title(title, fontsize=10)
