@@ -73,3 +73,13 @@ def test_admissible_case_classification_and_brute_force(tmp_path):
         x0 = loop.stack(K) @ (_slice(loop) @ np.array([p, v]))
         u = free_response(loop.A, loop.Cu, x0, 4000)
         assert np.max(np.abs(u)) <= U_MAX * gain * (1 + 1e-6)
+
+
+def test_h2_case_fits_phase_margin_and_reports_ranking(tmp_path):
+    from servokit.cases.switching_h2 import switching_h2_case
+
+    res = switching_h2_case(tmp_path)
+    pm = [c for c in res.comparisons if c.quantity == "phase margin"][0]
+    assert pm.ok
+    ju = res.extra["ju_conditions"]
+    assert ju["B"] > ju["A"]  # faster switching costs more input energy

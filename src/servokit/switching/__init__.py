@@ -10,6 +10,12 @@ from servokit.switching.additional import (
     ivc_additional_input,
 )
 from servokit.switching.admissible import AdmissibleSet, max_output_admissible_set
+from servokit.switching.conditions import (
+    SwitchingCostMap,
+    optimal_condition,
+    switching_cost_map,
+    switching_cost_matrix,
+)
 from servokit.switching.design import fit_delay_ratio, pade_double_integrator, place_controller
 from servokit.switching.ivc import (
     ivc_jmin,
@@ -23,6 +29,10 @@ from servokit.switching.ivc import (
 from servokit.switching.loop import SwitchedLoop, free_response, siso_zeros, switched_loop
 
 __all__ = [
+    "SwitchingCostMap",
+    "optimal_condition",
+    "switching_cost_map",
+    "switching_cost_matrix",
     "AdditionalInputIvc",
     "additional_input_response",
     "ivc_additional_input",

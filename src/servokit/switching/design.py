@@ -104,12 +104,15 @@ def place_controller(
     return control.tf(sol[order:], den, plant_d.dt)
 
 
-def lead_lag(plant_d: control.StateSpace, crossover_hz: float) -> control.TransferFunction:
+def lead_lag(
+    plant_d: control.StateSpace, crossover_hz: float, lead_ratio: float = 3.0
+) -> control.TransferFunction:
     """A second-order lead-lag controller with its gain crossover at ``crossover_hz``.
 
-    Lead: zero at fc/3, pole at 3 fc (about 53 deg of lead at fc); lag: zero at fc/5,
-    pole at fc/50 (integral-like gain at low frequency). Discretised by Tustin at the
-    plant's dt; the gain puts ``|P C| = 1`` at fc with the exact discrete ``P``.
+    Lead: zero at fc/r, pole at r fc with r = ``lead_ratio`` (53 deg of lead at fc for
+    r = 3); lag: zero at fc/5, pole at fc/50 (integral-like gain at low frequency).
+    Discretised by Tustin at the plant's dt; the gain puts ``|P C| = 1`` at fc with the
+    exact discrete ``P``.
     """
     fc = check_positive("crossover_hz", crossover_hz, "Hz")
     dt = float(plant_d.dt)
@@ -119,7 +122,8 @@ def lead_lag(plant_d: control.StateSpace, crossover_hz: float) -> control.Transf
         )
     w = 2 * np.pi * fc
     s = control.tf("s")
-    shape = (s / (w / 3) + 1) / (s / (3 * w) + 1) * (s / (w / 5) + 1) / (s / (w / 50) + 1)
+    r = check_positive("lead_ratio", lead_ratio)
+    shape = (s / (w / r) + 1) / (s / (r * w) + 1) * (s / (w / 5) + 1) / (s / (w / 50) + 1)
     c = control.c2d(shape, dt, "tustin")
     z = np.exp(1j * w * dt)
     mag = abs(complex(control.evalfr(control.ss2tf(plant_d), z) * control.evalfr(c, z)))
