@@ -27,8 +27,18 @@ from servokit.switching.ivc import (
     match_poles,
 )
 from servokit.switching.loop import SwitchedLoop, free_response, siso_zeros, switched_loop
+from servokit.switching.modeswitch import (
+    SwitchedResponse,
+    equilibrium,
+    mode_switching_response,
+    reference_switching_response,
+)
 
 __all__ = [
+    "SwitchedResponse",
+    "equilibrium",
+    "mode_switching_response",
+    "reference_switching_response",
     "SwitchingCostMap",
     "optimal_condition",
     "switching_cost_map",

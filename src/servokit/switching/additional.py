@@ -31,6 +31,7 @@ instead of the printed normal-equation form. Correction: the printed (3.62) writ
 
 from __future__ import annotations
 
+from collections.abc import Sequence
 from dataclasses import dataclass
 
 import control
@@ -62,6 +63,10 @@ class AdditionalInputIvc:
     den: np.ndarray
     dt: float
 
+    def impulse(self, state: int, n_samples: int) -> np.ndarray:
+        """First ``n_samples`` of the impulse response of ``n_k[z]/d[z]``."""
+        return _impulse_tf(self.num[state], self.den, n_samples)
+
     def tf(self, state: int) -> control.TransferFunction:
         """``n_k[z]/d[z]`` for plant state ``state`` as a python-control transfer function."""
         return control.tf(self.num[state], self.den, self.dt)
@@ -83,6 +88,16 @@ def _denominator(loop: SwitchedLoop, pole: float, cancel_input_zeros: bool, g: i
     if len(den) - 1 < g:  # r' = n_k/d must be proper: extra poles at z = 0 (deadbeat)
         den = np.concatenate([den, np.zeros(g - len(den) + 1)])
     return den
+
+
+def _check_denominator(den: Sequence[float], g: int) -> np.ndarray:
+    d = check_finite("denominator", den).ravel()
+    if d.size < g + 1 or d[0] == 0 or np.any(np.abs(np.roots(d)) >= 1):
+        raise ServokitValueError(
+            f"denominator must have degree >= {g} (n + m - 1 or order) and roots inside the "
+            "unit circle"
+        )
+    return d / d[0]
 
 
 def _conditions(loop: SwitchedLoop, den: np.ndarray, state: int, g: int):
@@ -112,6 +127,7 @@ def ivc_additional_input(
     input_weight: float = 0.0,
     jerk_weight: float = 0.0,
     n_samples: int = 200,
+    denominator: Sequence[float] | None = None,
 ) -> AdditionalInputIvc:
     """Design ``r' = n_k/d xp_k[0]`` for every plant state k ((3.41)-(3.47), (3.48)-(3.64)).
 
@@ -125,6 +141,9 @@ def ivc_additional_input(
         Degree g of ``n_k``; default ``n + m - 1`` (unique). Larger g needs weights.
     cancel_input_zeros : bool
         Put the stable roots of ``Nru`` into d[z] (the book's §3.3.2 choice).
+    denominator : sequence of float, optional
+        d[z] itself (monic, highest power first, degree >= g, roots inside the unit
+        circle), e.g. ``np.poly([0.5] * 12)`` for §3.5; overrides ``pole``.
     input_weight, jerk_weight : float
         q1, q2 of (3.61) for the optimised form (g >= n + m).
     n_samples : int
@@ -140,7 +159,11 @@ def ivc_additional_input(
     )
     if g > loop.n + loop.m - 1 and input_weight <= 0 and jerk_weight <= 0:
         raise ServokitValueError("order above n + m - 1 needs input_weight or jerk_weight > 0")
-    den = _denominator(loop, pole, cancel_input_zeros, g)
+    den = (
+        _denominator(loop, pole, cancel_input_zeros, g)
+        if denominator is None
+        else _check_denominator(denominator, g)
+    )
     rows = []
     for k in range(loop.n):
         Sigma, Gamma = _conditions(loop, den, k, g)
@@ -186,7 +209,7 @@ def additional_input_response(
     Returns ``(y, u, r')`` over ``n_samples`` samples.
     """
     xp0 = np.asarray(xp0, dtype=float)
-    rp = sum(xp0[k] * _impulse_tf(design.num[k], design.den, n_samples) for k in range(loop.n))
+    rp = sum(xp0[k] * design.impulse(k, n_samples) for k in range(loop.n))
     x = np.concatenate([xp0, np.zeros(loop.m)])
     y, u = np.empty(n_samples), np.empty(n_samples)
     for j in range(n_samples):

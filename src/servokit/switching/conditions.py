@@ -22,10 +22,9 @@ from collections.abc import Sequence
 from dataclasses import dataclass
 
 import numpy as np
-import scipy.linalg
 
 from servokit.errors import ServokitValueError, check_finite
-from servokit.switching.loop import SwitchedLoop
+from servokit.switching.loop import SwitchedLoop, weighted_gramian
 
 __all__ = ["switching_cost_matrix", "SwitchingCostMap", "switching_cost_map", "optimal_condition"]
 
@@ -39,7 +38,7 @@ def switching_cost_matrix(loop: SwitchedLoop, K: np.ndarray | None, Cz: np.ndarr
     if np.max(np.abs(np.linalg.eigvals(A))) >= 1:
         raise ServokitValueError("the closed loop is not stable; the H2 norms are infinite")
     Cz = np.atleast_2d(np.asarray(Cz, dtype=float))
-    Lo = scipy.linalg.solve_discrete_lyapunov(A.T, Cz.T @ Cz)
+    Lo = weighted_gramian(A, Cz.T @ Cz)
     E = loop.stack(np.zeros((loop.m, loop.n)) if K is None else K)
     M = E.T @ Lo @ E
     return 0.5 * (M + M.T)

@@ -33,10 +33,15 @@ from collections.abc import Sequence
 
 import control
 import numpy as np
-import scipy.linalg
 
 from servokit.errors import ServokitValueError, check_finite
-from servokit.switching.loop import SwitchedLoop, left_eig, siso_zeros, switched_loop
+from servokit.switching.loop import (
+    SwitchedLoop,
+    left_eig,
+    siso_zeros,
+    switched_loop,
+    weighted_gramian,
+)
 
 __all__ = [
     "ivc_jmin",
@@ -87,8 +92,7 @@ def _weight(loop: SwitchedLoop, Q: object | None, output_weight: object | None) 
 def lyapunov_cost(loop: SwitchedLoop, Qm: np.ndarray) -> np.ndarray:
     """P of (3.19)-(3.20): ``sum_k x[k]^T Q x[k] = x[0]^T P x[0]`` for the free loop."""
     _require_schur(loop.A)
-    P = scipy.linalg.solve_discrete_lyapunov(loop.A.T, Qm)
-    return 0.5 * (P + P.T)
+    return weighted_gramian(loop.A, Qm)
 
 
 def ivc_jmin(

@@ -21,7 +21,14 @@ import scipy.linalg
 
 from servokit.errors import ServokitTypeError, ServokitValueError
 
-__all__ = ["SwitchedLoop", "switched_loop", "free_response", "siso_zeros", "left_eig"]
+__all__ = [
+    "SwitchedLoop",
+    "switched_loop",
+    "free_response",
+    "siso_zeros",
+    "left_eig",
+    "weighted_gramian",
+]
 
 
 @dataclass(frozen=True)
@@ -184,3 +191,17 @@ def left_eig(A: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     Ab = A * (scale[None, :] / scale[:, None])
     lam, wl = scipy.linalg.eig(Ab, left=True, right=False)
     return lam, wl.conj() / scale[:, None]
+
+
+def weighted_gramian(A: np.ndarray, Q: np.ndarray) -> np.ndarray:
+    """``P`` with ``A^T P A - P + Q = 0`` (so ``sum_k x_k^T Q x_k = x_0^T P x_0``).
+
+    Solved on the balanced ``D^{-1} A D`` (``P = D^{-1} P_b D^{-1}``) so that states of
+    very different scales do not make the Lyapunov solve ill-conditioned.
+    """
+    _, (scale, _) = scipy.linalg.matrix_balance(A, permute=False, separate=True)
+    Ab = A * (scale[None, :] / scale[:, None])
+    Qb = Q * np.outer(scale, scale)
+    Pb = scipy.linalg.solve_discrete_lyapunov(Ab.T, Qb)
+    P = Pb / np.outer(scale, scale)
+    return 0.5 * (P + P.T)
