@@ -24,7 +24,7 @@ from scipy.optimize import minimize_scalar
 
 from servokit.errors import ServokitValueError, check_positive
 
-__all__ = ["pade_double_integrator", "fit_delay_ratio", "place_controller", "lead_lag"]
+__all__ = ["pade_double_integrator", "fit_delay_ratio", "place_controller", "lead_lag", "notch"]
 
 
 def pade_double_integrator(dt: float, delay: float, gain: float = 1.0) -> control.StateSpace:
@@ -105,7 +105,7 @@ def place_controller(
 
 
 def lead_lag(
-    plant_d: control.StateSpace, crossover_hz: float, lead_ratio: float = 3.0
+    plant_d: control.StateSpace, crossover_hz: float, lead_ratio: float = 3.0, *, lag: bool = True
 ) -> control.TransferFunction:
     """A second-order lead-lag controller with its gain crossover at ``crossover_hz``.
 
@@ -123,8 +123,20 @@ def lead_lag(
     w = 2 * np.pi * fc
     s = control.tf("s")
     r = check_positive("lead_ratio", lead_ratio)
-    shape = (s / (w / r) + 1) / (s / (r * w) + 1) * (s / (w / 5) + 1) / (s / (w / 50) + 1)
+    shape = (s / (w / r) + 1) / (s / (r * w) + 1)
+    if lag:  # without it: a first-order lead only (a PD with roll-off)
+        shape = shape * (s / (w / 5) + 1) / (s / (w / 50) + 1)
     c = control.c2d(shape, dt, "tustin")
     z = np.exp(1j * w * dt)
     mag = abs(complex(control.evalfr(control.ss2tf(plant_d), z) * control.evalfr(c, z)))
     return c / mag
+
+
+def notch(
+    dt: float, freq_hz: float, zeta_zero: float, zeta_pole: float
+) -> control.TransferFunction:
+    """Discrete notch ``(s^2 + 2 zz w s + w^2)/(s^2 + 2 zp w s + w^2)`` (Tustin, prewarped)."""
+    w = 2 * np.pi * check_positive("freq_hz", freq_hz, "Hz")
+    s = control.tf("s")
+    cont = (s**2 + 2 * zeta_zero * w * s + w**2) / (s**2 + 2 * zeta_pole * w * s + w**2)
+    return control.c2d(cont, check_positive("dt", dt, "s"), "tustin", prewarp_frequency=w)
