@@ -83,3 +83,32 @@ def test_h2_case_fits_phase_margin_and_reports_ranking(tmp_path):
     assert pm.ok
     ju = res.extra["ju_conditions"]
     assert ju["B"] > ju["A"]  # faster switching costs more input energy
+
+
+@pytest.mark.slow
+def test_galvano_case_scatter_removed_with_full_ivc(tmp_path):
+    from servokit.cases.switching_galvano import switching_galvano_case
+
+    res = switching_galvano_case(tmp_path)
+    assert res.extra["closed_loop_roots"] == 13 and res.extra["compensator_order"] == 12
+    assert all(c.ok for c in res.comparisons)
+
+
+def test_ipd_controller_places_rigid_body_poles():
+    import dataclasses
+
+    import control
+
+    from servokit.switching import equilibrium, switched_loop
+    from servokit.switching.design import ipd_controller
+
+    dt, g, bw = 1e-5, 50.0, 100.0
+    rigid = control.c2d(control.ss([[0, 1], [0, 0]], [[0], [g]], [[1, 0]], 0), dt, "zoh")
+    fb, Bcr, Dcr = ipd_controller(dt, g, bw, damping=0.7, derivative_hz=1e5)
+    loop = dataclasses.replace(switched_loop(rigid, fb), Bcr=Bcr, Dcr=Dcr)
+    w = 2 * np.pi * bw
+    want = np.exp(np.roots(np.polymul([1, w], [1, 2 * 0.7 * w, w**2])) * dt)
+    got = loop.poles()
+    for p in want:  # the derivative filter adds one fast pole
+        assert np.min(np.abs(got - p)) < 2e-3
+    assert equilibrium(loop, 1.0)[0] == pytest.approx(1.0)  # integral action on r - y

@@ -43,18 +43,33 @@ def test_mode_switch_equals_free_response_after_switch(loop):
     assert res.y[-1] == pytest.approx(target, rel=1e-3)
 
 
-def test_reference_step_with_ivc_obeys_d_recursion(loop):
-    # from the equilibrium of r = 0 a step to 1: the plant deviation is [-1, 0, 0] and the
-    # controller's equilibrium state is zero for this type-2 loop, so with r' compensating
-    # the plant states the error after the step is q(z)/d(z): it obeys d's recursion
+def test_reference_switch_ivc_replaces_plant_residual_by_d_dynamics(loop):
+    # step up at k = 5, back down at k = 20 before settling; with r' on all plant states
+    # the run after k = 20 is: the ideal step response from the equilibrium of r = 1, plus
+    # the free response of the controller-state residual, plus q(z)/d(z) (d's recursion)
     den = np.poly([0.5] * 4)
     design = ivc_additional_input(loop, 0.5, denominator=den)
-    assert np.allclose(equilibrium(loop, 1.0)[3:], 0.0, atol=1e-9)
-    ref = np.concatenate([np.zeros(5), np.ones(80)])
+    ref = np.concatenate([np.zeros(5), np.ones(15), np.zeros(80)])
+    k0 = 20
     for d, ok in ((design, True), (None, False)):
         res = reference_switching_response(loop, ref, d, states=(0, 1, 2))
-        assert res.switches == (5,)
-        err = res.y[5:] - 1.0
-        residual = scipy.signal.lfilter(den, [1.0], err)[den.size :]
-        small = np.max(np.abs(residual)) < 1e-9 * np.max(np.abs(err))
-        assert small == ok
+        assert res.switches == (5, k0)
+        ideal = reference_switching_response(loop, np.concatenate([[1.0], ref[k0:]]))
+        x = _state(loop, ref, design if d else None, k0)
+        xc_res = np.concatenate([np.zeros(3), x[3:] - equilibrium(loop, 1.0)[3:]])
+        rest = res.y[k0:] - ideal.y[1:] - free_response(loop.A, loop.C, xc_res, ref.size - k0)[:, 0]
+        residual = scipy.signal.lfilter(den, [1.0], rest)[den.size :]
+        assert (np.max(np.abs(residual)) < 1e-9 * np.max(np.abs(rest))) == ok
+
+
+def _state(loop, ref, design, k_stop):
+    """Closed-loop state at k_stop, by an independent replay of the first switch."""
+    x = equilibrium(loop, ref[0])
+    rp = np.zeros(k_stop)
+    for k in range(k_stop):
+        if k > 0 and ref[k] != ref[k - 1] and design is not None:
+            dev = x[:3] - equilibrium(loop, ref[k - 1])[:3]
+            for s in range(3):
+                rp[k:] += dev[s] * design.impulse(s, k_stop - k)
+        x = loop.A @ x + loop.B[:, 0] * ref[k] + loop.Bu[:, 0] * rp[k]
+    return x

@@ -51,8 +51,10 @@ class AdditionalInputIvc:
 
     Attributes
     ----------
-    num : ndarray, shape (n, g+1)
-        Coefficients of ``n_k`` (highest power first), one row per plant state.
+    num : ndarray, shape (n + m, g+1)
+        Coefficients of ``n_k`` (highest power first), one row per closed-loop state:
+        the plant states of (3.41), then the controller states (whose residual at a
+        reference switch, §3.5, is compensated the same way).
     den : ndarray
         Coefficients of ``d`` (monic).
     dt : float
@@ -165,7 +167,7 @@ def ivc_additional_input(
         else _check_denominator(denominator, g)
     )
     rows = []
-    for k in range(loop.n):
+    for k in range(loop.n + loop.m):  # controller states too (reference switching, §3.5)
         Sigma, Gamma = _conditions(loop, den, k, g)
         if g == loop.n + loop.m - 1:
             a = np.linalg.lstsq(Sigma, Gamma, rcond=None)[0]

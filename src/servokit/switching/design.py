@@ -140,3 +140,50 @@ def notch(
     s = control.tf("s")
     cont = (s**2 + 2 * zeta_zero * w * s + w**2) / (s**2 + 2 * zeta_pole * w * s + w**2)
     return control.c2d(cont, check_positive("dt", dt, "s"), "tustin", prewarp_frequency=w)
+
+
+def ipd_controller(
+    dt: float,
+    gain: float,
+    bandwidth_hz: float,
+    *,
+    damping: float = 0.7,
+    derivative_hz: float = 10e3,
+    filters: control.TransferFunction | None = None,
+) -> tuple[control.StateSpace, np.ndarray, np.ndarray]:
+    """I-PD controller for ``gain / s^2``: integral on ``r - y``, P and D on ``-y`` only.
+
+    The gains place the rigid-body loop ``s^3 + g Kd s^2 + g Kp s + g Ki`` at
+    ``(s + w)(s^2 + 2 zeta w s + w^2)``, ``w = 2 pi bandwidth_hz``; the derivative is
+    filtered at ``derivative_hz``; ``filters`` (e.g. notches) act on the output.
+    Discretised by Tustin (the integrator by forward Euler, so r and y enter it alike).
+
+    Returns
+    -------
+    (feedback, Bcr, Dcr)
+        ``feedback``: the controller from ``-y`` to u (for :func:`switched_loop`);
+        ``Bcr``, ``Dcr``: its reference path (for ``SwitchedLoop(..., Bcr=, Dcr=)``).
+    """
+    g = check_positive("gain", gain)
+    w = 2 * np.pi * check_positive("bandwidth_hz", bandwidth_hz, "Hz")
+    kd, kp, ki = (2 * damping * w + w) / g, (w**2 + 2 * damping * w**2) / g, w**3 / g
+    s = control.tf("s")
+    pd = control.ss(control.c2d(kp + kd * s / (s / (2 * np.pi * derivative_hz) + 1), dt, "tustin"))
+    # v = xi - PD(y), xi+ = xi + ki dt (r - y): states [xi; xd], inputs (r, y)
+    Ad, Bd, Cd, Dd = (np.asarray(M, dtype=float) for M in (pd.A, pd.B, pd.C, pd.D))
+    nd = Ad.shape[0]
+    A = np.block([[np.ones((1, 1)), np.zeros((1, nd))], [np.zeros((nd, 1)), Ad]])
+    B = np.block([[np.array([[ki * dt, -ki * dt]])], [np.zeros((nd, 1)), Bd]])
+    C = np.hstack([np.ones((1, 1)), -Cd])
+    D = np.array([[0.0, -Dd[0, 0]]])
+    if filters is not None:  # u = F v, in series
+        f = control.ss(filters)
+        Af, Bf, Cf, Df = (np.asarray(M, dtype=float) for M in (f.A, f.B, f.C, f.D))
+        nf = Af.shape[0]
+        A = np.block([[A, np.zeros((A.shape[0], nf))], [Bf @ C, Af]])
+        B = np.vstack([B, Bf @ D])
+        C = np.hstack([Df @ C, Cf])
+        D = Df @ D
+    # feedback part in the (3.13) form (driven by r - y, here by -y): Bc = -B_y, Dc = -D_y
+    fb_neg = control.ss(A, -B[:, [1]], C, -D[:, [1]], dt)
+    return fb_neg, B[:, [0]], D[:, [0]]

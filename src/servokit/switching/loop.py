@@ -43,6 +43,11 @@ class SwitchedLoop:
         Controller (m states), driven by ``r - y``.
     dt : float
         Common sampling period [s].
+    Bcr, Dcr : ndarray or None
+        Reference path of a two-degree-of-freedom controller (e.g. I-PD):
+        ``xc+ = Ac xc + Bcr r - Bc y``, ``u = Cc xc + Dcr r - Dc y``. None (default)
+        means the error-driven controller of (3.13). The free closed loop (A, IVC,
+        admissible sets) does not depend on it.
     """
 
     Ap: np.ndarray
@@ -53,6 +58,8 @@ class SwitchedLoop:
     Cc: np.ndarray
     Dc: np.ndarray
     dt: float
+    Bcr: np.ndarray | None = None
+    Dcr: np.ndarray | None = None
 
     @property
     def n(self) -> int:
@@ -73,8 +80,13 @@ class SwitchedLoop:
 
     @property
     def B(self) -> np.ndarray:
-        """Reference input matrix of (3.17)."""
-        return np.vstack([self.Bp @ self.Dc, self.Bc])
+        """Reference input matrix of (3.17) (or of the controller's reference path)."""
+        return np.vstack([self.Bp @ self.Dr, self.Bc if self.Bcr is None else self.Bcr])
+
+    @property
+    def Dr(self) -> np.ndarray:
+        """Feedthrough from r to u (``Dc`` for an error-driven controller)."""
+        return self.Dc if self.Dcr is None else self.Dcr
 
     @property
     def Bu(self) -> np.ndarray:

@@ -11,7 +11,9 @@ Two kinds of switched operation, simulated sample by sample on the discrete loop
 - :func:`reference_switching_response`: the reference steps while the loop is still
   moving (galvano back-and-forth, §3.5); at each step the additional input
   ``r' = sum_k n_k/d (x_k - x_k,ss)`` of an :class:`AdditionalInputIvc` design is
-  superposed for the chosen plant states (the residual vibration of §3.5.1.3).
+  superposed for the chosen plant states. ``x_ss`` is the equilibrium of the previous
+  reference: the residual of the previous motion (§3.5.1.1) is what gets compensated,
+  while the designed step response from one equilibrium to the next is kept.
 """
 
 from __future__ import annotations
@@ -93,7 +95,7 @@ def mode_switching_response(
     switch = k
     for j in range(k, n_samples):
         y[j] = loop.C[0] @ x
-        u[j] = loop.Cu[0] @ x + loop.Dc[0, 0] * target
+        u[j] = loop.Cu[0] @ x + loop.Dr[0, 0] * target
         x = loop.A @ x + loop.B[:, 0] * target
     return SwitchedResponse(np.arange(n_samples) * loop.dt, y, u, (switch,))
 
@@ -107,7 +109,8 @@ def reference_switching_response(
     """Closed loop from rest following ``reference`` (one value per sample), with r' IVC.
 
     At every sample where the reference changes, the plant states ``states`` are read
-    relative to the equilibrium of the new reference and ``design``'s compensators
+    relative to the equilibrium of the previous reference (the residual of the previous
+    motion) and ``design``'s compensators
     ``n_k/d`` are started with them (3.106); earlier compensations keep running, so
     each one still cancels its own initial values (superposition).
     """
@@ -120,15 +123,16 @@ def reference_switching_response(
         if k > 0 and r[k] != r[k - 1]:
             switches.append(k)
             if design is not None:
-                rp[k:] += _compensation(loop, design, states, x, r[k], n - k)
+                rp[k:] += _compensation(loop, design, states, x, r[k - 1], n - k)
         y[k] = loop.C[0] @ x
-        u[k] = loop.Cu[0] @ x + loop.Dc[0, 0] * r[k] + rp[k]
+        u[k] = loop.Cu[0] @ x + loop.Dr[0, 0] * r[k] + rp[k]
         x = loop.A @ x + loop.B[:, 0] * r[k] + loop.Bu[:, 0] * rp[k]
     return SwitchedResponse(np.arange(n) * loop.dt, y, u, tuple(switches))
 
 
-def _compensation(loop, design, states, x, r_new, length) -> np.ndarray:
-    dev = x[: loop.n] - equilibrium(loop, r_new)[: loop.n]
+def _compensation(loop, design, states, x, r_old, length) -> np.ndarray:
+    """r' for the residual of the previous motion: the state minus its equilibrium."""
+    dev = x - equilibrium(loop, r_old)
     out = np.zeros(length)
     for k in states:
         out += dev[k] * design.impulse(k, length)
