@@ -112,3 +112,10 @@ def test_ipd_controller_places_rigid_body_poles():
     for p in want:  # the derivative filter adds one fast pole
         assert np.min(np.abs(got - p)) < 2e-3
     assert equilibrium(loop, 1.0)[0] == pytest.approx(1.0)  # integral action on r - y
+
+
+def test_optical_case_alpha_is_the_pole_zero_gain(tmp_path):
+    from servokit.cases.switching_optical import switching_optical_case
+
+    res = switching_optical_case(tmp_path)
+    assert all(c.ok for c in res.comparisons)

@@ -69,39 +69,45 @@ def fit_delay_ratio(zeros: Sequence[float]) -> float:
 
 
 def place_controller(
-    plant_d: control.StateSpace, poles: Sequence[complex], order: int = 2
+    plant_d: control.StateSpace,
+    poles: Sequence[complex],
+    order: int = 2,
+    fixed_poles: Sequence[complex] = (),
 ) -> control.TransferFunction:
     """Controller ``Nc/Dc`` of ``order`` placing the closed-loop poles (Diophantine equation).
 
     The loop is ``u = C (r - y)``, so the characteristic polynomial is
-    ``Dp Dc + Np Nc`` (monic). Needs ``len(poles) == n + order`` and a unique solution
-    (``order = n - 1`` for coprime Np, Dp).
+    ``Dp Dc + Np Nc`` (monic). ``Dc = F Dc'`` with the ``fixed_poles`` in F (e.g. an
+    integrator at z = 1). Needs ``len(poles) == n + order`` and a unique solution
+    (``order = n - 1 + len(fixed_poles)`` for coprime Np, Dp).
     """
     tf = control.ss2tf(plant_d)
     dp = np.asarray(tf.den[0][0], dtype=float)
-    npoly = np.asarray(tf.num[0][0], dtype=float)
-    dp, npoly = npoly.dtype.type(1) * dp / dp[0], npoly / dp[0]
+    npoly = np.asarray(tf.num[0][0], dtype=float) / dp[0]
+    dp = dp / dp[0]
     n = len(dp) - 1
     poles = np.asarray(poles, dtype=complex)
     if poles.size != n + order:
         raise ServokitValueError(
             f"give {n + order} closed-loop poles (n + order), got {poles.size}"
         )
+    fixed = np.atleast_1d(np.real(np.poly(np.asarray(fixed_poles, dtype=complex))))
+    free = order - (len(fixed) - 1)  # degree of Dc'
+    dpf = np.convolve(dp, fixed)
     target = np.real(np.poly(poles))
     npoly = np.concatenate([np.zeros(n + 1 - len(npoly)), npoly])
-    # unknowns: Dc = z^order + c1 z^(order-1) + ... ; Nc = b0 z^order + ... + b_order
-    cols = []
-    for j in range(1, order + 1):
-        cols.append(np.convolve(dp, np.eye(order + 1)[j]))
-    for j in range(order + 1):
-        cols.append(np.convolve(npoly, np.eye(order + 1)[j]))
+    # unknowns: Dc' = z^free + c1 z^(free-1) + ... ; Nc = b0 z^order + ... + b_order
+    cols = [np.convolve(dpf, np.eye(free + 1)[j]) for j in range(1, free + 1)]
+    cols += [np.convolve(npoly, np.eye(order + 1)[j]) for j in range(order + 1)]
     M = np.array(cols).T[1:]
-    rhs = (target - np.convolve(dp, np.eye(order + 1)[0]))[1:]
+    rhs = (target - np.convolve(dpf, np.eye(free + 1)[0]))[1:]
     if M.shape[0] != M.shape[1] or np.linalg.matrix_rank(M) < M.shape[1]:
-        raise ServokitValueError("the poles do not fix the controller uniquely; use order = n - 1")
+        raise ServokitValueError(
+            "the poles do not fix the controller uniquely; use order = n - 1 + len(fixed_poles)"
+        )
     sol = np.linalg.solve(M, rhs)
-    den = np.concatenate([[1.0], sol[:order]])
-    return control.tf(sol[order:], den, plant_d.dt)
+    den = np.convolve(fixed, np.concatenate([[1.0], sol[:free]]))
+    return control.tf(sol[free:], den, plant_d.dt)
 
 
 def lead_lag(
