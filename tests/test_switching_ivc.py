@@ -177,3 +177,37 @@ def test_bad_inputs():
         ivc_jmin(unstable, None, np.eye(2))
     with pytest.raises(ServokitValueError, match="exactly one"):
         ivc_jmin(unstable, None)
+
+
+def _brute_jerk_cost(loop, Qs, qu, qj, xp0, xc0, r, uw, n_samples=3000):
+    from servokit.switching import equilibrium
+
+    x_ss = equilibrium(loop, r)
+    u_ss = loop.Cu[0] @ x_ss + loop.Dr[0, 0] * r
+    x = np.concatenate([xp0, xc0])
+    J, u_prev = 0.0, uw
+    for _ in range(n_samples):
+        z = x - x_ss
+        u = loop.Cu[0] @ x + loop.Dr[0, 0] * r
+        J += z @ Qs @ z + qu * (u - u_ss) ** 2 + qj * (u - u_prev) ** 2
+        u_prev = u
+        x = loop.A @ x + loop.B[:, 0] * r
+    return J
+
+
+@settings(max_examples=10, deadline=None)
+@given(dims)
+def test_jmin_jerk_gains_minimise_the_brute_force_cost(args):
+    from servokit.switching import ivc_jmin_jerk
+
+    seed, n, m = args
+    loop = random_loop(seed, n, m)
+    rng = np.random.default_rng(seed + 3)
+    Qs = np.diag(rng.uniform(0.1, 1.0, n + m))
+    gains = ivc_jmin_jerk(loop, Qs, input_weight=0.5, jerk_weight=2.0)
+    xp0, r, uw = rng.standard_normal(n), float(rng.standard_normal()), float(rng.standard_normal())
+    xc0 = gains.state(xp0, [r], uw)
+    J0 = _brute_jerk_cost(loop, Qs, 0.5, 2.0, xp0, xc0, r, uw)
+    for _ in range(4):
+        dx = 1e-3 * rng.standard_normal(m)
+        assert _brute_jerk_cost(loop, Qs, 0.5, 2.0, xp0, xc0 + dx, r, uw) >= J0 - 1e-9 * J0

@@ -18,7 +18,9 @@ from servokit.switching.conditions import (
 )
 from servokit.switching.design import fit_delay_ratio, pade_double_integrator, place_controller
 from servokit.switching.ivc import (
+    IvcGains,
     ivc_jmin,
+    ivc_jmin_jerk,
     ivc_pole_zero,
     ivc_transfer,
     ivc_zeros,
@@ -35,6 +37,8 @@ from servokit.switching.modeswitch import (
 )
 
 __all__ = [
+    "IvcGains",
+    "ivc_jmin_jerk",
     "SwitchedResponse",
     "equilibrium",
     "mode_switching_response",

@@ -30,6 +30,7 @@ states: r = m is solved exactly, r < m by the minimum-norm K, r > m is refused.
 from __future__ import annotations
 
 from collections.abc import Sequence
+from dataclasses import dataclass
 
 import control
 import numpy as np
@@ -44,6 +45,8 @@ from servokit.switching.loop import (
 )
 
 __all__ = [
+    "IvcGains",
+    "ivc_jmin_jerk",
     "ivc_jmin",
     "ivc_pole_zero",
     "jmin_cost",
@@ -211,3 +214,64 @@ def ivc_zeros(loop: SwitchedLoop, K: np.ndarray | None, state: int) -> np.ndarra
     the factor z of (3.26) adds)."""
     x0 = loop.stack(np.zeros((loop.m, loop.n)) if K is None else K)[:, state]
     return siso_zeros(loop.A, x0, loop.C)
+
+
+@dataclass(frozen=True)
+class IvcGains:
+    """``xc[0] = Ka xp[0] + Kb r + Kc uw`` (3.100), r a reference vector, uw the input
+    applied just before the switch."""
+
+    Ka: np.ndarray
+    Kb: np.ndarray
+    Kc: np.ndarray
+
+    def state(self, xp0: np.ndarray, r: np.ndarray, uw: float) -> np.ndarray:
+        """The controller state to load for one switch."""
+        return self.Ka @ np.ravel(xp0) + self.Kb @ np.ravel(r) + self.Kc[:, 0] * float(uw)
+
+
+def ivc_jmin_jerk(
+    loop: SwitchedLoop,
+    state_weight: object,
+    input_weight: float = 0.0,
+    jerk_weight: float = 0.0,
+) -> IvcGains:
+    """J-min IVC with convergence, input and jerk costs (book §3.4.2, (3.99)-(3.100)).
+
+    With ``z[k] = x[k] - x_ss(r)`` (``z[k+1] = A z[k]``) and ``u[k] - u_ss = Cu z[k]``,
+
+        J = sum z^T Qs z + qu sum (u - u_ss)^2 + qj [(u[0] - uw)^2 + sum_k>=1 (u[k] - u[k-1])^2]
+          = z0^T P z0 + qj (Cu z0 + u_ss - uw)^2,
+
+    with ``P`` the Gramian of ``Qs + qu Cu^T Cu + qj (A - I)^T Cu^T Cu (A - I)``. J is
+    quadratic in the controller part of ``z0``; its minimiser is affine in ``xp[0]``,
+    ``r`` and ``uw``, which gives ``Ka``, ``Kb``, ``Kc``.
+
+    Parameters
+    ----------
+    loop : SwitchedLoop
+        The loop after the switch (its reference path ``B`` sets ``x_ss(r) = (I-A)^-1 B r``).
+    state_weight : array_like
+        ``Qs`` on ``[xp; xc]`` (matrix or diagonal), semidefinite.
+    input_weight, jerk_weight : float
+        ``qu`` and ``qj`` >= 0.
+    """
+    Qs = _weight(loop, state_weight, None)
+    n, N = loop.n, loop.n + loop.m
+    if input_weight < 0 or jerk_weight < 0:
+        raise ServokitValueError("input_weight and jerk_weight must be >= 0")
+    _require_schur(loop.A)
+    Cu = loop.Cu
+    D1 = Cu @ (loop.A - np.eye(N))
+    P = weighted_gramian(loop.A, Qs + input_weight * Cu.T @ Cu + jerk_weight * D1.T @ D1)
+    H = P[n:, n:] + jerk_weight * Cu[:, n:].T @ Cu[:, n:]
+    Gp = P[n:, :n] + jerk_weight * Cu[:, n:].T @ Cu[:, :n]
+    g_u = jerk_weight * Cu[:, n:].T  # multiplies (u_ss - uw)
+    # z_c = -H^+ (Gp z_p + g_u (u_ss - uw)),  x_ss = S r,  u_ss = (Cu S + Dr) r
+    S = np.linalg.solve(np.eye(N) - loop.A, loop.B)
+    u_ss = Cu @ S + loop.Dr
+    Hi = np.linalg.pinv(H)
+    Ka = -Hi @ Gp
+    Kb = S[n:] - Ka @ S[:n] - Hi @ g_u @ u_ss
+    Kc = Hi @ g_u
+    return IvcGains(Ka, Kb, Kc)

@@ -38,7 +38,7 @@ class SwitchedLoop:
     Attributes
     ----------
     Ap, Bp, Cp : ndarray
-        Plant (n states, one input, one output).
+        Plant (n states, one input, p outputs; p = 1 in the book's HDD loops).
     Ac, Bc, Cc, Dc : ndarray
         Controller (m states), driven by ``r - y``.
     dt : float
@@ -122,8 +122,6 @@ def _as_discrete_ss(name: str, sys: object) -> control.StateSpace:
         )
     if sys.dt is None or sys.dt is True or not sys.dt:
         raise ServokitValueError(f"{name} must be discrete with a numeric dt; discretise it first")
-    if sys.ninputs != 1 or sys.noutputs != 1:
-        raise ServokitValueError(f"{name} must be single-input single-output")
     return sys
 
 
@@ -133,10 +131,11 @@ def switched_loop(plant_d: object, controller_d: object) -> SwitchedLoop:
     Parameters
     ----------
     plant_d : control.StateSpace or control.TransferFunction
-        Discrete, strictly proper SISO plant. Its state coordinates are the xp the IVC
+        Discrete, strictly proper plant with one input (one or more outputs, e.g. the
+        PMR of §3.4.2). Its state coordinates are the xp the IVC
         gain acts on, so pass a state space when the states have a physical meaning.
     controller_d : control.StateSpace or control.TransferFunction
-        Discrete SISO controller with the same ``dt``, driven by ``r - y``.
+        Discrete controller with the same ``dt``, one output, driven by ``r - y``.
 
     Returns
     -------
@@ -144,6 +143,12 @@ def switched_loop(plant_d: object, controller_d: object) -> SwitchedLoop:
     """
     p = _as_discrete_ss("plant", plant_d)
     c = _as_discrete_ss("controller", controller_d)
+    if p.ninputs != 1 or c.noutputs != 1 or c.ninputs != p.noutputs:
+        raise ServokitValueError(
+            f"the plant must have one input and the controller one output, and the controller "
+            f"as many inputs as the plant has outputs (got plant {p.noutputs}x{p.ninputs}, "
+            f"controller {c.noutputs}x{c.ninputs})"
+        )
     if abs(float(p.dt) - float(c.dt)) > 1e-9 * float(p.dt):
         raise ServokitValueError(
             f"plant dt = {p.dt:g} s and controller dt = {c.dt:g} s differ; use one sampling period"
