@@ -119,3 +119,11 @@ def test_optical_case_alpha_is_the_pole_zero_gain(tmp_path):
 
     res = switching_optical_case(tmp_path)
     assert all(c.ok for c in res.comparisons)
+
+
+def test_pmr_case_ivc_lowers_peak_and_jump(tmp_path):
+    from servokit.cases.switching_pmr import switching_pmr_case
+
+    res = switching_pmr_case(tmp_path)
+    assert all(c.ok for c in res.comparisons)
+    assert res.extra["stats"]["without IVC"]["max_jerk"] == pytest.approx(20.0)  # u drops to 0

@@ -96,7 +96,7 @@ class SwitchedLoop:
     @property
     def C(self) -> np.ndarray:
         """Output matrix ``[Cp, 0]``."""
-        return np.hstack([self.Cp, np.zeros((1, self.m))])
+        return np.hstack([self.Cp, np.zeros((self.Cp.shape[0], self.m))])
 
     @property
     def Cu(self) -> np.ndarray:
