@@ -62,7 +62,18 @@ _CHAPTER_ORDERS = ((0, 20, 2), (20, 100, 4), (100, 200, 3), (300, 400, 5), (400,
 
 
 def case_chapter(name: str) -> int:
-    """Book chapter of the registered case ``name``, from its ``order`` (0 beyond the book)."""
+    """Book chapter of the registered case ``name``, from its registration ``order``.
+
+    Parameters
+    ----------
+    name : str
+        A registered case.
+
+    Returns
+    -------
+    int
+        Chapter 2-6, or 0 for a case beyond the book (order 500+).
+    """
     registry()
     order = _REGISTRY[name][0]
     return next((ch for lo, hi, ch in _CHAPTER_ORDERS if lo <= order < hi), 0)

@@ -82,6 +82,18 @@ def printed_tolerance(book_text: str, *, floor: float = 0.0) -> float:
     """Relative half-unit of the last printed digit of ``book_text`` (at least ``floor``).
 
     ``"0.26"`` -> 0.005 / 0.26; ``"3"`` -> 0.5 / 3; ``"1.51e3"`` -> 5 / 1510.
+
+    Parameters
+    ----------
+    book_text : str
+        The number exactly as the book prints it.
+    floor : float
+        Smallest tolerance returned.
+
+    Returns
+    -------
+    float
+        Relative tolerance (absolute for a printed zero).
     """
     text = book_text.strip().lower()
     mantissa, _, exponent = text.partition("e")
@@ -94,7 +106,22 @@ def printed_tolerance(book_text: str, *, floor: float = 0.0) -> float:
 
 
 def nearest(found: object, value: float) -> float:
-    """The entry of ``found`` closest to ``value`` (NaN if empty): pairs a computed peak,
-    root or frequency with the book's value for a :class:`Comparison`."""
+    """The entry of ``found`` closest to ``value`` (NaN if empty).
+
+    Pairs one computed peak, root or frequency with one book value; to pair whole lists
+    without dropping unmatched items use :func:`servokit.report.pairing.pair_rows`.
+
+    Parameters
+    ----------
+    found : array_like
+        Computed items.
+    value : float
+        The book's value.
+
+    Returns
+    -------
+    float
+        The closest item, NaN when ``found`` is empty.
+    """
     arr = np.asarray(found, dtype=float).ravel()
     return float(arr[np.argmin(np.abs(arr - value))]) if arr.size else float("nan")
