@@ -1,6 +1,6 @@
 """Chapter 6: the waterbed effect — the Bode sensitivity integral of a discrete loop.
 
-Read top to bottom; run with ``python examples/ch6_bode_integral.py [OUTDIR]``.
+Read top to bottom; run with ``python examples/chapter6_bode_integral.py [OUTDIR]``.
 
 For a stable, strictly proper discrete open loop L(z) (no unstable poles), the Bode
 integral says the average of ln|S| over the frequency axis up to Nyquist is zero:

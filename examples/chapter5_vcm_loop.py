@@ -1,6 +1,6 @@
 """Chapter 5: the VCM loop of the dual-stage HDD, its margins, and its firmware.
 
-Read top to bottom; run with ``python examples/ch5_vcm_loop.py [OUTDIR]``.
+Read top to bottom; run with ``python examples/chapter5_vcm_loop.py [OUTDIR]``.
 
 1. The VCM (primary actuator) model of eq. (5.1) / Table 5.1 and the controller of
    Table 5.2, sampled at the PES rate.

@@ -1,6 +1,6 @@
 """Chapter 2: a fast track seek on the HDD benchmark with FSC and frequency-shaped FSC.
 
-Read top to bottom; run with ``python examples/ch2_feedforward_seek.py [OUTDIR]``.
+Read top to bottom; run with ``python examples/chapter2_feedforward_seek.py [OUTDIR]``.
 
 1. Take the HDD benchmark plant (book Table 2.2) and its 18 perturbed variants (Table 2.3).
 2. Design two 1-track seek inputs on the rigid-body model, held at Ts = 37.879 us:

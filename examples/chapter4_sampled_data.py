@@ -1,6 +1,6 @@
 """Chapter 4: what a sampled-data loop hides between the samples.
 
-Read top to bottom; run with ``python examples/ch4_sampled_data.py [OUTDIR]``.
+Read top to bottom; run with ``python examples/chapter4_sampled_data.py [OUTDIR]``.
 
 1. The HDD loop of §4.5.2: the Table 4.1 plant at Ts = 153.5 us with the PI-lead
    controller (4.69).  The discrete sensitivity Sd only sees the samples; the
