@@ -2,17 +2,18 @@
 
 from __future__ import annotations
 
+import re
 import runpy
 import sys
 from pathlib import Path
 
 import pytest
 
-EXAMPLES = sorted((Path(__file__).resolve().parents[1] / "examples").glob("ch*.py"))
+EXAMPLES = sorted((Path(__file__).resolve().parents[1] / "examples").glob("chapter*.py"))
 
 
 def test_one_example_per_chapter() -> None:
-    chapters = {p.name[2] for p in EXAMPLES}
+    chapters = {re.match(r"chapter(\d)", p.name).group(1) for p in EXAMPLES}
     assert {"2", "4", "5", "6"} <= chapters
 
 
