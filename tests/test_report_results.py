@@ -65,7 +65,7 @@ def test_row_record_has_the_issue_keys() -> None:
     rec = row_record(_case([row], chapter=4), row)
     assert set(rec) >= {
         "case", "chapter", "source", "quantity", "unit", "book", "servokit", "ratio",
-        "tolerance", "within_tolerance", "note",
+        "tolerance", "within_tolerance", "note", "bound",
     }  # fmt: skip
     assert rec["chapter"] == 4 and rec["book_text"] == "4.5"
     assert rec["ratio"] == pytest.approx(4.13 / 4.5)
@@ -109,6 +109,7 @@ _rows = st.builds(
     source=st.text(max_size=10),
     kind=st.sampled_from(KINDS),
     note=st.text(max_size=30),
+    bound=st.sampled_from(["", "min", "max"]),
 )
 
 
@@ -183,3 +184,21 @@ def test_write_results_refuses_nan(tmp_path: Path) -> None:
     with pytest.raises(ValueError):
         write_results({"x": float("nan")}, tmp_path / "r.json")
     assert not (tmp_path / "r.json").exists()
+
+
+def test_precision_only_miss_says_so() -> None:
+    row = Comparison.printed("tau*Ns", "0.26", 0.2714, unit="ms")
+    rec = row_record(_case([row]), row)
+    assert rec["within_tolerance"] is False
+    assert "outside the printed precision only" in rec["note"] and "0.27" in rec["note"]
+    far = Comparison.printed("tau*Ns", "0.26", 0.29)  # two units off: a plain miss
+    assert "precision" not in row_record(_case([far]), far)["note"]
+
+
+def test_spec_bounds() -> None:
+    gm = Comparison("gain margin", 4.5, 4.13, "dB", rel_tol=0.0, kind="spec", bound="min")
+    assert not gm.ok
+    assert Comparison("gain margin", 4.5, 4.6, rel_tol=0.0, bound="min").ok
+    assert Comparison("|Sd| below 500 Hz", 1.0, 0.9, rel_tol=0.0, bound="max").ok
+    assert not Comparison("x", 1.0, float("nan"), bound="max").ok
+    assert row_record(_case([gm]), gm)["bound"] == "min"

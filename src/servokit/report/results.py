@@ -33,6 +33,7 @@ __all__ = [
     "row_record",
     "summarize",
     "load_schema",
+    "precision_remark",
     "write_atomic",
     "write_results",
 ]
@@ -66,6 +67,36 @@ def within_tolerance(row: Comparison) -> bool | None:
     return bool(row.ok)
 
 
+def precision_remark(row: Comparison) -> str:
+    """A note for a row that misses only by the book's printed precision, else ``""``.
+
+    A row "fails only by precision" when servokit's value, rounded to the printed
+    digits, is one unit of the last digit away from the printed value (``"0.26"``
+    against 0.2714, which reads 0.27).
+
+    Parameters
+    ----------
+    row : Comparison
+        The row (``book_text`` set, not a bound).
+
+    Returns
+    -------
+    str
+        The remark, or an empty string.
+    """
+    from servokit.report import printed_unit
+
+    if row.bound or not row.book_text or row.ok or not math.isfinite(float(row.servokit)):
+        return ""
+    unit = printed_unit(row.book_text)
+    if abs(row.servokit - row.book) >= 1.5 * unit:
+        return ""
+    return (
+        f"outside the printed precision only: servokit {row.servokit:.6g} reads "
+        f"{round(row.servokit / unit) * unit:.6g} at the printed digits, book {row.book_text}"
+    )
+
+
 def row_record(case: CaseResult, row: Comparison) -> dict[str, Any]:
     """One row of ``results.json`` (the keys of issue 14, plus ``kind`` and ``book_text``).
 
@@ -96,7 +127,8 @@ def row_record(case: CaseResult, row: Comparison) -> dict[str, Any]:
         "tolerance": _finite_or_none(row.rel_tol),
         "within_tolerance": within_tolerance(row),
         "kind": row.kind,
-        "note": row.note,
+        "note": "; ".join(p for p in (row.note, precision_remark(row)) if p),
+        "bound": row.bound,
     }
 
 
