@@ -5,6 +5,7 @@ from __future__ import annotations
 import base64
 import io
 import json
+import re
 import shutil
 import subprocess
 from html.parser import HTMLParser
@@ -112,16 +113,31 @@ def test_render_with_no_cases(tmp_path: Path) -> None:
     assert "Summary" in html
 
 
+def _chromium() -> str | None:
+    return shutil.which("chromium") or shutil.which("chromium-browser")
+
+
 @pytest.mark.skipif(
-    not (shutil.which("chromium") or shutil.which("chromium-browser")),
+    _chromium() is None,
     reason="headless Chromium (Debian package 'chromium') is not installed",
 )
-def test_headless_chromium_screenshot(report: Path) -> None:
-    exe = shutil.which("chromium") or shutil.which("chromium-browser")
+def test_headless_chromium_images_load_and_summary_matches(report: Path) -> None:
+    exe = _chromium()
+    url = (report / "report.html").as_uri()
+    flags = ["--headless", "--no-sandbox", "--disable-gpu", "--virtual-time-budget=5000"]
+    dom = subprocess.run(
+        [exe, *flags, "--dump-dom", url], check=True, timeout=120, capture_output=True, text=True
+    ).stdout
+    total = re.search(r'data-images-total="(\d+)"', dom)
+    loaded = re.search(r'data-images-loaded="(\d+)"', dom)
+    assert total and loaded and int(total.group(1)) == int(loaded.group(1)) == 1
+    page = _Page()
+    page.feed(dom)  # the summary as the browser rendered it
+    doc = json.loads((report / "results.json").read_text())
+    assert page.total == doc["summary"]["total"]
     shot = report / "screenshot.png"
     subprocess.run(
-        [exe, "--headless", "--no-sandbox", "--disable-gpu", f"--screenshot={shot}",
-         "--window-size=1200,2000", (report / "report.html").as_uri()],
+        [exe, *flags, f"--screenshot={shot}", "--window-size=1200,2000", url],
         check=True, timeout=120, capture_output=True,
     )  # fmt: skip
     with Image.open(shot) as img:

@@ -330,6 +330,15 @@ def hdd_seek_case(outdir: Path) -> CaseResult:
             "",
             0.0,
             src,
+            note=f"search over N in {search_range(d.tracks).start}.."
+            f"{search_range(d.tracks).stop - 1}, worst case of the 18 plants, no input delay"
+            + (
+                ""
+                if searches[d.key].N == d.N
+                else f"; N = {searches[d.key].N} gives "
+                f"{searches[d.key].seek_time * 1e3:.4g} ms, shorter than the book's N = {d.N} "
+                f"({outcome[d.key].worst * 1e3:.4g} ms): the book's choice is not explained"
+            ),
         )
         for d in DESIGNS
     ]

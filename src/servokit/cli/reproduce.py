@@ -73,4 +73,10 @@ def reproduce(
         for f in r.figures:
             console.print(f"  figure: {f}")
     console.print(f"{n_ok}/{n_all} book numbers within tolerance; figures in {out}/")
+    total = json.loads(json_path.read_text(encoding="utf-8"))["summary"]["total"]
+    console.print(
+        f"independent reproductions within tolerance: {total['reproduced']}; missed "
+        f"{total['missed']}; fitted {total['fitted']}, assumed {total['assumed']}, "
+        f"spec {total['spec']}, consistency checks {total['consistency']} (see report.html)"
+    )
     console.print(f"report: {html_path.resolve()}")
