@@ -111,3 +111,20 @@ def test_killed_run_leaves_no_report(tmp_path: Path) -> None:
     assert "zz_fast.png" in names  # the run got that far
     assert not {"report.html", "results.json"} & names
     assert not [n for n in names if n.endswith(".tmp")]
+
+
+@pytest.mark.slow
+def test_real_case_twice_same_numbers_and_valid(tmp_path: Path) -> None:
+    docs = []
+    for run in ("a", "b"):
+        proc = subprocess.run(
+            [sys.executable, "-c", "from servokit.cli import main; main()", "reproduce",
+             "--case", "hdd-residual", "--out", str(tmp_path / run), "--json"],
+            capture_output=True, text=True, env=_env(), timeout=300,
+        )  # fmt: skip
+        assert proc.returncode == 0, proc.stderr
+        docs.append(json.loads(proc.stdout))
+    for doc in docs:
+        jsonschema.validate(doc, load_schema())
+    assert docs[0]["rows"] == docs[1]["rows"] and docs[0]["summary"] == docs[1]["summary"]
+    assert docs[0]["summary"]["total"]["fitted"] >= 6
