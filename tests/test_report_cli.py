@@ -79,12 +79,18 @@ def test_reproduce_writes_report_json_svg(tmp_path: Path) -> None:
     [(("--case", "nope"), "--case"), (("--chapter", "9"), "--chapter")],
 )
 def test_reproduce_bad_selection_exits_2_one_line(
-    tmp_path: Path, args: tuple[str, ...], flag: str
+    tmp_path: Path, monkeypatch, capsys, args: tuple[str, ...], flag: str
 ) -> None:
-    proc = _run("reproduce", *args, "--out", str(tmp_path))
-    assert proc.returncode == 2
-    lines = proc.stderr.strip().splitlines()
-    assert len(lines) == 1 and flag in lines[0] and "Traceback" not in proc.stderr
+    from servokit.cli import main
+
+    monkeypatch.setattr(sys, "argv", ["servokit", "reproduce", *args, "--out", str(tmp_path)])
+    with pytest.raises(SystemExit) as exc:
+        main()
+    err = capsys.readouterr().err
+    assert exc.value.code == 2
+    lines = err.strip().splitlines()
+    assert len(lines) == 1 and flag in lines[0] and "Traceback" not in err
+    assert not list(tmp_path.iterdir())  # refused before any work
 
 
 def test_killed_run_leaves_no_report(tmp_path: Path) -> None:
