@@ -20,9 +20,11 @@ def reproduce(
     out: Path = typer.Option(
         Path("out"), help="directory for report.html, results.json and the figures"
     ),
-    case: list[str] | None = typer.Option(None, help="run only these cases (repeatable)"),
+    case: list[str] | None = typer.Option(
+        None, help="run only these cases (repeatable)", metavar="NAME"
+    ),
     chapter: list[int] | None = typer.Option(
-        None, help="run only the cases of this book chapter 2-6 (repeatable)"
+        None, help="run only the cases of this book chapter 2-6 (repeatable)", metavar="N"
     ),
     json_out: bool = typer.Option(
         False, "--json", help="print results.json on stdout (nothing else on stdout)"
@@ -32,7 +34,7 @@ def reproduce(
 
     results.json: servokit_version, generated_utc, cases (name, title, chapter, runtime_s,
     figures), rows (case, chapter, source, quantity, unit, book, book_text, servokit,
-    ratio, tolerance, within_tolerance, kind, note) and summary (counts per chapter).
+    ratio, tolerance, within_tolerance, kind, note, bound) and summary (counts per chapter).
     """
     from servokit.report.output import clear_report, run_cases, select_cases, write_report
 
