@@ -13,6 +13,7 @@ from pathlib import Path
 
 import jsonschema
 import pytest
+from report_page import Page, chromium, rendered_dom
 
 from servokit.report.results import load_schema
 
@@ -134,3 +135,9 @@ def test_real_case_twice_same_numbers_and_valid(tmp_path: Path) -> None:
         jsonschema.validate(doc, load_schema())
     assert docs[0]["rows"] == docs[1]["rows"] and docs[0]["summary"] == docs[1]["summary"]
     assert docs[0]["summary"]["total"]["fitted"] >= 6
+    if chromium() is not None:  # the real page in a browser: every figure decodes
+        dom, total, loaded = rendered_dom(tmp_path / "a" / "report.html")
+        assert total == loaded == len(docs[0]["cases"][0]["figures"]) > 0
+        page = Page()
+        page.feed(dom)
+        assert page.total == docs[0]["summary"]["total"]

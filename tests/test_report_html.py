@@ -5,45 +5,18 @@ from __future__ import annotations
 import base64
 import io
 import json
-import re
-import shutil
 import subprocess
-from html.parser import HTMLParser
 from pathlib import Path
 
 import matplotlib.pyplot as plt
 import pytest
 from PIL import Image
+from report_page import Page, chromium, rendered_dom
 
 from servokit._figures import also_save_as, save_figure
 from servokit.report import CaseResult, Comparison
 from servokit.report.html import figure_caption, render_html
 from servokit.report.output import write_report
-
-
-class _Page(HTMLParser):
-    """Collects image sources and the summary cells (data-key) of the total row."""
-
-    def __init__(self) -> None:
-        super().__init__()
-        self.images: list[str] = []
-        self.total: dict[str, int] = {}
-        self._in_total = False
-        self._key: str | None = None
-
-    def handle_starttag(self, tag: str, attrs: list[tuple[str, str | None]]) -> None:
-        a = dict(attrs)
-        if tag == "img":
-            self.images.append(a["src"] or "")
-        if tag == "tr":
-            self._in_total = a.get("id") == "summary-total"
-        if self._in_total and "data-key" in a:
-            self._key = a["data-key"]
-
-    def handle_data(self, data: str) -> None:
-        if self._key and data.strip():
-            self.total[self._key] = int(data)
-            self._key = None
 
 
 def _fake_results(outdir: Path) -> list[CaseResult]:
@@ -71,7 +44,7 @@ def report(tmp_path: Path) -> Path:
 
 
 def test_every_image_loads_and_summary_equals_results_json(report: Path) -> None:
-    page = _Page()
+    page = Page()
     page.feed((report / "report.html").read_text(encoding="utf-8"))
     assert len(page.images) == 1
     for src in page.images:
@@ -113,31 +86,21 @@ def test_render_with_no_cases(tmp_path: Path) -> None:
     assert "Summary" in html
 
 
-def _chromium() -> str | None:
-    return shutil.which("chromium") or shutil.which("chromium-browser")
-
-
 @pytest.mark.skipif(
-    _chromium() is None,
+    chromium() is None,
     reason="headless Chromium (Debian package 'chromium') is not installed",
 )
 def test_headless_chromium_images_load_and_summary_matches(report: Path) -> None:
-    exe = _chromium()
-    url = (report / "report.html").as_uri()
-    flags = ["--headless", "--no-sandbox", "--disable-gpu", "--virtual-time-budget=5000"]
-    dom = subprocess.run(
-        [exe, *flags, "--dump-dom", url], check=True, timeout=120, capture_output=True, text=True
-    ).stdout
-    total = re.search(r'data-images-total="(\d+)"', dom)
-    loaded = re.search(r'data-images-loaded="(\d+)"', dom)
-    assert total and loaded and int(total.group(1)) == int(loaded.group(1)) == 1
-    page = _Page()
+    dom, total, loaded = rendered_dom(report / "report.html")
+    assert total == loaded == 1
+    page = Page()
     page.feed(dom)  # the summary as the browser rendered it
     doc = json.loads((report / "results.json").read_text())
     assert page.total == doc["summary"]["total"]
     shot = report / "screenshot.png"
     subprocess.run(
-        [exe, *flags, f"--screenshot={shot}", "--window-size=1200,2000", url],
+        [chromium(), "--headless", "--no-sandbox", "--disable-gpu", f"--screenshot={shot}",
+         "--window-size=1200,2000", (report / "report.html").as_uri()],
         check=True, timeout=120, capture_output=True,
     )  # fmt: skip
     with Image.open(shot) as img:
