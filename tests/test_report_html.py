@@ -32,7 +32,14 @@ def _fake_results(outdir: Path) -> list[CaseResult]:
         Comparison("no book number", float("nan"), 1.0, kind="assumed", note="omitted"),
     ]
     return [
-        CaseResult("fake-a", "Fake case A", rows, [png], chapter=2),
+        CaseResult(
+            "fake-a",
+            "Fake case A",
+            rows,
+            [png],
+            {"delay_convention": "no delay", "n": 3},
+            chapter=2,
+        ),
         CaseResult("fake-b", "Fake case B", [Comparison("x", 1.0, 1.0)], [], chapter=5),
     ]
 
@@ -63,6 +70,7 @@ def test_rows_kinds_notes_and_caption_render_escaped(report: Path) -> None:
     assert "not judged" in html and 'href="fake_fig_9_9.svg"' in html
     assert html.index("chapter-2") < html.index("chapter-5")
     assert ">0.26<" in html  # the book number as printed
+    assert "<em>delay convention:</em> no delay" in html  # text extras are case notes
 
 
 def test_caption_falls_back_to_file_name(tmp_path: Path) -> None:

@@ -203,7 +203,9 @@ def results_document(
     Returns
     -------
     dict
-        ``servokit_version, generated_utc, cases, rows, summary``.
+        ``servokit_version, generated_utc, cases, rows, summary``; each case holds
+        ``name, title, chapter, runtime_s, figures, notes`` (``notes``: the text-valued
+        entries of ``CaseResult.extra``, e.g. a delay convention).
     """
     from servokit import __version__
 
@@ -218,6 +220,8 @@ def results_document(
             "chapter": int(r.chapter),
             "runtime_s": _finite_or_none(runtimes_s.get(r.name, float("nan"))),
             "figures": [_relative(f, outdir) for f in r.figures],
+            # the case's stated conventions and assumptions (its text-valued extras)
+            "notes": {str(k): v for k, v in r.extra.items() if isinstance(v, str)},
         }
         for r in results
     ]
