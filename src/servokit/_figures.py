@@ -2,11 +2,14 @@
 
 from __future__ import annotations
 
+import io
 from collections.abc import Iterator
 from contextlib import contextmanager
 from contextvars import ContextVar
 from pathlib import Path
 from typing import TYPE_CHECKING
+
+from servokit._io import write_atomic
 
 if TYPE_CHECKING:
     from matplotlib.figure import Figure
@@ -51,6 +54,8 @@ def save_figure(fig: Figure, path: str | Path, *, dpi: int = 110) -> Path:
     for target in targets:
         # the title travels in the file, so a report can caption any figure
         meta = {"Title": title} if title and target.suffix.lower() in _META_FORMATS else None
-        fig.savefig(target, dpi=dpi, metadata=meta)
+        buf = io.BytesIO()
+        fig.savefig(buf, dpi=dpi, metadata=meta, format=target.suffix.lstrip(".").lower() or None)
+        write_atomic(target, buf.getvalue())  # an interrupted run leaves no torn image
     plt.close(fig)
     return Path(path)
