@@ -2,14 +2,14 @@
 
 Sub-packages follow the book's design phases: :mod:`servokit.models`,
 :mod:`servokit.simulate`, :mod:`servokit.feedforward`, :mod:`servokit.sampled`,
-:mod:`servokit.cases`, :mod:`servokit.report`, :mod:`servokit.export`.
+:mod:`servokit.cases`, :mod:`servokit.report`.
 """
 
 from importlib import import_module
 from typing import Any
 
 __version__ = "0.1.0"
-__all__ = ["models", "simulate", "feedforward", "sampled", "cases", "report", "export", "errors"]
+__all__ = ["models", "simulate", "feedforward", "sampled", "cases", "report", "errors"]
 
 
 def __getattr__(name: str) -> Any:
