@@ -36,3 +36,13 @@ lint: $(STAMP)
 
 clean:
 	rm -rf $(VENV) $(OUT) .pytest_cache
+
+# API reference from the numpydoc docstrings (Sphinx); opens at docs/_build/html/index.html
+.PHONY: docs
+$(VENV)/.installed-docs: $(BIN)/python pyproject.toml
+	$(BIN)/pip install --quiet -e ".[docs]"
+	touch $@
+
+docs: $(VENV)/.installed-docs
+	$(BIN)/sphinx-build -q -b html docs docs/_build/html
+	@echo "API docs: docs/_build/html/index.html"
