@@ -145,7 +145,11 @@ class _SeekLP:
     def solve(self, s: int, objective: str = "feasible") -> np.ndarray | None:
         """Scaled solution ``[x, c]`` settling from grid index ``s``, or None if infeasible."""
         mask = np.zeros(self.H.shape[:2], dtype=bool)
-        mask[:, s :: self.substeps] = True  # start from the sampling-rate rows
+        # start from the sampling instants just after s (where rows bind) and a sparse
+        # sampling of the rest; violated fine-grid rows are added below
+        S = self.substeps
+        mask[:, s : s + 4 * S : S] = True
+        mask[:, s + 4 * S :: 8 * S] = True
         mask[:, self.J] = True
         while True:
             x = self._solve_rows(mask, objective)
@@ -179,7 +183,7 @@ class _SeekLP:
             c = np.zeros(n + 1)
             c[n] = 1.0
         res = scipy.optimize.linprog(
-            c, A_ub=A_ub, b_ub=b_ub, A_eq=A_eq, b_eq=[0.0], bounds=bounds, method="highs"
+            c, A_ub=A_ub, b_ub=b_ub, A_eq=A_eq, b_eq=[0.0], bounds=bounds, method="highs-ds"
         )
         if res.status == 2:
             return None
@@ -260,9 +264,9 @@ def robust_minimum_time(
     grid: float | None = None,
     horizon: float = 2e-3,
     slew_max: float | None = None,
-    margin: float = 0.0,
+    margin: float = 0.2,
     objective: Literal["peak", "energy"] = "peak",
-    patience: int = 6,
+    patience: int = 4,
     max_memory_mb: float | None = None,
 ) -> RobustFeedforwardInput:
     """Shortest worst-case seek guaranteed on a plant set under input limits (LP/QP).
@@ -292,7 +296,10 @@ def robust_minimum_time(
         ``|u[k] - u[k-1]| <= slew_max`` per sample (from and back to zero).
     margin : float
         Design margin: the band is shrunk to ``band (1 - margin)`` so that the guarantee
-        carries over to plants near the design set.
+        carries over to plants near the design set.  The default 0.2 is the smallest of
+        0, 0.1, 0.2 for which the HDD designs (1 and 10 tracks, Design 2's peak input) stay
+        no worse than Design 2 on 1000 held-out Monte-Carlo plants of Table 2.3 (case
+        ``hdd-robust-seek``); with 0 the 1-track design fails on some of them.
     objective : {"peak", "energy"}
         Among the inputs reaching the best seek time, the one of least peak (LP) or
         least sum of squares (QP).
