@@ -4,6 +4,10 @@
   under input (and slew) limits, as linear programs (:mod:`.feedforward`).
 """
 
-from servokit.robust.feedforward import RobustFeedforwardInput, robust_minimum_time
+from servokit.robust.feedforward import (
+    NoFeasibleSeekError,
+    RobustFeedforwardInput,
+    robust_minimum_time,
+)
 
-__all__ = ["RobustFeedforwardInput", "robust_minimum_time"]
+__all__ = ["NoFeasibleSeekError", "RobustFeedforwardInput", "robust_minimum_time"]

@@ -44,12 +44,26 @@ from servokit.models.modal import ModalPlant
 from servokit.robust._matrices import PulseBank
 from servokit.simulate._bank import as_plant_list
 
-__all__ = ["RobustFeedforwardInput", "robust_minimum_time"]
+__all__ = ["NoFeasibleSeekError", "RobustFeedforwardInput", "robust_minimum_time"]
 
 #: solver tolerance and rounding absorbed inside the band (fraction of the band)
 _SOLVER_SLACK = 1e-6
 #: relative violation (of the band) above which a fine-grid row is added to the LP
 _ROW_TOL = 1e-9
+
+
+class NoFeasibleSeekError(ServokitValueError):
+    """No step number in the scanned range settles every plant within the band.
+
+    Attributes
+    ----------
+    N_range : (int, int)
+        The step numbers tried (or the bang-bang bound above ``N_max``).
+    """
+
+    def __init__(self, message: str, N_range: tuple[int, int]) -> None:
+        super().__init__(message)
+        self.N_range = N_range
 
 
 @dataclass(frozen=True, eq=False)
@@ -333,9 +347,10 @@ def robust_minimum_time(
     N_lo = _first_N(probe, target, u_max) if N is None else int(N)
     N_hi = (4 * N_lo + 10 if N_max is None else int(N_max)) if N is None else int(N)
     if N_lo < 1 or N_hi < N_lo:
-        raise ServokitValueError(
+        raise NoFeasibleSeekError(
             f"N_max ({N_hi}) is below {N_lo}, the fewest steps in which |u| <= {u_max:g} can "
-            "move the rigid body to the target and stop: raise N_max or u_max"
+            "move the rigid body to the target and stop: raise N_max or u_max",
+            (N_lo, N_hi),
         )
     duration = N_hi * dt + plist[0].delay + tail + 2 * dt
     n_grid = duration / dt * S
@@ -380,9 +395,10 @@ def _scan(
             if stale >= patience:
                 break
     if best is None:
-        raise ServokitValueError(
+        raise NoFeasibleSeekError(
             f"no N in {N_range[0]}..{N_range[1]} settles every plant within +-{band:g} with "
-            f"|u| <= {u_max:g}: raise u_max, widen the band, reduce the margin or raise N_max"
+            f"|u| <= {u_max:g}: raise u_max, widen the band, reduce the margin or raise N_max",
+            N_range,
         )
     seek, lp, s = best
     x = lp.solve(s, objective)
