@@ -30,7 +30,7 @@ def design():
 
 
 # ------------------------------------------------------------------ the linear maps
-@settings(max_examples=8, deadline=None, suppress_health_check=[HealthCheck.too_slow])
+@settings(max_examples=5, deadline=None, suppress_health_check=[HealthCheck.too_slow])
 @given(
     u=st.lists(st.floats(-1.0, 1.0), min_size=3, max_size=8),
     delay=st.sampled_from([0.0, 0.0037, 0.02]),
@@ -45,7 +45,7 @@ def test_output_map_equals_simulation(u, delay):
     np.testing.assert_allclose(y_map, y_sim, rtol=1e-9, atol=1e-12)
 
 
-@settings(max_examples=8, deadline=None)
+@settings(max_examples=5, deadline=None)
 @given(u=st.lists(st.floats(-1.0, 1.0), min_size=3, max_size=8), tail=st.floats(0.0, 0.1))
 def test_tail_maps_exact_at_horizon_and_bound_after(u, tail):
     """(R2)-(R3): modal coefficients give y(T) exactly and bound |y(t) - rigid| for t >= T."""
