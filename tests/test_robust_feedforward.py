@@ -163,3 +163,9 @@ def test_empty_and_rigidless_plant_sets():
     spring = ModalPlant(gain=1.0, modes=(Mode(5.0, 0.1, 1.0),), delay=0.0)
     with pytest.raises(ServokitValueError, match="no rigid-body mode"):
         robust_minimum_time(spring, DT, TARGET, band=BAND, u_max=U_MAX)
+
+
+def test_public_contract_name():
+    import servokit.feedforward as ff_pkg
+
+    assert ff_pkg.robust_minimum_time is robust_minimum_time
