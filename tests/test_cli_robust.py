@@ -26,13 +26,9 @@ def plant_file(tmp_path_factory) -> Path:
     return path
 
 
-def _seek(*args: str):
-    return runner.invoke(app, ["seek", "--method", "robust", *args])
-
-
-def test_json_and_plot(plant_file: Path, tmp_path: Path) -> None:
-    out = tmp_path / "robust.png"
-    res = _seek(
+def _base(plant_file: Path) -> tuple[str, ...]:
+    """The pair plant at dt = 0.01 s, 1 unit, |u| <= 4, band 0.05."""
+    return (
         "--plant",
         str(plant_file),
         "--dt",
@@ -43,6 +39,17 @@ def test_json_and_plot(plant_file: Path, tmp_path: Path) -> None:
         "4",
         "--settle-band",
         "0.05",
+    )
+
+
+def _seek(*args: str):
+    return runner.invoke(app, ["seek", "--method", "robust", *args])
+
+
+def test_json_and_plot(plant_file: Path, tmp_path: Path) -> None:
+    out = tmp_path / "robust.png"
+    res = _seek(
+        *_base(plant_file),
         "--json",
         "--plot",
         str(out),
@@ -60,16 +67,7 @@ def test_json_and_plot(plant_file: Path, tmp_path: Path) -> None:
 
 def test_human_output_fixed_n(plant_file: Path) -> None:
     res = _seek(
-        "--plant",
-        str(plant_file),
-        "--dt",
-        "0.01",
-        "--tracks",
-        "1",
-        "--u-max",
-        "4",
-        "--settle-band",
-        "0.05",
+        *_base(plant_file),
         "--N",
         "12",
         "--objective",
