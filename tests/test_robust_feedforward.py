@@ -169,3 +169,27 @@ def test_public_contract_name():
     import servokit.feedforward as ff_pkg
 
     assert ff_pkg.robust_minimum_time is robust_minimum_time
+
+
+def test_voltage_limit_of_section_2_6():
+    """(2.84): R i + L di/dt + Ke v stays within the limit on every plant's rigid body."""
+    from servokit.feedforward import MotorModel, VoltageLimit
+
+    plants = _pair()
+    motor = MotorModel(resistance=2.0, inductance=0.02, back_emf=0.2)
+    free = robust_minimum_time(plants, DT, TARGET, band=BAND, u_max=U_MAX, horizon=0.2)
+    lim = robust_minimum_time(
+        plants,
+        DT,
+        TARGET,
+        band=BAND,
+        u_max=U_MAX,
+        horizon=0.2,
+        limits=[VoltageLimit(7.0, motor=motor)],
+    )
+    assert lim.guaranteed_seek_time > free.guaranteed_seek_time  # the limit binds
+    for p in plants:
+        velocity = p.gain * DT * np.concatenate([[0.0], np.cumsum(lim.u)[:-1]])
+        assert np.max(np.abs(motor.voltage(lim.u, velocity, DT))) <= 7.0 * (1 + 1e-6)
+    times = seek_time(plants, lim, TARGET, band=BAND, horizon=5.0)
+    assert times.max() <= lim.guaranteed_seek_time + 1e-12

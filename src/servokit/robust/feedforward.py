@@ -39,7 +39,7 @@ import numpy as np
 import scipy.optimize
 
 from servokit.errors import ServokitValueError, check_finite, check_memory, check_positive
-from servokit.feedforward import FeedforwardInput, solve_fsc_qp
+from servokit.feedforward import FeedforwardInput, constraint_rows, lifted_model, solve_fsc_qp
 from servokit.models.modal import ModalPlant
 from servokit.robust._matrices import PulseBank
 from servokit.simulate._bank import as_plant_list
@@ -107,12 +107,19 @@ class _SeekLP:
         u_max: float,
         tail: float,
         slew_max: float | None,
+        limits: Sequence[object] = (),
     ) -> None:
         self.N, self.target, self.band, self.u_max = N, target, band, u_max
         self.substeps = bank.substeps
         self.J = bank.horizon_index(N, tail)
         self.H = bank.output_map(N, np.arange(self.J + 1)) * (u_max / band)  # (V, J+1, N)
         self.tail_A, self.tail_b = self._tail_rows(bank, N, slew_max)
+        if limits:
+            G, h = _limit_rows(bank, N, limits)
+            self.tail_A = np.vstack(
+                [self.tail_A, np.hstack([G * u_max, np.zeros((len(G), self.n_env))])]
+            )
+            self.tail_b = np.concatenate([self.tail_b, h])
         self.n_lp = 0
 
     def _tail_rows(
@@ -224,6 +231,34 @@ class _SeekLP:
             return None
 
 
+def _limit_rows(bank: PulseBank, N: int, limits: Sequence[object]) -> tuple[np.ndarray, np.ndarray]:
+    """Rows ``G u <= h`` (normalised to ``h = 1``) of §2.6 limits for every rigid-body gain.
+
+    The limits are the constraint objects of :mod:`servokit.feedforward.constraints`
+    (``InputLimit``, ``VelocityLimit``, ``VoltageLimit``, ...), evaluated on the book's
+    design model of (2.83)-(2.88): the rigid body ``[position, velocity]`` driven by the
+    held input, one model per distinct rigid-body gain of the set.
+    """
+    dt = bank.dt
+    gains = np.unique(np.where(bank.w == 0.0, bank.r, 0.0).sum(axis=1))
+    A = np.array([[1.0, dt], [0.0, 1.0]])
+    G_parts, h_parts = [], []
+    for g in gains:
+        model = lifted_model(
+            A,
+            g * np.array([dt**2 / 2, dt]),
+            N,
+            np.zeros(2),
+            dt=dt,
+            position=np.array([1.0, 0.0]),
+            velocity=np.array([0.0, 1.0]),
+        )
+        G, h, _ = constraint_rows(limits, model)
+        G_parts.append(G / h[:, None])
+        h_parts.append(np.ones(len(h)))
+    return np.vstack(G_parts), np.concatenate(h_parts)
+
+
 def _settle_search(lp: _SeekLP, hi: int) -> tuple[int, np.ndarray] | None:
     """Smallest settle index ``s <= hi`` with a feasible input (bisection), or None."""
     x = lp.solve(hi)
@@ -278,6 +313,7 @@ def robust_minimum_time(
     grid: float | None = None,
     horizon: float = 2e-3,
     slew_max: float | None = None,
+    limits: Sequence[object] = (),
     margin: float = 0.2,
     objective: Literal["peak", "energy"] = "peak",
     patience: int = 4,
@@ -308,6 +344,10 @@ def robust_minimum_time(
         the modal envelope bound (R3) holds the output in the band.
     slew_max : float, optional
         ``|u[k] - u[k-1]| <= slew_max`` per sample (from and back to zero).
+    limits : sequence of constraint objects
+        Limits of §2.6 (:class:`~servokit.feedforward.VoltageLimit`,
+        :class:`~servokit.feedforward.VelocityLimit`, ...) on the rigid-body design model
+        of every plant's gain, eqs. (2.83)-(2.88); the input itself is the current.
     margin : float
         Design margin: the band is shrunk to ``band (1 - margin)`` so that the guarantee
         carries over to plants near the design set.  The default 0.2 is the smallest of
@@ -360,27 +400,34 @@ def robust_minimum_time(
         max_memory_mb=max_memory_mb,
     )
     bank = PulseBank.build(plist, dt, S, duration)
-    return _scan(bank, target, band_eff, u_max, tail, slew_max, objective, (N_lo, N_hi), patience)
+    setup = _Setup(target, band_eff, u_max, tail, slew_max, tuple(limits), objective)
+    return _scan(bank, setup, (N_lo, N_hi), patience)
+
+
+@dataclass(frozen=True)
+class _Setup:
+    """The fixed data of one design (everything but N and the settle index)."""
+
+    target: float
+    band: float
+    u_max: float
+    tail: float
+    slew_max: float | None
+    limits: tuple[object, ...]
+    objective: str
 
 
 def _scan(
-    bank: PulseBank,
-    target: float,
-    band: float,
-    u_max: float,
-    tail: float,
-    slew_max: float | None,
-    objective: str,
-    N_range: tuple[int, int],
-    patience: int,
+    bank: PulseBank, setup: _Setup, N_range: tuple[int, int], patience: int
 ) -> RobustFeedforwardInput:
     """Scan N upward; keep the smallest guaranteed settle time (smallest N on ties)."""
+    target, band, u_max, objective = setup.target, setup.band, setup.u_max, setup.objective
     best: tuple[float, _SeekLP, int] | None = None
     Ns, times, n_lp, stale = [], [], 0, 0
     # the LP works a hair inside the band: active rows then sit below it, not on it
     lp_band = band * (1.0 - _SOLVER_SLACK)
     for N in range(N_range[0], N_range[1] + 1):
-        lp = _SeekLP(bank, N, target, lp_band, u_max, tail, slew_max)
+        lp = _SeekLP(bank, N, target, lp_band, u_max, setup.tail, setup.slew_max, setup.limits)
         h = bank.dt / bank.substeps
         hi = lp.J if best is None else min(lp.J, int(round(best[0] / h)) - 1)
         found = _settle_search(lp, hi) if hi >= 0 else None
