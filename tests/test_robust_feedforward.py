@@ -193,3 +193,33 @@ def test_voltage_limit_of_section_2_6():
         assert np.max(np.abs(motor.voltage(lim.u, velocity, DT))) <= 7.0 * (1 + 1e-6)
     times = seek_time(plants, lim, TARGET, band=BAND, horizon=5.0)
     assert times.max() <= lim.guaranteed_seek_time + 1e-12
+
+
+@pytest.mark.slow
+@settings(max_examples=3, deadline=None, suppress_health_check=[HealthCheck.too_slow])
+@given(
+    gains=st.tuples(st.floats(60.0, 140.0), st.floats(60.0, 140.0)),
+    freq=st.tuples(st.floats(12.0, 30.0), st.floats(12.0, 30.0)),
+    damping=st.tuples(st.floats(0.03, 0.3), st.floats(0.03, 0.3)),
+    residue=st.tuples(st.floats(-0.5, -0.05), st.floats(0.05, 0.5)),
+    delay=st.sampled_from([0.0, 0.004]),
+)
+def test_guarantee_holds_on_random_plant_sets(gains, freq, damping, residue, delay):
+    """For any plant pair: limits met and the simulator confirms the guaranteed seek."""
+    from hypothesis import reject
+
+    from servokit.robust import NoFeasibleSeekError
+
+    plants = [
+        ModalPlant(gain=g, modes=(Mode(0.0, 0.0, 1.0), Mode(f, z, r)), delay=delay)
+        for g, f, z, r in zip(gains, freq, damping, residue, strict=True)
+    ]
+    try:
+        d = robust_minimum_time(
+            plants, DT, TARGET, band=0.1, u_max=U_MAX, horizon=0.2, margin=0.0, N_max=30
+        )
+    except NoFeasibleSeekError:
+        reject()
+    assert np.max(np.abs(d.u)) <= U_MAX * (1 + 1e-9) and abs(d.u.sum()) <= 1e-9 * U_MAX
+    times = seek_time(plants, d, TARGET, band=0.1, horizon=10.0)
+    assert times.max() <= d.guaranteed_seek_time + 1e-12
