@@ -93,11 +93,10 @@ def test_not_faster_than_the_rigid_body_allows(design):
     assert design.guaranteed_seek_time >= t_min
 
 
-def test_energy_objective_and_slew():
-    plants = _pair()
-    peak = robust_minimum_time(plants, DT, TARGET, band=BAND, u_max=U_MAX, horizon=0.2, N=11)
+def test_energy_objective_and_slew(design):
+    plants, peak = _pair(), design
     energy = robust_minimum_time(
-        plants, DT, TARGET, band=BAND, u_max=U_MAX, horizon=0.2, N=11, objective="energy"
+        plants, DT, TARGET, band=BAND, u_max=U_MAX, horizon=0.2, N=peak.N, objective="energy"
     )
     assert energy.guaranteed_seek_time == pytest.approx(peak.guaranteed_seek_time)
     assert np.sum(energy.u**2) <= np.sum(peak.u**2) * (1 + 1e-6)
@@ -171,13 +170,13 @@ def test_public_contract_name():
     assert ff_pkg.robust_minimum_time is robust_minimum_time
 
 
-def test_voltage_limit_of_section_2_6():
+def test_voltage_limit_of_section_2_6(design):
     """(2.84): R i + L di/dt + Ke v stays within the limit on every plant's rigid body."""
     from servokit.feedforward import MotorModel, VoltageLimit
 
     plants = _pair()
     motor = MotorModel(resistance=2.0, inductance=0.02, back_emf=0.2)
-    free = robust_minimum_time(plants, DT, TARGET, band=BAND, u_max=U_MAX, horizon=0.2)
+    free = design
     lim = robust_minimum_time(
         plants,
         DT,

@@ -311,7 +311,7 @@ def robust_minimum_time(
     N: int | None = None,
     N_max: int | None = None,
     grid: float | None = None,
-    horizon: float = 2e-3,
+    horizon: float | None = None,
     slew_max: float | None = None,
     limits: Sequence[object] = (),
     margin: float = 0.2,
@@ -339,9 +339,10 @@ def robust_minimum_time(
         Largest N scanned (default four times the bang-bang bound plus 10).
     grid : float, optional
         Read-out period of the position [s], dividing ``dt`` (default ``dt / 10``).
-    horizon : float
+    horizon : float, optional
         Grid rows are checked up to this long after the delayed input ends [s]; beyond it
-        the modal envelope bound (R3) holds the output in the band.
+        the modal envelope bound (R3) holds the output in the band.  Default
+        ``max(2 ms, 10 dt)``.
     slew_max : float, optional
         ``|u[k] - u[k-1]| <= slew_max`` per sample (from and back to zero).
     limits : sequence of constraint objects
@@ -374,6 +375,8 @@ def robust_minimum_time(
         (the message names what to relax).
     """
     plist = as_plant_list(plants)
+    if horizon is None:  # 2 ms for the HDD; slower plants: ten hold periods
+        horizon = max(2e-3, 10 * float(check_positive("dt", dt, "s")))
     dt, target, band, u_max, margin, tail = _check_args(dt, target, band, u_max, margin, horizon)
     if objective not in ("peak", "energy"):
         raise ServokitValueError(f"objective must be 'peak' or 'energy', got {objective!r}")
