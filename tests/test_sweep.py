@@ -153,3 +153,21 @@ def test_cli_bad_input_one_line_exit_2(monkeypatch, capsys, args, flag):
     code, out, err = _cli(monkeypatch, capsys, *args)
     assert code == 2 and out == ""
     assert err.count("\n") == 1 and err.startswith("servokit: error:") and flag in err
+
+
+@pytest.mark.slow
+def test_cli_on_a_dask_scheduler_with_worker_processes(monkeypatch, capsys):
+    """`--scheduler ADDRESS`: worker processes give the in-process percentiles."""
+    distributed = pytest.importorskip("distributed")
+    with distributed.LocalCluster(
+        n_workers=2, threads_per_worker=1, processes=True, dashboard_address=None
+    ) as cluster:
+        args = ("--method", "fsc", "--n-samples", "12", "--n-variants", "600", "--json")
+        code, out, err = _cli(monkeypatch, capsys, *args, "--scheduler", cluster.scheduler_address)
+        assert code == 0, err
+    on_dask = json.loads(out)
+    code, out, err = _cli(monkeypatch, capsys, *args)
+    in_proc = json.loads(out)
+    assert on_dask["backend"] == "dask" and in_proc["backend"] == "numpy"
+    assert on_dask["percentiles_s"] == in_proc["percentiles_s"]
+    assert on_dask["worst_index"] == in_proc["worst_index"]
