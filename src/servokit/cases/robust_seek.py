@@ -73,7 +73,8 @@ def _rows(
             note="the 18 design plants on a 20 ms record; tolerance half a read-out step",
         ),
         _met(
-            f"{tracks:g} track(s): robust worst seek <= 0.85 x Design 2's (18 plants) [1 = met]",
+            f"{tracks:g} track(s), 18 plants: robust {w['robust'] * 1e3:.4f} ms vs Design 2 "
+            f"{w['d2'] * 1e3:.4f} ms worst seek, >= 15 % shorter [1 = met]",
             gain >= REQUIRED_GAIN,
             f"Design 2 (N = {d2.N}) {w['d2'] * 1e3:.4f} ms, robust (N = {rob.N}) "
             f"{w['robust'] * 1e3:.4f} ms: {100 * gain:.1f} % shorter at the same peak input "
@@ -81,8 +82,8 @@ def _rows(
             src,
         ),
         _met(
-            f"{tracks:g} track(s): robust worst seek <= Design 2's on {HELD_OUT} held-out "
-            "Monte-Carlo plants [1 = met]",
+            f"{tracks:g} track(s), {HELD_OUT} held-out plants: robust {w['robust_mc'] * 1e3:.4f} "
+            f"ms vs Design 2 {w['d2_mc'] * 1e3:.4f} ms worst seek, not worse [1 = met]",
             w["robust_mc"] <= w["d2_mc"],
             f"Design 2 {w['d2_mc'] * 1e3:.4f} ms, robust (margin {1 - rob.band / BAND:.2f}) "
             f"{w['robust_mc'] * 1e3:.4f} ms; Design 1 {w['d1_mc'] * 1e3:.4f} ms",
