@@ -222,3 +222,14 @@ def test_guarantee_holds_on_random_plant_sets(gains, freq, damping, residue, del
     assert np.max(np.abs(d.u)) <= U_MAX * (1 + 1e-9) and abs(d.u.sum()) <= 1e-9 * U_MAX
     times = seek_time(plants, d, TARGET, band=0.1, horizon=10.0)
     assert times.max() <= d.guaranteed_seek_time + 1e-12
+
+
+def test_tail_bound_protects_beyond_a_short_horizon():
+    """Lightly damped modes and a short checked record: only (R3) keeps the late output in."""
+    plants = [
+        ModalPlant(gain=g, modes=(Mode(0.0, 0.0, 1.0), Mode(f, 0.005, -0.5)), delay=0.0)
+        for g, f in ((100.0, 20.0), (95.0, 23.0))
+    ]
+    d = robust_minimum_time(plants, DT, TARGET, band=BAND, u_max=U_MAX, horizon=0.02)
+    times = seek_time(plants, d, TARGET, band=d.band, horizon=20.0)
+    assert np.all(np.isfinite(times)) and times.max() <= d.guaranteed_seek_time + 1e-12

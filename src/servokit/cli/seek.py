@@ -89,7 +89,7 @@ def seek_cmd(
         if not is_hdd:
             raise ServokitValueError("--method ffsc needs at least one --band for this plant")
         bands = table_2_4_weights(tracks)
-    if method == "fsc" and bands:
+    if method != "ffsc" and bands:
         raise ServokitValueError("--band only applies to --method ffsc")
     sim_plants = plants if delay else [p.replace(delay=0.0) for p in plants]
     if method == "robust":  # servokit.cli.robust: design over the set, verify, report
