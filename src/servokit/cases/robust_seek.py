@@ -115,6 +115,7 @@ def _histogram(times: dict[str, dict[str, np.ndarray]], path: Path) -> Path:
 @register("hdd-robust-seek", order=500)
 def robust_seek_case(outdir: Path) -> CaseResult:
     """Robust LP design vs Designs 1-2 for 1 and 10 tracks, at Design 2's peak input."""
+    start = time.perf_counter()
     outdir = Path(outdir)
     outdir.mkdir(parents=True, exist_ok=True)
     plants = [p.replace(delay=0.0) for p in hdd_benchmark_variants()]
@@ -161,6 +162,7 @@ def robust_seek_case(outdir: Path) -> CaseResult:
             )
         )
     figures.append(_histogram(hist, outdir / "hdd_robust_seek_held_out.png"))
+    extra["runtime_s"] = time.perf_counter() - start
     return CaseResult(
         "hdd-robust-seek",
         "Beyond the book: robust minimum-time seek over the 18 HDD plants (LP)",
