@@ -9,12 +9,16 @@ from __future__ import annotations
 import time
 from dataclasses import dataclass
 from pathlib import Path
+from typing import TYPE_CHECKING
 
 import numpy as np
 
 from servokit.cli._app import console, emit_json, plot_target, wrote
 from servokit.errors import ServokitValueError, check_positive
 from servokit.models import ModalPlant
+
+if TYPE_CHECKING:
+    from servokit.robust import RobustFeedforwardInput
 
 __all__ = ["RobustSeekRequest", "robust_seek"]
 
@@ -46,7 +50,7 @@ class RobustSeekRequest:
     json_out: bool
 
 
-def _design(req: RobustSeekRequest):
+def _design(req: RobustSeekRequest) -> RobustFeedforwardInput:
     from servokit.robust import NoFeasibleSeekError, robust_minimum_time
 
     if req.u_max is None:
