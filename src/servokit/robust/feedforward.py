@@ -313,7 +313,7 @@ def robust_minimum_time(
     grid: float | None = None,
     horizon: float | None = None,
     slew_max: float | None = None,
-    limits: Sequence[object] = (),
+    limits: Sequence[object] | None = None,
     margin: float = 0.2,
     objective: Literal["peak", "energy"] = "peak",
     patience: int = 4,
@@ -345,7 +345,7 @@ def robust_minimum_time(
         ``max(2 ms, 10 dt)``.
     slew_max : float, optional
         ``|u[k] - u[k-1]| <= slew_max`` per sample (from and back to zero).
-    limits : sequence of constraint objects
+    limits : sequence of constraint objects, optional
         Limits of §2.6 (:class:`~servokit.feedforward.VoltageLimit`,
         :class:`~servokit.feedforward.VelocityLimit`, ...) on the rigid-body design model
         of every plant's gain, eqs. (2.83)-(2.88); the input itself is the current.
@@ -403,7 +403,7 @@ def robust_minimum_time(
         max_memory_mb=max_memory_mb,
     )
     bank = PulseBank.build(plist, dt, S, duration)
-    setup = _Setup(target, band_eff, u_max, tail, slew_max, tuple(limits), objective)
+    setup = _Setup(target, band_eff, u_max, tail, slew_max, tuple(limits or ()), objective)
     return _scan(bank, setup, (N_lo, N_hi), patience)
 
 
