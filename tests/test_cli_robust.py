@@ -26,20 +26,14 @@ def plant_file(tmp_path_factory) -> Path:
     return path
 
 
+def _where(plant_file: Path) -> tuple[str, ...]:
+    """The pair plant at dt = 0.01 s, a move of 1 unit."""
+    return ("--plant", str(plant_file), "--dt", "0.01", "--tracks", "1")
+
+
 def _base(plant_file: Path) -> tuple[str, ...]:
-    """The pair plant at dt = 0.01 s, 1 unit, |u| <= 4, band 0.05."""
-    return (
-        "--plant",
-        str(plant_file),
-        "--dt",
-        "0.01",
-        "--tracks",
-        "1",
-        "--u-max",
-        "4",
-        "--settle-band",
-        "0.05",
-    )
+    """... with |u| <= 4 and the band 0.05."""
+    return (*_where(plant_file), "--u-max", "4", "--settle-band", "0.05")
 
 
 def _seek(*args: str):
@@ -91,19 +85,7 @@ def test_human_output_fixed_n(plant_file: Path) -> None:
 def test_bad_input_one_line_exit_2(
     plant_file: Path, args: tuple[str, ...], flag: str, monkeypatch, capsys
 ) -> None:
-    argv = [
-        "servokit",
-        "seek",
-        "--method",
-        "robust",
-        "--plant",
-        str(plant_file),
-        "--dt",
-        "0.01",
-        "--tracks",
-        "1",
-        *args,
-    ]
+    argv = ["servokit", "seek", "--method", "robust", *_where(plant_file), *args]
     monkeypatch.setattr(sys, "argv", argv)
     with pytest.raises(SystemExit) as exc:
         main()
