@@ -153,7 +153,7 @@ def robust_seek_case(outdir: Path) -> CaseResult:
         }
         figures.append(
             seek_plot(
-                out,
+                simulate_seek(plants, rob, tracks),  # the first ms, where it settles
                 tracks,
                 f"Robust minimum-time seek, {tracks:g} track(s), N = {rob.N}, |u| <= "
                 f"{np.abs(ff2.u).max():.4g} A (beyond the book; cf. Figs. 2.18-2.21)",

@@ -107,7 +107,7 @@ def robust_seek(req: RobustSeekRequest) -> None:
     if plot is not None:
         nominal = req.plants[0]
         seek_plot(
-            out,
+            simulate_seek(req.plants, ff, req.target, band=req.settle_band),  # shorter record
             req.target,
             f"Robust minimum-time seek of {req.target:g} on {req.plant_name}, N = {ff.N}, "
             f"|u| <= {req.u_max:g} (beyond the book)",
