@@ -128,10 +128,13 @@ def test_second_phase_margin_of_a_phase_stabilised_mode() -> None:
     C = control.tf([1 / 300, 1], [1 / 3000, 1]) * 0.03
     m = loop_margins(FREQ, _resp(P * C))
     assert m.crossovers_hz.size >= 3
-    # each margin is 180 + unwrapped phase at that crossover
+    # each margin is 180 + phase at that crossover (later ones in [0, 360))
     ph = np.degrees(np.unwrap(np.angle(_resp(P * C))))
-    for f, pm in zip(m.crossovers_hz, m.phase_margins_deg, strict=True):
-        assert pm == pytest.approx(180 + np.interp(np.log(f), np.log(FREQ), ph), abs=1e-9)
+    for f, pm in zip(m.crossovers_hz[1:], m.phase_margins_deg[1:], strict=True):
+        want = (180 + np.interp(np.log(f), np.log(FREQ), ph)) % 360
+        assert pm == pytest.approx(want, abs=1e-9)
+        assert 0 <= pm < 360
+    assert -180 < m.phase_margin_deg <= 180
     assert m.second_phase_margin_deg == m.phase_margins_deg[1]
 
 

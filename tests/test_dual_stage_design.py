@@ -127,3 +127,15 @@ def test_unknowns_are_checked() -> None:
         Unknowns(delay_pzt_s=-1e-6)
     with pytest.raises(ServokitValueError, match="method"):
         vcm_controller("lqg")
+
+
+@pytest.mark.slow
+def test_search_refinds_the_inverse_unknowns() -> None:
+    from servokit.cases.dual_stage import FITTED
+    from servokit.feedback.dual_stage_design import fit_unknowns, table_cost
+
+    res = fit_unknowns("inverse")
+    assert res.cost < 0.05  # every inverse row within a twentieth of its tolerance
+    for key, value in FITTED["inverse"].items():
+        assert getattr(res.unknowns, key) == pytest.approx(value, rel=0.05, abs=1e-6)
+    assert table_cost(evaluate_design("inverse", Unknowns(**FITTED["inverse"]))) < 0.05

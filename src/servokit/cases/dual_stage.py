@@ -34,7 +34,14 @@ __all__ = ["FITTED", "run", "bode_figure", "sensitivity_figure", "fitted_unknown
 FITTED: dict[str, dict[str, float]] = {
     "gain": {"notch_damping": 0.2987, "delay_vcm_s": 1.432e-5, "delay_pzt_s": 0.0},
     "inverse": {"pair_pole_damping": 1.0, "delay_vcm_s": 1.677e-5, "delay_pzt_s": 1.001e-5},
-    "phase": {},
+    "phase": {
+        "notch_damping": 0.3343,
+        "extra_notch_depth_damping": 0.4996,
+        "kcv_phase": 2.072,
+        "kcm_phase": 0.5119,
+        "delay_vcm_s": 2.349e-5,
+        "delay_pzt_s": 7.903e-5,
+    },
 }
 
 _LABEL = {
@@ -106,6 +113,7 @@ def _bode_axes(title: str):
     ax_m.set_title(title)
     ax_m.set_ylabel("magnitude [dB]")
     ax_p.set_ylabel("phase [deg]")
+    ax_p.set_yticks(np.arange(-360, 1, 90))
     ax_p.set_xlabel("frequency [Hz]")
     for ax in (ax_m, ax_p):
         ax.set_xscale("log")
@@ -119,7 +127,7 @@ def bode_figure(responses: dict[str, DesignResponses], attr: str, title: str, pa
     for method, r in responses.items():
         h = getattr(r, attr)
         ax_m.plot(r.freq_hz, 20 * np.log10(np.abs(h)), label=_LABEL[method], lw=1)
-        ax_p.plot(r.freq_hz, np.degrees(np.angle(h)), lw=1)
+        ax_p.plot(r.freq_hz, np.degrees(np.angle(h)) % 360.0 - 360.0, lw=1)
     ax_m.axhline(0.0, color="k", lw=0.6)
     ax_m.legend()
     return save_figure(fig, path)

@@ -147,9 +147,10 @@ class LoopMargins:
     """Margins of an open loop read on a frequency grid.
 
     ``crossovers_hz`` are all gain crossovers (|L| = 1), ascending; ``phase_margins_deg``
-    the phase margin at each, measured from -180 deg on the phase unwrapped from the
-    lowest grid frequency (so a phase-stabilised resonance crossing 0 dB again with
-    phase lead reports a margin above 180 deg, the book's "second phase margin").
+    the phase margin at each, ``180 + angle(L)``: the first in (-180, 180], the later
+    ones in [0, 360) (a phase-stabilised resonance that crosses 0 dB again with phase
+    lead has a margin above 180 deg: the book's "second phase margin", 223.8 deg in
+    §5.5.3).
     ``gain_margin_db`` is the smallest ``-20 log10 |L|`` at a phase crossover above the
     first gain crossover (NaN if there is none).
     """
@@ -189,7 +190,8 @@ def loop_margins(freq_hz: np.ndarray, L: np.ndarray) -> LoopMargins:
     wc = _log_cross(f, mag_db)
     if wc.size == 0:
         raise ServokitValueError("the loop never crosses 0 dB on the grid; widen fmin/fmax")
-    pms = 180.0 + _interp(f, phase, wc)
+    pms = (180.0 + _interp(f, phase, wc)) % 360.0
+    pms[0] = pms[0] - 360.0 if pms[0] > 180.0 else pms[0]
     # phase crossovers: phase = -180 + k 360 (|L| measured on the unwrapped phase)
     k = np.round((phase + 180.0) / 360.0)
     shifted = phase + 180.0 - 360.0 * k
