@@ -150,3 +150,12 @@ def test_bad_input() -> None:
         ddssa_bridge(1e-9, 1e-9, 1e-9, 1e-9, r1=1e3)
     with pytest.raises(ServokitValueError, match="modes"):
         amd_controller([])
+
+
+def test_ssa_case(tmp_path) -> None:
+    from servokit.cases.dual_stage import run_ssa
+
+    res = run_ssa(tmp_path)
+    assert all(c.ok for c in res.comparisons)
+    assert res.extra["amd_stable"] and all(p.exists() for p in res.figures)
+    assert res.chapter == 5

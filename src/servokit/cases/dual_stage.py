@@ -185,3 +185,114 @@ def run(outdir: Path) -> CaseResult:
         },
         chapter=5,
     )
+
+
+# ------------------------------------------------------------------ §5.4: SSA
+def _amd_figure(plant, cd, path: Path) -> Path:
+    import control
+    import matplotlib.pyplot as plt
+
+    f = np.geomspace(1e3, 3e4, 3000)
+    s = 2j * np.pi * f
+    p = np.asarray(plant(s)).ravel()
+    damped = np.asarray(control.feedback(plant, cd)(s)).ravel()
+    fig, ax = plt.subplots(figsize=(7.5, 4.5))
+    ax.semilogx(f, 20 * np.log10(np.abs(p)), label="PM (Table 5.3)")
+    ax.semilogx(f, 20 * np.log10(np.abs(damped)), "--", label="PM / (1 + CD PM) (5.68)")
+    ax.set(
+        xlabel="frequency [Hz]",
+        ylabel="magnitude [dB]",
+        title="cf. Fig. 5.31: active mode damping (5.67) on the Table 5.3 PZT",
+    )
+    ax.grid(True, which="both", alpha=0.3)
+    ax.legend()
+    return save_figure(fig, path)
+
+
+def _adaptive_figure(run, path: Path) -> Path:
+    import matplotlib.pyplot as plt
+
+    fig, (ax_y, ax_v) = plt.subplots(2, 1, figsize=(7.5, 5.5), sharex=True)
+    ax_y.plot(run.t * 1e3, run.y * 1e6, lw=0.8, label="tip displacement yM")
+    ax_y.set(ylabel="yM [um]", title="Adaptive SSA control (5.73)-(5.75): run and V of (5.76)")
+    ax_v.plot(run.t * 1e3, run.V / run.V[0], label="V / V(0)")
+    ax_v.set(xlabel="time [ms]", ylabel="V / V(0) [1]")
+    for ax in (ax_y, ax_v):
+        ax.grid(True, alpha=0.3)
+        ax.legend()
+    return save_figure(fig, path)
+
+
+@register("ssa", order=360)
+def run_ssa(outdir: Path) -> CaseResult:
+    """Self-sensing bridges (5.59)-(5.66), active mode damping (5.67)-(5.69) and the
+    adaptive controller (5.73)-(5.78): identities and simulations (no printed numbers
+    on these models besides the bridge gain 1/2 of (5.62))."""
+    import time
+
+    from servokit.feedback.adaptive import AdaptiveGains, cantilever_beam, simulate_adaptive
+    from servokit.feedback.ssa import amd_controller, ddssa_bridge, idssa_bridge, mode_damping
+    from servokit.models import pzt_active_suspension
+
+    t0 = time.perf_counter()
+    cp, w = 2e-9, 2j * np.pi * 1e3
+    dd = ddssa_bridge(cp, cp, cp, cp)
+    idb = idssa_bridge((cp,) * 4, cp, cp, (1e4,) * 4 + (1e3, 2e3, 2e3, 1e3))
+    wc = 2j * np.pi * idb.fc_hz
+    modes = [(5461, 2.0, 10.0), (6074, 2.0, 10.0), (9103, 2.0, 10.0)]
+    plant, cd = pzt_active_suspension().to_statespace(), amd_controller(modes)
+    amd = mode_damping(plant, cd, [m[0] for m in modes])
+    run = simulate_adaptive(cantilever_beam(3), AdaptiveGains(), duration=2e-3, n_out=2000)
+    rows = [
+        Comparison.printed(
+            "DDSSA balanced vs/vM (C1 = C2 = C3 = CPZT)",
+            "0.5",
+            abs(complex(dd.from_vm(w))),
+            source="eq. (5.62)",
+            note="bridge (5.59)-(5.61) with the uM sign of (5.61) corrected",
+        ),
+        Comparison(
+            "DDSSA balanced |vs/uM|",
+            0.0,
+            abs(complex(dd.from_um(w))),
+            rel_tol=1e-12,
+            source="eq. (5.62)",
+            kind="consistency",
+        ),
+        Comparison(
+            "IDSSA balanced |vS/vM| at fc / (k / 2 zeta)",
+            1.0,
+            abs(complex(idb.from_vm(wc))) * 2 * idb.damping / idb.gain,
+            rel_tol=1e-9,
+            source="eq. (5.66)",
+            kind="consistency",
+            note="(5.63)-(5.64) with (5.65) give the high-pass (5.66)",
+        ),
+        Comparison(
+            "adaptive: largest relative increase of V",
+            0.0,
+            run.max_increase(),
+            rel_tol=1e-9,
+            source="eq. (5.78)",
+            kind="consistency",
+            note="modal cantilever, first mode 5.4 kHz (Fig. 5.33); assumed gains",
+        ),
+    ]
+    figs = [
+        _amd_figure(plant, cd, outdir / "fig5_31_amd.png"),
+        _adaptive_figure(run, outdir / "ssa_adaptive.png"),
+    ]
+    return CaseResult(
+        "ssa",
+        "Self-sensing actuation, active mode damping, adaptive control (§5.4)",
+        rows,
+        figs,
+        extra={
+            "amd_modes_hz": amd.freq_hz,
+            "amd_attenuation_db": amd.attenuation_db,
+            "amd_stable": amd.stable,
+            "adaptive_amplitude_ratio": run.amplitude_ratio(),
+            "runtime_s": time.perf_counter() - t0,
+        },
+        chapter=5,
+    )
