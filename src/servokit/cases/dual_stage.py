@@ -133,6 +133,14 @@ def bode_figure(responses: dict[str, DesignResponses], attr: str, title: str, pa
     return save_figure(fig, path)
 
 
+def _finish(fig, ax, ylabel: str, title: str, path: Path) -> Path:
+    """Label a magnitude-vs-frequency axis, add grid and legend, save."""
+    ax.set(xlabel="frequency [Hz]", ylabel=ylabel, title=title)
+    ax.grid(True, which="both", alpha=0.3)
+    ax.legend()
+    return save_figure(fig, path)
+
+
 def sensitivity_figure(responses: dict[str, DesignResponses], path: Path) -> Path:
     """|SD| of the DMS loops (Fig. 5.41)."""
     import matplotlib.pyplot as plt
@@ -140,14 +148,7 @@ def sensitivity_figure(responses: dict[str, DesignResponses], path: Path) -> Pat
     fig, ax = plt.subplots(figsize=(7.5, 4.5))
     for method, r in responses.items():
         ax.semilogx(r.freq_hz, 20 * np.log10(np.abs(r.sensitivity)), label=_LABEL[method], lw=1)
-    ax.set(
-        xlabel="frequency [Hz]",
-        ylabel="|SD| [dB]",
-        title="Fig. 5.41: DMS dual-stage sensitivity SD = SV SM",
-    )
-    ax.grid(True, which="both", alpha=0.3)
-    ax.legend()
-    return save_figure(fig, path)
+    return _finish(fig, ax, "|SD| [dB]", "Fig. 5.41: DMS dual-stage sensitivity SD = SV SM", path)
 
 
 def figures(responses: dict[str, DesignResponses], outdir: Path) -> list[Path]:
@@ -199,14 +200,8 @@ def _amd_figure(plant, cd, path: Path) -> Path:
     fig, ax = plt.subplots(figsize=(7.5, 4.5))
     ax.semilogx(f, 20 * np.log10(np.abs(p)), label="PM (Table 5.3)")
     ax.semilogx(f, 20 * np.log10(np.abs(damped)), "--", label="PM / (1 + CD PM) (5.68)")
-    ax.set(
-        xlabel="frequency [Hz]",
-        ylabel="magnitude [dB]",
-        title="cf. Fig. 5.31: active mode damping (5.67) on the Table 5.3 PZT",
-    )
-    ax.grid(True, which="both", alpha=0.3)
-    ax.legend()
-    return save_figure(fig, path)
+    title = "cf. Fig. 5.31: active mode damping (5.67) on the Table 5.3 PZT"
+    return _finish(fig, ax, "magnitude [dB]", title, path)
 
 
 def _adaptive_figure(run, path: Path) -> Path:
