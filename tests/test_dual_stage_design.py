@@ -139,3 +139,15 @@ def test_search_refinds_the_inverse_unknowns() -> None:
     for key, value in FITTED["inverse"].items():
         assert getattr(res.unknowns, key) == pytest.approx(value, rel=0.05, abs=1e-6)
     assert table_cost(evaluate_design("inverse", Unknowns(**FITTED["inverse"]))) < 0.05
+
+
+@settings(max_examples=30, deadline=None)
+@given(st.floats(100, 1e4), st.floats(0.001, 0.3), st.floats(0.2, 1.0), st.floats(1.0, 1.5))
+def test_high_pass_notch(f: float, zr: float, zd: float, ratio: float) -> None:
+    # (5.14) with fD = ratio fR: unit DC gain, (fD/fR)^2 at high frequency
+    n = notch(f, zr, zd, ratio * f)
+    assert abs(_at(n, 0.0)) == pytest.approx(1.0, rel=1e-12)
+    assert abs(_at(n, f * 1e4)) == pytest.approx(ratio**2, rel=1e-4)
+    wr, wd = 2 * np.pi * f, 2 * np.pi * ratio * f
+    depth = ratio**2 * 2 * zr * wr**2 / abs(wd**2 - wr**2 + 2j * zd * wd * wr)
+    assert abs(_at(n, f)) == pytest.approx(depth, rel=1e-9)

@@ -26,6 +26,7 @@ from servokit.errors import ServokitValueError, check_count
 _FLAGS = {
     "notch_damping": "--notch-damping",
     "notch_depth_damping": "--notch-depth-damping",
+    "notch_freq_ratio": "--notch-freq-ratio",
     "extra_notch_depth_damping": "--extra-notch-depth-damping",
     "pair_pole_damping": "--pair-pole-damping",
     "kcv_phase": "--kcv-phase",
@@ -102,6 +103,10 @@ def dual_stage_cmd(
             "--notch-depth-damping", help="notch zero damping [1] (0: the mode's damping)"
         ),
     ] = None,
+    notch_freq_ratio: Annotated[
+        float | None,
+        typer.Option("--notch-freq-ratio", help="notch pole frequency fD / fR of (5.14) [1]"),
+    ] = None,
     extra_notch_depth_damping: Annotated[
         float | None,
         typer.Option(
@@ -162,6 +167,7 @@ def dual_stage_cmd(
         dict(
             notch_damping=notch_damping,
             notch_depth_damping=notch_depth_damping,
+            notch_freq_ratio=notch_freq_ratio,
             extra_notch_depth_damping=extra_notch_depth_damping,
             pair_pole_damping=pair_pole_damping,
             kcv_phase=kcv_phase,

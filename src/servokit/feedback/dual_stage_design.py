@@ -24,6 +24,9 @@ What the book does not state, and servokit makes explicit (:class:`Unknowns`):
 
 * ``notch_damping`` ``zeta_D`` of every notch (5.14).  The book's range
   ``sqrt(2) < zeta_D <= 1`` is empty; read as ``1/sqrt(2) <= zeta_D <= 1``.
+* the notch numerator damping ``notch_depth_damping`` (0: the damping of the mode
+  notched, the reading of (5.14)) and the notch pole frequency ``fD = notch_freq_ratio fR``
+  (1: ``fD = fR``; the book mentions ``fD > fR`` as an option).
 * the numerator damping of notches at frequencies that are no mode of the tables
   (3800 Hz for the VCM, 13120 Hz for the PZT): ``extra_notch_depth_damping``.
 * the pole damping of the inverse pairs.  Where the pole frequency is a zero of the
@@ -124,6 +127,7 @@ class Unknowns:
 
     notch_damping: float = 0.7
     notch_depth_damping: float = 0.0
+    notch_freq_ratio: float = 1.0
     extra_notch_depth_damping: float = 0.05
     pair_pole_damping: float = 0.05
     kcv_phase: float = 4.9175
@@ -136,6 +140,15 @@ class Unknowns:
             v = getattr(self, name)
             if not (np.isfinite(v) and 0 < v <= 2):
                 raise ServokitValueError(f"{name} must be in (0, 2] (got {v})")
+        if not (np.isfinite(self.notch_depth_damping) and 0 <= self.notch_depth_damping <= 2):
+            raise ServokitValueError(
+                f"notch_depth_damping must be in [0, 2] (0: the mode's damping; got "
+                f"{self.notch_depth_damping})"
+            )
+        if not (np.isfinite(self.notch_freq_ratio) and 0.5 <= self.notch_freq_ratio <= 3):
+            raise ServokitValueError(
+                f"notch_freq_ratio must be in [0.5, 3] (got {self.notch_freq_ratio})"
+            )
         for name in ("kcv_phase", "kcm_phase"):
             if not (np.isfinite(getattr(self, name)) and getattr(self, name) > 0):
                 raise ServokitValueError(f"{name} must be > 0 (got {getattr(self, name)})")
@@ -154,9 +167,17 @@ def _quad(f_hz: float, zeta: float) -> list[float]:
     return [1.0, 2.0 * zeta * w, w * w]
 
 
-def notch(freq_hz: float, depth_damping: float, damping: float) -> control.TransferFunction:
-    """Notch (5.14) with ``fD = fR``: ``(s^2 + 2 zR wR s + wR^2) / (s^2 + 2 zD wR s + wR^2)``."""
-    return _tf(_quad(freq_hz, depth_damping), _quad(freq_hz, damping))
+def notch(
+    freq_hz: float, depth_damping: float, damping: float, filter_freq_hz: float | None = None
+) -> control.TransferFunction:
+    """Notch (5.14): ``(wD/wR)^2 (s^2 + 2 zR wR s + wR^2) / (s^2 + 2 zD wD s + wD^2)``.
+
+    ``filter_freq_hz`` is ``fD`` (``fR`` if omitted); ``fD > fR`` is the book's
+    "high pass notch" with less phase loss below ``fR``.
+    """
+    fd = freq_hz if filter_freq_hz is None else filter_freq_hz
+    num = np.multiply((fd / freq_hz) ** 2, _quad(freq_hz, depth_damping))
+    return _tf(num, _quad(fd, damping))
 
 
 def zero_pole_pair(
@@ -252,7 +273,7 @@ def _notches(plant: ModalPlant, freqs: tuple[float, ...], u: Unknowns) -> list:
     out = []
     for f in freqs:
         zr = u.notch_depth_damping or _mode_damping(plant, f) or u.extra_notch_depth_damping
-        out.append(notch(f, zr, u.notch_damping))
+        out.append(notch(f, zr, u.notch_damping, u.notch_freq_ratio * f))
     return out
 
 
@@ -437,6 +458,7 @@ SEARCH_BOUNDS: dict[str, tuple[float, float]] = {
     "notch_damping": (0.1, 1.5),
     "extra_notch_depth_damping": (0.005, 0.5),
     "notch_depth_damping": (0.0, 0.5),
+    "notch_freq_ratio": (1.0, 1.5),
     "pair_pole_damping": (0.01, 1.0),
     "kcv_phase": (0.5, 20.0),
     "kcm_phase": (0.05, 2.0),
