@@ -17,7 +17,6 @@ from servokit._figures import save_figure
 from servokit.cases import register
 from servokit.feedback.dual_stage_design import (
     BOOK_TABLE_5_4,
-    METHOD_UNKNOWNS,
     METHODS,
     DesignResponses,
     DesignRow,
@@ -29,18 +28,37 @@ from servokit.report import CaseResult, Comparison
 
 __all__ = ["FITTED", "run", "bode_figure", "sensitivity_figure", "fitted_unknowns"]
 
-#: unknowns found by ``fit_unknowns(method)`` (differential evolution, seed 1, maxiter 60,
-#: popsize 12 on SEARCH_GRID_HZ); tests/test_dual_stage_design.py re-runs the search
+#: unknowns found by ``fit_unknowns`` (differential evolution, seed 1, popsize 12 on
+#: SEARCH_GRID_HZ): first the inverse column with its three unknowns (maxiter 60; a slow
+#: test re-runs it), then the gain and phase columns with the plant delays held at the
+#: inverse column's values (maxiter 40; free unknowns in FIT_FREE)
+FIT_FREE: dict[str, tuple[str, ...]] = {
+    "gain": ("notch_damping", "notch_freq_ratio"),
+    "inverse": ("pair_pole_damping", "delay_vcm_s", "delay_pzt_s"),
+    "phase": (
+        "notch_damping",
+        "notch_freq_ratio",
+        "extra_notch_depth_damping",
+        "kcv_phase",
+        "kcm_phase",
+    ),
+}
 FITTED: dict[str, dict[str, float]] = {
-    "gain": {"notch_damping": 0.2987, "delay_vcm_s": 1.432e-5, "delay_pzt_s": 0.0},
-    "inverse": {"pair_pole_damping": 1.0, "delay_vcm_s": 1.677e-5, "delay_pzt_s": 1.001e-5},
+    "gain": {
+        "notch_damping": 0.3096,
+        "notch_freq_ratio": 1.048,
+        "delay_vcm_s": 1.6771e-5,
+        "delay_pzt_s": 1.0014e-5,
+    },
+    "inverse": {"pair_pole_damping": 1.0, "delay_vcm_s": 1.6771e-5, "delay_pzt_s": 1.0014e-5},
     "phase": {
-        "notch_damping": 0.3343,
-        "extra_notch_depth_damping": 0.4996,
-        "kcv_phase": 2.072,
-        "kcm_phase": 0.5119,
-        "delay_vcm_s": 2.349e-5,
-        "delay_pzt_s": 7.903e-5,
+        "notch_damping": 1.4996,
+        "notch_freq_ratio": 1.4985,
+        "extra_notch_depth_damping": 0.2636,
+        "kcv_phase": 3.379,
+        "kcm_phase": 0.6612,
+        "delay_vcm_s": 1.6771e-5,
+        "delay_pzt_s": 1.0014e-5,
     },
 }
 
@@ -65,6 +83,9 @@ _ABS_TOL = {"Hz": 0.05, "dB": 1.0, "deg": 5.0}
 def fitted_unknowns(method: str) -> Unknowns:
     """The :class:`Unknowns` of ``method`` with the fitted values of :data:`FITTED`."""
     return Unknowns(**FITTED[method])
+
+
+_SHARED = "; delays taken from the inverse column"
 
 
 def _row_tolerance(book: float, unit: str) -> float:
@@ -98,8 +119,8 @@ def _comparisons(method: str, row: DesignRow) -> list[Comparison]:
                 rel_tol=_row_tolerance(b, unit),
                 source="Table 5.4",
                 kind="fitted",
-                note=f"DMS, continuous loop; searched unknowns {fitted} "
-                f"(free: {', '.join(METHOD_UNKNOWNS[method])})",
+                note=f"DMS, continuous loop; unknowns {fitted} (searched: "
+                f"{', '.join(FIT_FREE[method])}{'' if method == 'inverse' else _SHARED})",
                 book_text=book[key],
             )
         )

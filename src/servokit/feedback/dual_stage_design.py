@@ -117,8 +117,21 @@ BOOK_TABLE_5_4: dict[str, dict[str, str]] = {
     },
 }
 
-#: log grid for the design example: 1 Hz .. 60 kHz, dense enough for 0.1 % damping modes
-DEFAULT_GRID_HZ = np.geomspace(1.0, 6.0e4, 24000)
+def design_grid(n_log: int, fmin: float = 1.0, fmax: float = 6.0e4) -> np.ndarray:
+    """Log grid plus 41 points across each plant mode's half-power band (+-5 bandwidths):
+    a 0.1 %-damped mode (the VCM at 32.8 kHz) is 66 Hz wide, finer than a log grid."""
+    local = [
+        m.freq_hz * (1.0 + m.damping * np.linspace(-10.0, 10.0, 41))
+        for p in (vcm_dual_stage(), pzt_active_suspension())
+        for m in p.modes
+        if m.freq_hz > 100.0
+    ]
+    grid = np.unique(np.concatenate([np.geomspace(fmin, fmax, n_log), *local]))
+    return grid[(grid >= fmin) & (grid <= fmax)]
+
+
+#: grid for the design example: 1 Hz .. 60 kHz, log-spaced plus mode-local points
+DEFAULT_GRID_HZ = design_grid(24000)
 
 
 @dataclass(frozen=True)
@@ -481,7 +494,7 @@ METHOD_UNKNOWNS: dict[str, tuple[str, ...]] = {
 }
 
 #: coarse grid for the search (the final rows are evaluated on :data:`DEFAULT_GRID_HZ`)
-SEARCH_GRID_HZ = np.geomspace(5.0, 6.0e4, 5000)
+SEARCH_GRID_HZ = design_grid(4000, fmin=5.0)
 
 
 def table_cost(row: DesignRow) -> float:
