@@ -30,20 +30,33 @@ def seek_cmd(
     plant: str = typer.Option("hdd-benchmark", help="catalogue name or .toml plant file"),
     tracks: float = typer.Option(1.0, help="seek distance (plant output units, tracks for HDDs)"),
     method: str = typer.Option("fsc", help="'fsc' (minimum jerk) or 'ffsc' (frequency shaped)"),
-    n_steps: str = typer.Option("auto", "--N", help="step number, or 'auto' to minimise the "
-                                "worst-case seek time"),
-    dt: float | None = typer.Option(None, help="hold period in seconds (default: Ts of the HDD "
-                                    "benchmark for hdd-benchmark; required otherwise)"),
-    band: Annotated[list[str] | None, typer.Option(
-        "--band", help="FFSC band F_LOW:F_HIGH:WEIGHT:N_POINTS (repeatable; default for "
-        "hdd-benchmark: Table 2.4, 1-track column up to 3 tracks, 10-track beyond)")] = None,
+    n_steps: str = typer.Option(
+        "auto", "--N", help="step number, or 'auto' to minimise the worst-case seek time"
+    ),
+    dt: float | None = typer.Option(
+        None,
+        help="hold period in seconds (default: Ts of the HDD "
+        "benchmark for hdd-benchmark; required otherwise)",
+    ),
+    band: Annotated[
+        list[str] | None,
+        typer.Option(
+            "--band",
+            help="FFSC band F_LOW:F_HIGH:WEIGHT:N_POINTS (repeatable; default for "
+            "hdd-benchmark: Table 2.4, 1-track column up to 3 tracks, 10-track beyond)",
+        ),
+    ] = None,
     model: str = typer.Option("rigid-body", help="design model: 'rigid-body' (book) or 'plant'"),
     settle_band: float = typer.Option(0.1, "--settle-band", help="settling band half-width"),
-    delay: bool = typer.Option(True, "--delay/--no-delay", help="simulate the plant's input "
-                               "delay (--no-delay: the book's §2.4 convention)"),
+    delay: bool = typer.Option(
+        True,
+        "--delay/--no-delay",
+        help="simulate the plant's input delay (--no-delay: the book's §2.4 convention)",
+    ),
     n_max: int = typer.Option(40, "--n-max", help="largest N tried by --N auto"),
-    plot: Annotated[Path | None, typer.Option(
-        "--plot", help="write the input/response plot here")] = None,
+    plot: Annotated[
+        Path | None, typer.Option("--plot", help="write the input/response plot here")
+    ] = None,
     json_out: bool = typer.Option(False, "--json", help="machine-readable output"),
 ) -> None:
     """Design an FSC/FFSC seek input and report the worst-case seek time over the plant set.
@@ -82,8 +95,15 @@ def seek_cmd(
 
     search = None
     if n_steps == "auto":
-        search = choose_N(sim_plants, dt, tracks, range(3, n_max + 1), design_plant=nominal,
-                          band=settle_band, **design_kw)
+        search = choose_N(
+            sim_plants,
+            dt,
+            tracks,
+            range(3, n_max + 1),
+            design_plant=nominal,
+            band=settle_band,
+            **design_kw,
+        )
         ff = search.ff
     else:
         try:
@@ -94,9 +114,16 @@ def seek_cmd(
     out = simulate_seek(sim_plants, ff, tracks, band=settle_band)
     if plot is not None:
         resonances = [m.freq_hz for m in nominal.modes if m.freq_hz > 0]
-        seek_plot(out, tracks, f"{method.upper()} seek of {tracks:g} on {plant}, N = {ff.N}",
-                  plot, resonances_hz=resonances, bands=bands, band=settle_band,
-                  unit="track" if is_hdd else "output unit")
+        seek_plot(
+            out,
+            tracks,
+            f"{method.upper()} seek of {tracks:g} on {plant}, N = {ff.N}",
+            plot,
+            resonances_hz=resonances,
+            bands=bands,
+            band=settle_band,
+            unit="track" if is_hdd else "output unit",
+        )
     data = {
         "plant": plant,
         "method": method,
@@ -110,8 +137,9 @@ def seek_cmd(
         "peak": float(np.max(out.y)),
         "delay_simulated": delay,
         "input": ff.u,
-        "N_search": None if search is None else {
-            "N": search.N_values, "worst_seek_time_s": search.worst_seek_times},
+        "N_search": None
+        if search is None
+        else {"N": search.N_values, "worst_seek_time_s": search.worst_seek_times},
         "plot": str(plot) if plot else None,
     }
     if json_out:

@@ -21,6 +21,7 @@ import numpy as np
 import scipy.linalg
 
 __all__ = [
+    "damped_pair",
     "delayed_zoh",
     "expm_batched",
     "modal_delayed_zoh",
@@ -134,7 +135,7 @@ def delayed_zoh(
 _SERIES_TERMS = 22
 
 
-def _damped_pair(w: np.ndarray, sigma: np.ndarray, t: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+def damped_pair(w: np.ndarray, sigma: np.ndarray, t: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     """``e^{-sigma t} cos(wd t)`` and ``e^{-sigma t} sin(wd t) / wd`` with ``wd^2 = w^2 - sigma^2``.
 
     Overdamped modes (``wd`` imaginary) use ``cosh``/``sinh`` written through
@@ -189,7 +190,7 @@ def modal_transition(w: np.ndarray, zeta: np.ndarray, t: float | np.ndarray) -> 
     """
     w, zeta, t = np.broadcast_arrays(*(np.asarray(a, dtype=float) for a in (w, zeta, t)))
     sigma = zeta * w
-    ec, es = _damped_pair(w, sigma, t)
+    ec, es = damped_pair(w, sigma, t)
     out = np.empty((*w.shape, 2, 2))
     out[..., 0, 0] = ec + sigma * es
     out[..., 0, 1] = es

@@ -381,9 +381,7 @@ def sampled_data_sensitivity(
         band_limit_hz = float(check_finite("band_limit_hz", band_limit_hz))
         if band_limit_hz <= 0:
             raise ServokitValueError(f"band_limit_hz must be > 0 Hz (got {band_limit_hz})")
-    g0, gsum, gabs, used, tail = _alias_sums(
-        plant, mr, dt, f, tol, int(max_terms), band_limit_hz
-    )
+    g0, gsum, gabs, used, tail = _alias_sums(plant, mr, dt, f, tol, int(max_terms), band_limit_hz)
     if band_limit_hz is None:
         pd, cz, common = _loop_common(plant, controller_d, dt, f, mr, gsum, gabs, tol)
     else:

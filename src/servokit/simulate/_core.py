@@ -38,15 +38,21 @@ class Loop:
     filt: StateSpace | None = None
 
 
-def _block_maps(P: np.ndarray, bank: PlantBank, S: int) -> np.ndarray:
-    """``B2`` (V, 2S, 2M): effect of each delayed input of a period on the end state."""
+def _block_maps(rows: np.ndarray, bank: PlantBank, S: int) -> np.ndarray:
+    """``B2`` (2S, V, 2M): effect of each delayed input of a period on the end state.
+
+    ``B2[s] = Phi^(S-1-s) Gnew`` for the new inputs (``s < S``), ``Phi^(2S-1-s) Gold``
+    for the old ones, written with the entries of ``Phi^i`` (:meth:`transition_rows`).
+    Input-major, so that a shared input drives all variants with one GEMM.
+    """
     V, M = bank.shape
-    back = P[:, :, S - 1 :: -1] if S > 1 else P[:, :, :1]  # Phi^(S-1-s), s = 0..S-1
-    parts = [
-        back[..., 0] * G[:, :, None, None, 0] + back[..., 1] * G[:, :, None, None, 1]
-        for G in (bank.Gnew, bank.Gold)
-    ]  # each (V, M, S, 2)
-    return np.concatenate(parts, axis=2).transpose(0, 2, 1, 3).reshape(V, 2 * S, 2 * M)
+    p00, p01, p10, p11 = rows[:, S - 1 :: -1] if S > 1 else rows[:, :1]
+    out = np.empty((2, S, V, M, 2))
+    for n, G in enumerate((bank.Gnew, bank.Gold)):
+        g0, g1 = G[..., 0], G[..., 1]
+        out[n, ..., 0] = p00 * g0 + p01 * g1
+        out[n, ..., 1] = p10 * g0 + p11 * g1
+    return out.reshape(2 * S, V, 2 * M)
 
 
 def _windows(ubuf: np.ndarray, S: int, lo: int, hi: int) -> np.ndarray:
@@ -55,15 +61,6 @@ def _windows(ubuf: np.ndarray, S: int, lo: int, hi: int) -> np.ndarray:
     w_new = ubuf[:, lo * S + 1 : hi * S + 1].reshape(Vu, hi - lo, S)
     w_old = ubuf[:, lo * S : hi * S].reshape(Vu, hi - lo, S)
     return np.concatenate([w_new, w_old], axis=2)
-
-
-def _apply(W: np.ndarray, mats: np.ndarray) -> np.ndarray:
-    """(Vu, n, 2S) inputs times per-variant (V, 2S, q) maps -> (V, n, q)."""
-    V, s2, q = mats.shape
-    if W.shape[0] == 1:  # one shared input: a single GEMM over all variants
-        flat = W[0] @ mats.transpose(1, 0, 2).reshape(s2, V * q)
-        return flat.reshape(W.shape[1], V, q).transpose(1, 0, 2)
-    return W @ mats
 
 
 class _Feedback:
@@ -130,46 +127,50 @@ def run_chunk(
     """
     V, M = bank.shape
     Nt = K * S
-    P = bank.powers(S)  # (V, M, S+1, 2, 2)
-    B2 = _block_maps(P, bank, S)
-    PS = P[:, :, S]
+    rows = bank.transition_rows(S)  # entries of Phi^i, (4, S+1, V, M)
+    B2 = _block_maps(rows, bank, S)  # (2S, V, 2M)
+    p00, p01, p10, p11 = rows[:, S]  # Phi^S, each (V, M)
     Vu = V if loop is not None else u_open.shape[0]
     # u_j sits at ubuf[:, j + dd + 1]; the plant sees u[j-dd] (new) and u[j-dd-1] (old)
     dd = bank.dd
     ubuf = np.zeros((Vu, Nt + dd + 1))
     ubuf[:, dd + 1 :] = u_open
-    x = np.zeros((2, V, M)) if x0 is None else np.moveaxis(x0, -1, 0).copy()
+    x0_, x1_ = (np.zeros((V, M)), np.zeros((V, M))) if x0 is None else (x0[..., 0], x0[..., 1])
     xs = np.empty((V, K, M, 2))
     yd = np.empty((V, K))
     fb = None if loop is None else _Feedback(loop, V, S)
     if fb is None:
         W_all = _windows(ubuf, S, 0, K)
         active = np.flatnonzero(np.any(W_all != 0.0, axis=(0, 2)))
-        drive = np.zeros((V, K, M, 2))
-        drive[:, active] = _apply(W_all[:, active], B2).reshape(V, active.size, M, 2)
+        drive = np.zeros((K, V, M, 2))
+        if Vu == 1:  # one GEMM for all variants
+            drive[active] = (W_all[0, active] @ B2.reshape(2 * S, -1)).reshape(-1, V, M, 2)
+        else:
+            drive[active] = np.einsum("vks,svq->kvq", W_all[:, active], B2).reshape(-1, V, M, 2)
+    else:
+        B2v = B2.transpose(1, 0, 2)  # (V, 2S, 2M) for per-variant windows
     for k in range(K):
-        xs[:, k, :, 0], xs[:, k, :, 1] = x
-        yk = x[0].sum(axis=-1) if dc_samples is None else x[0].sum(axis=-1) + dc_samples[:, k]
+        xs[:, k, :, 0], xs[:, k, :, 1] = x0_, x1_
+        yk = x0_.sum(axis=-1)
+        if dc_samples is not None:
+            yk = yk + dc_samples[:, k]
         yd[:, k] = yk
         if fb is not None:
             ubuf[:, dd + 1 + k * S : dd + 1 + (k + 1) * S] += fb.step(k, yk)
-            inc = (_windows(ubuf, S, k, k + 1) @ B2).reshape(V, M, 2)
+            inc = (_windows(ubuf, S, k, k + 1) @ B2v).reshape(V, M, 2)
         else:
-            inc = drive[:, k]
-        x = np.stack(
-            [
-                PS[..., 0, 0] * x[0] + PS[..., 0, 1] * x[1] + inc[..., 0],
-                PS[..., 1, 0] * x[0] + PS[..., 1, 1] * x[1] + inc[..., 1],
-            ]
+            inc = drive[k]
+        x0_, x1_ = (
+            p00 * x0_ + p01 * x1_ + inc[..., 0],
+            p10 * x0_ + p11 * x1_ + inc[..., 1],
         )
     # outputs between the samples: free response of the stored states + forced response
-    CP = P[:, :, :S, 0, :]  # (V, M, S, 2): first row of Phi^i
-    y = xs.reshape(V, K, 2 * M) @ CP.transpose(0, 1, 3, 2).reshape(V, 2 * M, S)
-    # impulse responses C Phi^l G (l = 0..S-1) summed over modes
-    H2 = np.concatenate(
-        [np.einsum("vmlc,vmc->vl", CP, bank.Gnew), np.einsum("vmlc,vmc->vl", CP, bank.Gold)],
-        axis=1,
-    )  # (V, 2S)
+    CP = np.stack([rows[0, :S], rows[1, :S]], axis=-1).transpose(1, 0, 2, 3)  # C Phi^i
+    y = xs.reshape(V, K, 2 * M) @ CP.reshape(V, S, 2 * M).transpose(0, 2, 1)
+    # impulse responses C Phi^l G (l = 0..S-1) summed over modes: the reversed first
+    # state component of the block maps
+    H2 = B2.reshape(2, S, V, M, 2)[:, ::-1, :, :, 0].sum(axis=-1)  # (2, S, V)
+    H2 = H2.transpose(2, 0, 1).reshape(V, 2 * S)
     W = _windows(ubuf, S, 0, K)
     active = np.flatnonzero(np.any(W != 0.0, axis=(0, 2)))
     y[:, active] += _forced_output(H2, W[:, active], S)
