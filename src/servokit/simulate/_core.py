@@ -17,25 +17,14 @@ Everything per mode is written elementwise on ``(V, M)`` arrays: numpy's stacked
 
 from __future__ import annotations
 
-from dataclasses import dataclass
-
 import numpy as np
 
 from servokit.simulate._bank import PlantBank
+from servokit.simulate._scan import modal_scan
 
-__all__ = ["Loop", "run_chunk"]
+__all__ = ["run_chunk"]
 
 StateSpace = tuple[np.ndarray, np.ndarray, np.ndarray, float]
-
-
-@dataclass(frozen=True)
-class Loop:
-    """Digital feedback ``u_fb = C(z) (r - yd)``, optionally up-sampled by ``m`` through ``F``."""
-
-    controller: StateSpace
-    reference: np.ndarray  # (K,)
-    m: int = 1
-    filt: StateSpace | None = None
 
 
 def _block_maps(rows: np.ndarray, bank: PlantBank, S: int) -> np.ndarray:
@@ -63,31 +52,10 @@ def _windows(ubuf: np.ndarray, S: int, lo: int, hi: int) -> np.ndarray:
     return np.concatenate([w_new, w_old], axis=2)
 
 
-class _Feedback:
-    """Controller (and multirate filter) states of all variants, advanced once per period."""
-
-    def __init__(self, loop: Loop, V: int, S: int) -> None:
-        self.loop, self.S = loop, S
-        self.xc = np.zeros((V, loop.controller[0].shape[0]))
-        self.xf = None if loop.filt is None else np.zeros((V, loop.filt[0].shape[0]))
-
-    def step(self, k: int, yk: np.ndarray) -> np.ndarray:
-        """Fine-grid feedback input (V, S) over period ``k`` given the sampled output."""
-        Ac, Bc, Cc, Dc = self.loop.controller
-        e = self.loop.reference[k] - yk
-        ufb = self.xc @ Cc + Dc * e
-        self.xc = self.xc @ Ac.T + e[:, None] * Bc
-        if self.loop.filt is None:
-            return np.repeat(ufb[:, None], self.S, axis=1)
-        Af, Bf, Cf, Df = self.loop.filt
-        m = self.loop.m
-        sub = np.empty((yk.size, m))
-        inp = ufb  # zero insertion: only the first sub-sample carries the value
-        for i in range(m):
-            sub[:, i] = self.xf @ Cf + Df * inp
-            self.xf = self.xf @ Af.T + inp[:, None] * Bf
-            inp = np.zeros_like(ufb)
-        return np.repeat(sub, self.S // m, axis=1)
+def _active(W: np.ndarray) -> slice:
+    """The periods from the first to the last whose input window (Vu, n, 2S) is non-zero."""
+    nz = np.flatnonzero(np.any(W != 0.0, axis=(0, 2)))
+    return slice(0, 0) if nz.size == 0 else slice(int(nz[0]), int(nz[-1]) + 1)
 
 
 def _forced_output(H2: np.ndarray, W: np.ndarray, S: int) -> np.ndarray:
@@ -115,64 +83,51 @@ def run_chunk(
     S: int,
     K: int,
     u_open: np.ndarray,
-    x0: np.ndarray | None,
-    loop: Loop | None,
+    x0: np.ndarray | None = None,
     dc_samples: np.ndarray | None = None,
-) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """Simulate one chunk; returns ``y`` (V, K*S) without output disturbance, ``yd`` and ``u``.
+    states: np.ndarray | None = None,
+) -> tuple[np.ndarray, np.ndarray]:
+    """Open-loop response of one chunk: ``y`` (V, K*S) without output disturbance, ``yd``.
 
     ``u_open`` is (1, K*S) when shared by every variant, else (V, K*S); ``x0`` is
     (V, M, 2) or None; ``dc_samples`` (1 or V, K) is the output disturbance at the
-    sampling instants, seen by the controller and included in ``yd``.
+    sampling instants, included in ``yd``.  ``states`` (V, K, M, 2), when the caller
+    already has the modal states at the samples, replaces the time recursion.
     """
     V, M = bank.shape
     Nt = K * S
     rows = bank.transition_rows(S)  # entries of Phi^i, (4, S+1, V, M)
     B2 = _block_maps(rows, bank, S)  # (2S, V, 2M)
-    p00, p01, p10, p11 = rows[:, S]  # Phi^S, each (V, M)
-    Vu = V if loop is not None else u_open.shape[0]
+    Vu = u_open.shape[0]
     # u_j sits at ubuf[:, j + dd + 1]; the plant sees u[j-dd] (new) and u[j-dd-1] (old)
+    # (the feedback of a closed loop arrives here as a per-variant input, see _closed)
     dd = bank.dd
     ubuf = np.zeros((Vu, Nt + dd + 1))
     ubuf[:, dd + 1 :] = u_open
-    x0_, x1_ = (np.zeros((V, M)), np.zeros((V, M))) if x0 is None else (x0[..., 0], x0[..., 1])
-    xs = np.empty((V, K, M, 2))
-    yd = np.empty((V, K))
-    fb = None if loop is None else _Feedback(loop, V, S)
-    if fb is None:
-        W_all = _windows(ubuf, S, 0, K)
-        active = np.flatnonzero(np.any(W_all != 0.0, axis=(0, 2)))
+    x0_ = (np.zeros((V, M)), np.zeros((V, M))) if x0 is None else (x0[..., 0], x0[..., 1])
+    W = _windows(ubuf, S, 0, K)
+    act = _active(W)
+    if states is None:
         drive = np.zeros((K, V, M, 2))
         if Vu == 1:  # one GEMM for all variants
-            drive[active] = (W_all[0, active] @ B2.reshape(2 * S, -1)).reshape(-1, V, M, 2)
-        else:
-            drive[active] = np.einsum("vks,svq->kvq", W_all[:, active], B2).reshape(-1, V, M, 2)
+            drive[act] = (W[0, act] @ B2.reshape(2 * S, -1)).reshape(-1, V, M, 2)
+        else:  # one small GEMM per variant
+            per = W[:, act] @ B2.transpose(1, 0, 2)  # (V, n, 2M)
+            drive[act] = per.transpose(1, 0, 2).reshape(-1, V, M, 2)
+        xs = modal_scan(tuple(rows[:, S]), drive, x0_)  # (V, K, M, 2)
     else:
-        B2v = B2.transpose(1, 0, 2)  # (V, 2S, 2M) for per-variant windows
-    for k in range(K):
-        xs[:, k, :, 0], xs[:, k, :, 1] = x0_, x1_
-        yk = x0_.sum(axis=-1)
-        if dc_samples is not None:
-            yk = yk + dc_samples[:, k]
-        yd[:, k] = yk
-        if fb is not None:
-            ubuf[:, dd + 1 + k * S : dd + 1 + (k + 1) * S] += fb.step(k, yk)
-            inc = (_windows(ubuf, S, k, k + 1) @ B2v).reshape(V, M, 2)
-        else:
-            inc = drive[k]
-        x0_, x1_ = (
-            p00 * x0_ + p01 * x1_ + inc[..., 0],
-            p10 * x0_ + p11 * x1_ + inc[..., 1],
-        )
+        xs = states
+    yd = xs[..., 0].sum(axis=-1)
+    if dc_samples is not None:
+        yd = yd + dc_samples
     # outputs between the samples: free response of the stored states + forced response
-    CP = np.stack([rows[0, :S], rows[1, :S]], axis=-1).transpose(1, 0, 2, 3)  # C Phi^i
-    y = xs.reshape(V, K, 2 * M) @ CP.reshape(V, S, 2 * M).transpose(0, 2, 1)
+    CPt = np.empty((V, M, 2, S))  # C Phi^i, contiguous so that matmul runs in BLAS
+    CPt[:, :, 0] = rows[0, :S].transpose(1, 2, 0)
+    CPt[:, :, 1] = rows[1, :S].transpose(1, 2, 0)
+    y = np.ascontiguousarray(xs).reshape(V, K, 2 * M) @ CPt.reshape(V, 2 * M, S)
     # impulse responses C Phi^l G (l = 0..S-1) summed over modes: the reversed first
     # state component of the block maps
     H2 = B2.reshape(2, S, V, M, 2)[:, ::-1, :, :, 0].sum(axis=-1)  # (2, S, V)
     H2 = H2.transpose(2, 0, 1).reshape(V, 2 * S)
-    W = _windows(ubuf, S, 0, K)
-    active = np.flatnonzero(np.any(W != 0.0, axis=(0, 2)))
-    y[:, active] += _forced_output(H2, W[:, active], S)
-    u = np.broadcast_to(ubuf[:, dd + 1 :], (V, Nt))
-    return y.reshape(V, Nt), yd, u
+    y[:, act] += _forced_output(H2, W[:, act], S)
+    return y.reshape(V, Nt), yd
