@@ -214,6 +214,66 @@ def _check_stable(pd_ss: control.StateSpace, controller_d: control.LTI) -> None:
 
 
 # ----------------------------------------------------------------- alias sums
+def _hold_filter(mr: Multirate, dt: float, f: np.ndarray, orders: np.ndarray) -> np.ndarray:
+    """``W(f + l/dt)`` (hold at ``T = dt/m`` times ``Ip Fm``), (len(f), len(orders)).
+
+    With ``x = (f + l/dt) T = x_r + n`` (``r = l mod m``, ``n`` an integer) the hold
+    ``T e^{-j pi x} sin(pi x) / (pi x)`` has ``e^{-j pi x} sin(pi x) = e^{-j pi x_r}
+    sin(pi x_r)`` (the signs ``(-1)^n`` cancel), and ``Ip Fm`` at ``dt/m`` repeats with
+    period ``m`` in ``l``: the transcendental part is evaluated per frequency and
+    residue, each alias order costs one division.  Near ``x = 0`` the quotient is
+    taken from :func:`zoh_response` instead.
+    """
+    T = dt / mr.m
+    res = np.arange(mr.m)
+    xr = f[:, None] * T + res[None, :] / mr.m
+    num = (T / np.pi) * np.exp(-1j * np.pi * xr) * np.sin(np.pi * xr)
+    num = num * mr.filter_response(f[:, None] + res[None, :] / dt, dt)
+    x = f[:, None] * T + orders[None, :] / mr.m
+    r = np.mod(orders, mr.m)
+    small = np.abs(x) < 0.25
+    with np.errstate(divide="ignore", invalid="ignore"):
+        out = num[:, r] / x
+    if np.any(small):
+        fi, li = np.nonzero(small)
+        fl = f[fi] + orders[li] / dt
+        out[small] = zoh_response(fl, T) * mr.filter_response(f[fi] + r[li] / dt, dt)
+    return out
+
+
+def _modal_response(plant: ModalPlant, f: np.ndarray, orders: np.ndarray, dt: float) -> np.ndarray:
+    """``Pc(j 2 pi (f + l/dt))`` (delay included), (len(f), len(orders)).
+
+    One mode at a time in real arithmetic on the (frequency x order) grid, the delay as
+    the outer product ``e^{-j w Td} e^{-j 2 pi l Td/dt}``: same values as
+    :meth:`ModalPlant.freqresp`, without the (F, L, M) complex temporaries.  A cell on
+    an undamped pole gives inf (reported by the caller).
+    """
+    om = 2.0 * np.pi * (f[:, None] + orders[None, :] / dt)
+    om2 = om * om
+    re = np.zeros(om.shape)
+    im = np.zeros(om.shape)  # sum of r c / |den|^2; times -om at the end
+    a, d = np.empty(om.shape), np.empty(om.shape)
+    w, z, r = plant.arrays()
+    with np.errstate(divide="ignore", invalid="ignore"):
+        for wm, zm, rm in zip(w, z, r, strict=True):
+            c = 2.0 * zm * wm  # den = (w^2 - om^2) + j c om
+            np.subtract(wm * wm, om2, out=a)
+            np.multiply(a, a, out=d)
+            d += (c * c) * om2
+            np.divide(rm, d, out=d)  # d <- r / |den|^2
+            a *= d
+            re += a
+            d *= c
+            im += d
+    im *= -om
+    delay = (
+        np.exp(-2j * np.pi * plant.delay * f)[:, None]
+        * np.exp(-2j * np.pi * plant.delay / dt * orders)[None, :]
+    )
+    return (re + 1j * im) * delay
+
+
 def _path_terms(
     plant: ModalPlant,
     mr: Multirate,
@@ -223,12 +283,9 @@ def _path_terms(
     band_limit_hz: float | None,
 ) -> np.ndarray:
     """``W Pc / Ts`` at ``f + l/dt``: shape (len(f), len(orders))."""
-    fl = f[:, None] + orders[None, :] / dt
-    # Ip and Fm run at dt/m, so their factor repeats in l with period m
-    res = np.arange(mr.m)
-    filt = mr.filter_response(f[:, None] + res[None, :] / dt, dt)
-    terms = filt[:, np.mod(orders, mr.m)] * zoh_response(fl, dt / mr.m) * plant.freqresp(fl)
+    terms = _hold_filter(mr, dt, f, orders) * _modal_response(plant, f, orders, dt)
     if band_limit_hz is not None:
+        fl = f[:, None] + orders[None, :] / dt
         terms = np.where(np.abs(fl) <= band_limit_hz, terms, 0.0)
     return terms / dt
 

@@ -57,10 +57,11 @@ def matrix_scan(A: np.ndarray, drive: np.ndarray, doubling: bool | None = None) 
     K, V, N = drive.shape
     if not _use_doubling(V, doubling):
         zs = np.empty((V, K, N))
-        z = np.zeros((V, N, 1))
+        z, tmp = np.zeros((V, N, 1)), np.empty((V, N, 1))
         for k in range(K):
             zs[:, k] = z[..., 0]
-            z = A @ z + drive[k, :, :, None]
+            np.matmul(A, z, out=tmp)  # in place: no fresh (page-faulting) buffer per step
+            np.add(tmp, drive[k, :, :, None], out=z)
         return zs
     s = np.zeros((V, N, K))
     s[:, :, 1:] = drive[: K - 1].transpose(1, 2, 0)
