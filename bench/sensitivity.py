@@ -11,18 +11,6 @@ from _timing import best_time
 from servokit.models import HDD_SAMPLED_DATA_TS as TS
 from servokit.models import controller_eq_4_69, hdd_sampled_data
 from servokit.sampled import sensitivity as sens
-from servokit.sampled.multirate import zoh_response
-
-
-def _per_cell_path_terms(plant, mr, dt, f, orders, band_limit_hz):
-    """The evaluation before issue 8 (kept here as the baseline)."""
-    fl = f[:, None] + orders[None, :] / dt
-    res = np.arange(mr.m)
-    filt = mr.filter_response(f[:, None] + res[None, :] / dt, dt)
-    terms = filt[:, np.mod(orders, mr.m)] * zoh_response(fl, dt / mr.m) * plant.freqresp(fl)
-    if band_limit_hz is not None:
-        terms = np.where(np.abs(fl) <= band_limit_hz, terms, 0.0)
-    return terms / dt
 
 
 def sensitivity(n_freq: int) -> dict:
@@ -35,7 +23,7 @@ def sensitivity(n_freq: int) -> dict:
     new = run()
     t_new = best_time(run, 3)
     fast, cells = sens._path_terms, sens._MAX_CELLS
-    sens._path_terms, sens._MAX_CELLS = _per_cell_path_terms, 2_000_000  # as before issue 8
+    sens._path_terms, sens._MAX_CELLS = sens._per_cell_path_terms, 2_000_000  # as before issue 8
     try:
         old = run()
         t_old = best_time(run, 2)

@@ -38,9 +38,7 @@ def mf_by_hand(gain: float, T: float, delay: float) -> np.ndarray:
     _, Gb = zoh(delay)
     zz = np.exp(2j * np.pi * np.array([100.0, 1000.0, 5000.0]) * T)
     # x[k+1] = Phi x[k] + Ga u[k] + Pa Gb u[k-1]
-    return np.array([
-        C @ np.linalg.solve(zk * np.eye(4) - Phi, Ga + Pa @ Gb / zk) for zk in zz
-    ])
+    return np.array([C @ np.linalg.solve(zk * np.eye(4) - Phi, Ga + Pa @ Gb / zk) for zk in zz])
 
 
 def test_reference_model_matches_hand_discretisation():

@@ -78,8 +78,10 @@ def test_peak_of_fig_2_15_and_independent_simulation(undelayed) -> None:
 
 
 def test_improvements_of_design_2(undelayed) -> None:
-    t = {d.key: float(np.max(seek_time(undelayed, d.design(undelayed[0]), d.tracks)))
-         for d in DESIGNS}
+    t = {
+        d.key: float(np.max(seek_time(undelayed, d.design(undelayed[0]), d.tracks)))
+        for d in DESIGNS
+    }
     # book: "resulting in 16% and 39% improvements of seek time"
     assert 100 * (1 - t["d2-1"] / t["d1-1"]) == pytest.approx(16.0, rel=0.05)
     assert 100 * (1 - t["d2-10"] / t["d1-10"]) == pytest.approx(39.0, rel=0.05)
@@ -97,8 +99,9 @@ def test_table_2_4_weights() -> None:
     fsc = fsc_input(nominal, TS, 10, 1.0, model="rigid-body")
 
     def band_term(ff):
-        return sum(q * np.sum(np.abs(ff.spectrum(np.linspace(lo, hi, n))) ** 2)
-                   for lo, hi, q, n in one)
+        return sum(
+            q * np.sum(np.abs(ff.spectrum(np.linspace(lo, hi, n))) ** 2) for lo, hi, q, n in one
+        )
 
     assert band_term(ffsc) < 0.1 * band_term(fsc)
 

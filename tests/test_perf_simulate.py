@@ -233,3 +233,11 @@ def test_random_plant_sets_match_python_control(n_modes, delay_frac, S, seed):
     for p, y in zip(plants, res.yc, strict=True):
         ref = control.forced_response(p.discretize(dt / S), U=ufine).outputs
         assert np.max(np.abs(y - ref)) <= 1e-12 * np.max(np.abs(ref))
+
+
+def test_iter_simulate_argument_errors():
+    plant = sk.models.hdd_benchmark()
+    with pytest.raises(TypeError, match="unexpected argument"):
+        list(iter_simulate(plant, dt=1e-4, n_samples=3, feedfoward=[1.0]))
+    with pytest.raises(TypeError, match="n_samples"):
+        list(iter_simulate(plant, dt=1e-4))

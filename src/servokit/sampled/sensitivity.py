@@ -301,6 +301,26 @@ def _path_terms(
     return terms
 
 
+def _per_cell_path_terms(
+    plant: ModalPlant,
+    mr: Multirate,
+    dt: float,
+    f: np.ndarray,
+    orders: np.ndarray,
+    band_limit_hz: float | None,
+) -> np.ndarray:
+    """:func:`_path_terms` evaluated cell by cell (``ModalPlant.freqresp`` and
+    :func:`zoh_response` at every ``f + l/dt``): the evaluation before issue 8, kept as
+    the reference the vectorised one is tested and benchmarked against."""
+    fl = f[:, None] + orders[None, :] / dt
+    res = np.arange(mr.m)
+    filt = mr.filter_response(f[:, None] + res[None, :] / dt, dt)
+    terms = filt[:, np.mod(orders, mr.m)] * zoh_response(fl, dt / mr.m) * plant.freqresp(fl)
+    if band_limit_hz is not None:
+        terms = np.where(np.abs(fl) <= band_limit_hz, terms, 0.0)
+    return terms / dt
+
+
 def _alias_sums(
     plant: ModalPlant,
     mr: Multirate,

@@ -28,6 +28,7 @@ from __future__ import annotations
 
 from collections.abc import Callable, Iterator, Sequence
 from dataclasses import dataclass
+from typing import Any
 
 import control
 import numpy as np
@@ -187,22 +188,32 @@ def _loop_spec(
     return Loop(ctrl, r, int(m), _ss("multirate filter", F, dt / int(m)))
 
 
-def _prepare(
-    plants: ModalPlant | Sequence[ModalPlant],
-    *,
-    dt: float,
-    n_samples: int,
-    substeps: int = 10,
-    feedforward: np.ndarray | Sequence[float] | None = None,
-    ff_dt: float | None = None,
-    controller: control.LTI | None = None,
-    reference: np.ndarray | Sequence[float] | None = None,
-    multirate: tuple[int, control.LTI] | None = None,
-    output_disturbance: Signal | np.ndarray | None = None,
-    input_disturbance: Signal | np.ndarray | None = None,
-    x0: np.ndarray | None = None,
-) -> _Job:
-    """Validate a request of :func:`simulate` (same arguments)."""
+#: optional arguments of :func:`simulate` and their defaults (``dt`` and ``n_samples`` are required)
+_OPTIONAL = {
+    "substeps": 10,
+    "feedforward": None,
+    "ff_dt": None,
+    "controller": None,
+    "reference": None,
+    "multirate": None,
+    "output_disturbance": None,
+    "input_disturbance": None,
+    "x0": None,
+}
+
+
+def _prepare(plants: ModalPlant | Sequence[ModalPlant], request: dict[str, Any]) -> _Job:
+    """Validate a request of :func:`simulate` (its keyword arguments as a dict)."""
+    unknown = sorted(set(request) - set(_OPTIONAL) - {"dt", "n_samples"})
+    if unknown:
+        raise ServokitTypeError(f"simulate got unexpected argument(s) {unknown}")
+    for name in ("dt", "n_samples"):
+        if name not in request:
+            raise ServokitTypeError(f"simulate needs {name}=...")
+    r = {**_OPTIONAL, **request}
+    dt, n_samples, substeps, x0 = r["dt"], r["n_samples"], r["substeps"], r["x0"]
+    feedforward, ff_dt = r["feedforward"], r["ff_dt"]
+    input_disturbance, output_disturbance = r["input_disturbance"], r["output_disturbance"]
     plist = as_plant_list(plants)
     dt = float(check_finite("dt", dt))
     if dt <= 0:
@@ -241,7 +252,7 @@ def _prepare(
         if x0a.shape not in ((n,), (V, n)):
             raise ServokitValueError(f"x0 must have shape ({n},) or ({V}, {n})")
         x0a = x0a.reshape(-1, n)
-    loop = _loop_spec(controller, reference, multirate, dt, K, S)
+    loop = _loop_spec(r["controller"], r["reference"], r["multirate"], dt, K, S)
     return _Job(plist, dt, K, S, u_open, dc, x0a, loop)
 
 
@@ -311,7 +322,7 @@ def iter_simulate(
     chunk holds.  Only one chunk's trajectories live at a time, so the memory stays
     within ``max_memory_mb`` (default 256 MB) for any number of variants.
     """
-    job = _prepare(plants, **kwargs)  # type: ignore[arg-type]
+    job = _prepare(plants, kwargs)
     budget = CHUNK_MEMORY_MB if max_memory_mb is None else float(max_memory_mb)
     for lo, hi in _chunks(job, budget / 2):  # half for the working set, half for results
         yield slice(lo, hi), _run(job, lo, hi, check_stability)
@@ -404,20 +415,8 @@ def simulate(
     -------
     SimulationResult
     """
-    job = _prepare(
-        plants,
-        dt=dt,
-        n_samples=n_samples,
-        substeps=substeps,
-        feedforward=feedforward,
-        ff_dt=ff_dt,
-        controller=controller,
-        reference=reference,
-        multirate=multirate,
-        output_disturbance=output_disturbance,
-        input_disturbance=input_disturbance,
-        x0=x0,
-    )
+    request = {k: v for k, v in locals().items() if k in _OPTIONAL or k in ("dt", "n_samples")}
+    job = _prepare(plants, request)
     V, Nt = len(job.plants), job.K * job.S
     per_u = job.loop is not None or job.u_open.shape[0] > 1
     out_bytes = 8.0 * V * (Nt * (2 if per_u else 1) + job.K)
