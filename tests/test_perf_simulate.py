@@ -17,7 +17,7 @@ from hypothesis import strategies as st
 import servokit as sk
 from servokit.models import HDD_SAMPLED_DATA_TS, ModalPlant, Mode
 from servokit.models._zoh import delayed_zoh, modal_delayed_zoh, modal_zoh
-from servokit.simulate import iter_simulate, settling_time, simulate, simulate_metrics
+from servokit.simulate import iter_simulate, seek_time, settling_time, simulate, simulate_metrics
 from servokit.simulate._bank import PlantBank
 from servokit.simulate.stability import spectral_radii
 
@@ -241,3 +241,22 @@ def test_iter_simulate_argument_errors():
         list(iter_simulate(plant, dt=1e-4, n_samples=3, feedfoward=[1.0]))
     with pytest.raises(TypeError, match="n_samples"):
         list(iter_simulate(plant, dt=1e-4))
+
+
+def test_seek_time_in_chunks_equals_one_shot():
+    from dataclasses import dataclass
+
+    from servokit.simulate import seek_response
+
+    @dataclass
+    class Held:
+        u: np.ndarray
+        dt: float
+
+    ff = Held(1e-6 * np.sin(np.linspace(0, 2 * np.pi, 26)), sk.models.HDD_BENCHMARK_TS)
+    plants = _set(25)
+    res = seek_response(plants, ff)
+    target = float(np.median(res.yc[:, -1]))
+    ref = settling_time(res.t, res.yc, target, 0.05 * abs(target))
+    got = seek_time(plants, ff, target, band=0.05 * abs(target), max_memory_mb=0.2)
+    assert np.array_equal(got, ref)
