@@ -26,7 +26,7 @@ __all__ = ["RobustSeekRequest", "robust_seek"]
 JSON_KEYS = (
     "plant, method, target, n_samples, dt_s, u_max, peak_input, settle_band, design_band, "
     "margin, seek_time_s (simulated worst case), guaranteed_seek_time_s (LP), worst_plant, "
-    "binding_plant, n_plants, seek_times_s, design_time_s, n_lp, input, N_search "
+    "binding_plant, n_plants, seek_times_s, design_time_s, n_lp, input, n_search "
     "{n_samples, guaranteed_seek_time_s}, plot"
 )
 
@@ -137,7 +137,7 @@ def robust_seek(req: RobustSeekRequest) -> None:
         "design_time_s": design_time,
         "n_lp": ff.n_lp,
         "input": ff.u,
-        "N_search": {"n_samples": ff.N_values, "guaranteed_seek_time_s": ff.seek_times},
+        "n_search": {"n_samples": ff.N_values, "guaranteed_seek_time_s": ff.seek_times},
         "plot": str(plot) if plot else None,
     }
     if req.json_out:
