@@ -84,6 +84,8 @@ def _admissible_loop():
         (["ivc", "--plot", "/tmp"], "--plot"),
         (["cost-map", "--vel-range", "3"], "--vel-range"),
         (["cost-map", "--ivc", "foo"], "--ivc"),
+        (["ivc", "--method", "input", "--order", "40"], "--order"),
+        (["ivc", "--method", "input", "--pole", "1.5"], "--pole"),
     ],
 )
 def test_bad_input_one_line_exit_2(args, flag, monkeypatch, capsys):

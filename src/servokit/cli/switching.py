@@ -120,6 +120,15 @@ def ivc_cmd(
         str, typer.Option("--poles", help="pole-zero: closed-loop poles to cancel, comma list")
     ] = "",
     pole: Annotated[float, typer.Option("--pole", help="input: assigned pole of d[z] [1]")] = 0.6,
+    order: Annotated[
+        int | None, typer.Option("--order", help="input: degree g of n_k (default n + m - 1)")
+    ] = None,
+    input_weight: Annotated[
+        float, typer.Option("--input-weight", help="input, g > n+m-1: weight q1 of |u|^2 (3.61)")
+    ] = 0.0,
+    jerk_weight: Annotated[
+        float, typer.Option("--jerk-weight", help="input, g > n+m-1: weight q2 of |du|^2 (3.61)")
+    ] = 0.0,
     n_samples: Annotated[
         int, typer.Option("--n-samples", help="samples of the plotted transient", min=2)
     ] = 200,
@@ -146,7 +155,16 @@ def ivc_cmd(
         "closed_loop_poles": _poles_json(loop.poles()),
     }
     if method == "input":
-        design = ivc_additional_input(loop, pole)
+        if not abs(pole) < 1:
+            raise ServokitValueError(f"--pole must lie inside the unit circle (got {pole})")
+        unweighted = input_weight <= 0 and jerk_weight <= 0
+        if order is not None and order > loop.n + loop.m - 1 and unweighted:
+            raise ServokitValueError(
+                "--order above n + m - 1 needs --input-weight or --jerk-weight"
+            )
+        design = ivc_additional_input(
+            loop, pole, order=order, input_weight=input_weight, jerk_weight=jerk_weight
+        )
         out |= {"numerators": design.num, "denominator": design.den}
         K = None
     else:
