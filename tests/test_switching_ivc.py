@@ -211,3 +211,21 @@ def test_jmin_jerk_gains_minimise_the_brute_force_cost(args):
     for _ in range(3):
         dx = 1e-3 * rng.standard_normal(m)
         assert _brute_jerk_cost(loop, Qs, 0.5, 2.0, xp0, xc0 + dx, r, uw) >= J0 - 1e-9 * J0
+
+
+@settings(max_examples=20, deadline=None)
+@given(st.integers(0, 2**31), st.integers(1, 5))
+def test_siso_zeros_match_the_transfer_numerator(seed, n):
+    from servokit.switching import siso_zeros
+
+    rng = np.random.default_rng(seed)
+    A, b, c = rng.standard_normal((n, n)), rng.standard_normal(n), rng.standard_normal(n)
+    scale = np.diag(10.0 ** rng.uniform(-4, 4, n))  # badly scaled states
+    A, b, c = np.linalg.solve(scale, A @ scale), np.linalg.solve(scale, b), c @ scale
+    z = siso_zeros(A, b, c)
+    num = np.asarray(control.ss2tf(control.ss(A, b[:, None], c[None, :], 0)).num[0][0], float)
+    num = np.trim_zeros(num, "f")
+    assert len(z) == len(num) - 1
+    for zi in z:
+        scale_z = np.polyval(np.abs(num), abs(zi))
+        assert abs(np.polyval(num, zi)) <= 1e-6 * scale_z
