@@ -117,10 +117,13 @@ def test_case_comparisons_and_figures(case_result) -> None:
     assert res.name == "hdd-seek"
     by_name = {c.quantity: c for c in res.comparisons}
     for d in DESIGNS:
-        c = by_name[f"{d.label}: worst seek time"]
-        assert c.book == BOOK_MS[d.key] and c.ok, c
-        assert by_name[f"{d.label}: worst seek time, 10 us delay simulated"].ok
-    assert by_name["Design 1, 1 track: Max(y) over the 18 plants"].ok
+        c = by_name[f"{d.label}: worst seek time (10 us input delay not simulated)"]
+        assert c.book == BOOK_MS[d.key] and c.ok, c  # within the printed precision
+        delayed = by_name[f"{d.label}: worst seek time, 10 us input delay simulated"]
+        assert delayed.kind == "consistency" and delayed.servokit > c.servokit
+    assert by_name[
+        "Design 1, 1 track: Max(y) over the 18 plants (10 us input delay not simulated)"
+    ].ok
     assert by_name["FFSC seek-time improvement, 1 track(s)"].ok
     assert by_name["FFSC seek-time improvement, 10 track(s)"].ok
     assert len(res.figures) == 5
@@ -135,3 +138,13 @@ def test_case_n_search(case_result) -> None:
     # every search result is at least as good as the book's N (by construction of the search)
     for d in DESIGNS:
         assert auto[d.key]["seek_time_ms"] <= case_result.extra["seek_time_ms"][d.key] + 1e-12
+
+
+def test_known_miss_design_2_ten_tracks_is_reported(case_result) -> None:
+    # Comparison.ok on the real row: the search finds N = 15, the book prints 17
+    row = next(
+        c for c in case_result.comparisons
+        if c.quantity == "Design 2 (FFSC), 10 tracks: N minimising the worst seek time"
+    )  # fmt: skip
+    assert (row.book, row.servokit, row.ok) == (17.0, 15.0, False)
+    assert "not explained" in row.note
