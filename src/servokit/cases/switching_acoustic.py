@@ -48,7 +48,18 @@ def _area(s: AdmissibleSet) -> float:
 
 @register("switching-acoustic", order=115)
 def switching_acoustic_case(outdir: Path) -> CaseResult:
-    """Current-peak and settling-time sets with pole-zero vs J-min IVC (§3.4.1)."""
+    """Current-peak and settling-time sets with pole-zero vs J-min IVC (§3.4.1).
+
+    Parameters
+    ----------
+    outdir : Path
+        Directory the figures are written to.
+
+    Returns
+    -------
+    CaseResult
+        Book-vs-servokit rows, figure paths and extra numbers (runtime included).
+    """
     start = time.perf_counter()
     loop = admissible_loop()
     real = sorted((p.real for p in loop.poles() if abs(p.imag) < 1e-12), key=lambda p: -abs(p))

@@ -46,7 +46,13 @@ CROSSOVER_HZ = 500.0  # assumed
 
 
 def admissible_loop() -> SwitchedLoop:
-    """HDD benchmark plant with a 500 Hz lead-lag (assumed design)."""
+    """HDD benchmark plant with a 500 Hz lead-lag (assumed design).
+
+    Returns
+    -------
+    SwitchedLoop
+        The closed loop of (3.17) (plant and controller matrices).
+    """
     plant = hdd_benchmark().discretize(HDD_BENCHMARK_TS)
     return switched_loop(plant, lead_lag(plant, CROSSOVER_HZ))
 
@@ -78,7 +84,18 @@ def _scaled(s: AdmissibleSet, bound: float) -> AdmissibleSet:
 
 @register("switching-admissible", order=110)
 def switching_admissible_case(outdir: Path) -> CaseResult:
-    """Table 3.1's switching conditions against O_inf with IVC and with zero reset."""
+    """Table 3.1's switching conditions against O_inf with IVC and with zero reset.
+
+    Parameters
+    ----------
+    outdir : Path
+        Directory the figures are written to.
+
+    Returns
+    -------
+    CaseResult
+        Book-vs-servokit rows, figure paths and extra numbers (runtime included).
+    """
     start = time.perf_counter()
     loop = admissible_loop()
     K = ivc_jmin(loop, None, output_weight=loop.Cu)

@@ -78,6 +78,22 @@ def book_loop(
 
     Plant states are [position, velocity, Padé state] with unit gain (so position in
     the unit of the initial state, velocity in that unit per second).
+
+    Parameters
+    ----------
+    poles : sequence of str or complex
+        Printed closed-loop poles (a complex value stands for its conjugate pair too).
+    plant_zeros : sequence of float
+        Printed plant zeros that fix Td/dt.
+    dt : float
+        Sampling period [s].
+    ratio : float, optional
+        Td/dt to use instead of the fit.
+
+    Returns
+    -------
+    SwitchedLoop
+        The closed loop of (3.17) (plant and controller matrices).
     """
     r = _ratio(tuple(plant_zeros)) if ratio is None else ratio
     plant = pade_double_integrator(dt, r * dt)
@@ -411,7 +427,18 @@ def _figure_3_6(outdir: Path) -> tuple[Path, dict]:
 
 @register("switching-ivc", order=100)
 def switching_ivc_case(outdir: Path) -> CaseResult:
-    """Pole-zero, additional-input and J-min IVC on the fitted loops of §3.3.1-§3.3.2."""
+    """Pole-zero, additional-input and J-min IVC on the fitted loops of §3.3.1-§3.3.2.
+
+    Parameters
+    ----------
+    outdir : Path
+        Directory the figures are written to.
+
+    Returns
+    -------
+    CaseResult
+        Book-vs-servokit rows, figure paths and extra numbers (runtime included).
+    """
     start = time.perf_counter()
     rows1, figs1, extra1 = _section_331(outdir)
     rows2, figs2, extra2 = _section_332(outdir)
