@@ -23,7 +23,7 @@ def test_json_row_equals_library(tmp_path) -> None:
     res = runner.invoke(app, ["dual-stage", "--method", "inverse", "--json", "--plot", str(png)])
     assert res.exit_code == 0, res.output
     data = json.loads(res.stdout)
-    row = evaluate_design("inverse", fitted_unknowns("inverse")).as_dict()
+    row = evaluate_design("inverse", fitted_unknowns("inverse"), refine=True).as_dict()
     assert math.isnan(row.pop("second_phase_margin_deg"))  # no second crossover
     assert data["row"].pop("second_phase_margin_deg") is None  # JSON null, never NaN
     assert data["row"] == pytest.approx(row)

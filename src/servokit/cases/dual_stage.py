@@ -191,7 +191,7 @@ def run(outdir: Path) -> CaseResult:
     rows, responses, comparisons = {}, {}, []
     for method in METHODS:
         u = fitted_unknowns(method)
-        rows[method] = evaluate_design(method, u)
+        rows[method] = evaluate_design(method, u, refine=True)
         responses[method] = design_responses(method, u, np.geomspace(10.0, 5.0e4, 4000))
         comparisons += _comparisons(method, rows[method])
     figs = figures(responses, outdir)

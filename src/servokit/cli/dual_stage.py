@@ -178,7 +178,7 @@ def dual_stage_cmd(
     )
     if fit:
         u = _fit(method, u, maxiter)
-    row = evaluate_design(method, u, DEFAULT_GRID_HZ, structure)
+    row = evaluate_design(method, u, DEFAULT_GRID_HZ, structure, refine=True)
     if target is not None:
         from servokit.cases.dual_stage import bode_figure
 
