@@ -88,3 +88,17 @@ def test_case_rows_and_figures(tmp_path) -> None:
     assert by_name["order of CM (phase stabilisation)"].ok
     inverse = [c for c in res.comparisons if "inverse" in c.quantity]
     assert all(c.ok for c in inverse), [c for c in inverse if not c.ok]
+
+
+@pytest.mark.slow
+def test_fit_flag_runs_a_short_search() -> None:
+    from servokit.cases.dual_stage import FITTED
+
+    res = runner.invoke(
+        app, ["dual-stage", "--method", "gain", "--fit", "--maxiter", "2", "--json"]
+    )
+    assert res.exit_code == 0, res.output
+    unknowns = json.loads(res.stdout)["unknowns"]
+    # delays held at the inverse column's values, notch unknowns searched within bounds
+    assert unknowns["delay_vcm_s"] == FITTED["gain"]["delay_vcm_s"]
+    assert 0.1 <= unknowns["notch_damping"] <= 1.5 and 1.0 <= unknowns["notch_freq_ratio"] <= 1.5

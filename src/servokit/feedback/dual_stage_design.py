@@ -47,6 +47,7 @@ Zero/pole damping of the inverse pairs at the plant modes is the mode's Table da
 
 from __future__ import annotations
 
+from collections.abc import Callable
 from dataclasses import dataclass, field, replace
 from functools import lru_cache
 from typing import Literal
@@ -518,12 +519,14 @@ def fit_unknowns(
     popsize: int = 12,
     seed: int = 1,
     freq_hz: np.ndarray = SEARCH_GRID_HZ,
+    on_generation: Callable[[], object] | None = None,
 ) -> FitResult:
     """Search the unstated parameters that best reproduce one column of Table 5.4.
 
     Differential evolution (:func:`scipy.optimize.differential_evolution`) over
     :data:`SEARCH_BOUNDS` of the ``free`` unknowns (default: those the method depends on,
     :data:`METHOD_UNKNOWNS`), the others held at ``start``; cost :func:`table_cost`.
+    ``on_generation`` is called after each generation (a progress bar).
     """
     from scipy.optimize import differential_evolution
 
@@ -549,6 +552,7 @@ def fit_unknowns(
         seed=seed,
         tol=1e-6,
         polish=True,
+        callback=None if on_generation is None else (lambda *_a, **_k: on_generation()),
     )
     best = unpack(res.x)
     row = evaluate_design(method, best)
