@@ -131,3 +131,20 @@ def test_grid_margins_agree_with_stability_margins(method: str) -> None:
     assert grid.crossover_hz == pytest.approx(refined.crossover_hz, rel=1e-5)
     assert grid.phase_margin_deg == pytest.approx(refined.phase_margin_deg, abs=1e-3)
     assert grid.gain_margin_db == pytest.approx(refined.gain_margin_db, abs=1e-2)
+
+
+def test_vcm_peak_filter_phase_confirms_the_inverse_delay() -> None:
+    # the printed phi = 2.5414 rad is arg T0(j w1) - pi/2 of the VCM baseline loop with the
+    # delay found on the inverse column (independent of that fit's targets)
+    from servokit.cases.dual_stage import FITTED
+    from servokit.feedback.dual_stage_design import peak_filter_phases
+
+    u = Unknowns(
+        notch_damping=0.7,
+        extra_notch_depth_damping=0.005,
+        delay_vcm_s=FITTED["inverse"]["delay_vcm_s"],
+    )
+    assert peak_filter_phases(u)["phi_vcm_deg"] == pytest.approx(np.degrees(2.5414), abs=0.5)
+    # without the delay the reading misses by ~27 deg
+    no_delay = peak_filter_phases(Unknowns(notch_damping=0.7, extra_notch_depth_damping=0.005))
+    assert abs(no_delay["phi_vcm_deg"] - np.degrees(2.5414)) > 20

@@ -122,6 +122,9 @@ BOOK_TABLE_5_4: dict[str, dict[str, str]] = {
         "phase_margin_deg": "49.7",
         "s_inf_db": "5.2",
         "second_phase_margin_deg": "223.8",
+        # §5.5.2: the printed peak-filter phases, read as arg T_baseline(j w1) - pi/2
+        "phi_vcm_deg": str(round(np.degrees(2.5414), 1)),
+        "phi_pzt_deg": str(round(np.degrees(4.2603), 1)),
     },
 }
 
@@ -351,6 +354,8 @@ class DesignRow:
     phase_margin_deg: float
     s_inf_db: float
     second_phase_margin_deg: float
+    phi_vcm_deg: float = float("nan")
+    phi_pzt_deg: float = float("nan")
 
     def as_dict(self) -> dict[str, float | int | str]:
         return dict(self.__dict__)
@@ -432,7 +437,32 @@ def evaluate_design(
         phase_margin_deg=pm,
         s_inf_db=float(20 * np.log10(np.max(np.abs(r.sensitivity)))),
         second_phase_margin_deg=pm2,
+        **(peak_filter_phases(u) if method == "phase" else {}),
     )
+
+
+def peak_filter_phases(u: Unknowns) -> dict[str, float]:
+    """The peak-filter phases the baseline loops of the phase method give [deg, 0..360).
+
+    §5.5.2 says phi "is chosen to be equivalent to the phase of the baseline closed-loop
+    transfer function at w1"; servokit reads it as ``arg T(j w1) - pi/2`` (the zero
+    placement whose filter poles depart at 0 deg, (5.51) corrected), which reproduces the
+    printed VCM value 2.5414 rad with the delay found on the inverse column.
+    """
+    out = {}
+    for key, ctrl, plant, f1 in (
+        ("phi_vcm_deg", vcm_controller, vcm_dual_stage().replace(delay=u.delay_vcm_s), 4449.0),
+        (
+            "phi_pzt_deg",
+            pzt_controller,
+            pzt_active_suspension().replace(delay=u.delay_pzt_s),
+            2484.0,
+        ),
+    ):
+        f = np.array([f1])
+        loop = ctrl("phase", u, baseline=True).freqresp(f)[0] * plant.freqresp(f)[0]
+        out[key] = float(np.degrees(np.angle(loop / (1 + loop)) - np.pi / 2) % 360.0)
+    return out
 
 
 def with_unknowns(u: Unknowns, **changes: float) -> Unknowns:
@@ -450,6 +480,8 @@ ROW_TOLERANCES: dict[str, float] = {
     "phase_margin_deg": 5.0,
     "s_inf_db": 1.0,
     "second_phase_margin_deg": 5.0,
+    "phi_vcm_deg": 5.0,
+    "phi_pzt_deg": 5.0,
 }
 
 #: search ranges of the unknowns (physically sensible: damping ratios of filters, delays of
