@@ -349,7 +349,12 @@ def cost_map_cmd(
     JSON keys: velocity, acceleration (grid), ju, jy (maps, rows over acceleration),
     optimal_state (plant states minimising Ju with state 1 fixed).
     """
-    from servokit.switching import optimal_condition, switching_cost_map, switching_cost_matrix
+    from servokit.switching import (
+        ivc_jmin,
+        optimal_condition,
+        switching_cost_map,
+        switching_cost_matrix,
+    )
 
     if ivc not in ("jmin", "none"):
         raise ServokitValueError(f"--ivc must be jmin or none (got {ivc!r})")
