@@ -6,15 +6,24 @@ import json
 import warnings
 from pathlib import Path
 
+import numpy as np
 import pytest
 import typer
+from hypothesis import given, settings
+from hypothesis import strategies as st
 from typer.testing import CliRunner
 
 import servokit.cli
 import servokit.cli._app as app_module
 from servokit.cli import _discover
 from servokit.cli._app import app, flag_names
-from servokit.errors import ServokitTypeError, ServokitValueError, check_plot_path
+from servokit.errors import (
+    ServokitTypeError,
+    ServokitValueError,
+    check_count,
+    check_memory,
+    check_plot_path,
+)
 
 _discover()
 runner = CliRunner()
@@ -102,3 +111,29 @@ def test_json_has_no_nan_and_unit_suffixes() -> None:
     data = json.loads(res.stdout)
     assert "worst_sampling_phase" in data and "worst_delta_s" not in data
     assert "dt_s" in data and "dt" not in data
+
+
+@settings(max_examples=200, deadline=None)
+@given(
+    value=st.one_of(st.integers(-10, 10**12), st.floats(allow_nan=True, allow_infinity=True)),
+    lo=st.integers(0, 5),
+    hi=st.integers(5, 10**9),
+)
+def test_check_count_accepts_exactly_the_integers_in_range(value, lo, hi) -> None:
+    ok = float(value) == int(value) if np.isfinite(float(value)) else False
+    ok = ok and lo <= int(value) <= hi
+    if ok:
+        assert check_count("--n", value, lo=lo, hi=hi) == int(value)
+    else:
+        with pytest.raises(ServokitValueError, match="--n"):
+            check_count("--n", value, lo=lo, hi=hi)
+
+
+@settings(max_examples=200, deadline=None)
+@given(need=st.floats(0, 1e15, allow_nan=False), limit=st.floats(1, 1e6))
+def test_check_memory_refuses_exactly_above_the_limit(need, limit) -> None:
+    if need / 1e6 > limit:
+        with pytest.raises(ServokitValueError, match="--max-memory-mb"):
+            check_memory(need, what="--x", max_memory_mb=limit)
+    else:
+        check_memory(need, what="--x", max_memory_mb=limit)
