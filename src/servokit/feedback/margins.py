@@ -141,6 +141,12 @@ def loop_response(loop: Any, delay: float = 0.0) -> tuple[Response, float | None
     if len(dts) > 1:
         raise ServokitValueError(f"loop factors have different sampling periods {sorted(dts)}")
     dt = dts.pop() if dts else None
+    continuous = [it for it in items if not callable(it) or isinstance(it, control.LTI)]
+    if dt is not None and any(_timebase(it) is None for it in continuous):
+        raise ServokitValueError(
+            "loop mixes continuous and discrete factors; discretise the continuous ones "
+            "(ModalPlant.discretize(dt), control.sample_system)"
+        )
     tau = float(check_finite("delay", delay))
     if tau < 0:
         raise ServokitValueError(f"delay must be >= 0 s (got {tau})")
