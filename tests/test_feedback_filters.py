@@ -160,3 +160,20 @@ def test_design_peak_filter_makes_sh_f_real_at_w1():
     assert g.imag == pytest.approx(0.0, abs=1e-9) and g.real > 0  # (5.21)
     with pytest.raises(ServokitValueError):
         peak_filter_phase(1.0, "sideways")
+
+
+@settings(max_examples=30, deadline=None)
+@given(f=st.floats(10.0, 5e4), k=st.floats(0.01, 5.0), phi=st.floats(-3.0, 3.0))
+def test_sensitivity_factorises_as_s0_times_sf(f, k, phi):
+    """(5.15)-(5.16) and (5.22): S = S0 SF with SF = 1/(1 + Sh F)."""
+    from servokit.feedback import pseudo_plant
+
+    plant = control.tf([1e8], [1, 500, 0])
+    ctrl = lead_lag(0.05)
+    flt = peak_filter(3000.0, 0.02, k, phi)
+    sh = pseudo_plant(plant * ctrl)
+    s = 2j * np.pi * f
+    pc, fv, shv = complex((plant * ctrl)(s)), complex(flt(s)), complex(sh(s))
+    assert shv == pytest.approx(pc / (1 + pc), rel=1e-9)
+    assert 1 / (1 + pc * (1 + fv)) == pytest.approx(1 / (1 + pc) / (1 + shv * fv), rel=1e-9)
+    assert pc * (1 + fv) == pytest.approx((1 + pc) * (1 + shv * fv) - 1, rel=1e-9, abs=1e-9)

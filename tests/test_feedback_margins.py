@@ -94,6 +94,8 @@ def test_bad_arguments():
         stability_margins(control.tf([1], [1, 1], 0.1), fmax=100)
     with pytest.raises(TypeError):
         stability_margins("loop")
+    with pytest.raises(ServokitValueError, match="mixes continuous and discrete"):
+        stability_margins([hdd_sampled_data(), controller_eq_4_69()])
 
 
 @pytest.mark.parametrize("which", ["table-5.2", "multirate-4.5.2"])

@@ -36,7 +36,22 @@ F_DIST, DT, GAMMA = 7913.0, 1.0 / 30000.0, 3000.0
 def arm_loop(
     crossover_hz: float = 1000.0, residue: float = -3e-5, spread: float = 3.0
 ) -> tuple[control.StateSpace, control.LTI]:
-    """Assumed arm of Fig. 5.25: (exact ZOH plant, Tustin lead) at 30 kHz."""
+    """Assumed arm of Fig. 5.25: (exact ZOH plant, Tustin lead) at 30 kHz.
+
+    Parameters
+    ----------
+    crossover_hz : float
+        Crossover of the lead [Hz].
+    residue : float
+        Residue a of the 7913 Hz mode (relative to the 50 Hz mode).
+    spread : float
+        Lead zero/pole spread r (zero at fc/r, pole at r fc).
+
+    Returns
+    -------
+    tuple of (control.StateSpace, control.LTI)
+        Discrete plant and discrete controller at 30 kHz.
+    """
     w0, w1 = 2 * np.pi * F_LOW, 2 * np.pi * F_DIST
     plant = ModalPlant(
         gain=1.0, modes=(Mode(F_LOW, Z_LOW, w0 * w0), Mode(F_DIST, Z_MODE, residue * w1 * w1))
@@ -65,7 +80,18 @@ def _figure(t, runs: dict, path: Path) -> Path:
 
 @register("ltv-peak-filter-transient", order=321)
 def ltv_transient_case(outdir: Path) -> CaseResult:
-    """Time to 10 % of the LTV filter vs the LTI filter at its final parameters."""
+    """Time to 10 % of the LTV filter vs the LTI filter at its final parameters.
+
+    Parameters
+    ----------
+    outdir : pathlib.Path
+        Directory for the figures (created if missing).
+
+    Returns
+    -------
+    CaseResult
+        Book-vs-servokit rows, figure paths and extras (runtime included).
+    """
     t0 = time.perf_counter()
     outdir.mkdir(parents=True, exist_ok=True)
     pd, cd = arm_loop()

@@ -241,7 +241,18 @@ def _baseline_rows(ex: PeakExample) -> list[Comparison]:
 
 @register("peak-filter-12khz", order=310)
 def peak_filter_case(outdir: Path) -> CaseResult:
-    """The 12 kHz LTI peak-filter example (§5.3.3.2, Figs. 5.16-5.20) on a searched baseline."""
+    """The 12 kHz LTI peak-filter example (§5.3.3.2, Figs. 5.16-5.20) on a searched baseline.
+
+    Parameters
+    ----------
+    outdir : pathlib.Path
+        Directory for the figures (created if missing).
+
+    Returns
+    -------
+    CaseResult
+        Book-vs-servokit rows, figure paths and extras (runtime included).
+    """
     t0 = time.perf_counter()
     outdir.mkdir(parents=True, exist_ok=True)
     ex = peak_example_baseline()
@@ -301,7 +312,18 @@ def peak_filter_case(outdir: Path) -> CaseResult:
 
 @register("ltv-peak-filter-locus", order=320)
 def ltv_locus_case(outdir: Path) -> CaseResult:
-    """Root loci of the LTV filter's transient and steady stages (§5.3.3.3, Figs. 5.21-5.22)."""
+    """Root loci of the LTV filter's transient and steady stages (§5.3.3.3, Figs. 5.21-5.22).
+
+    Parameters
+    ----------
+    outdir : pathlib.Path
+        Directory for the figures (created if missing).
+
+    Returns
+    -------
+    CaseResult
+        Book-vs-servokit rows, figure paths and extras (runtime included).
+    """
     t0 = time.perf_counter()
     outdir.mkdir(parents=True, exist_ok=True)
     ex = peak_example_baseline()

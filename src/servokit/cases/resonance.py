@@ -31,7 +31,18 @@ def _at_least(quantity: str, bound: float, value: float, unit: str, note: str) -
 
 @register("resonance-filters", order=300)
 def resonance_filters_case(outdir: Path) -> CaseResult:
-    """Complex lag (§5.5.2.1) and margins of the §4.5 multirate loop."""
+    """Complex lag (§5.5.2.1) and margins of the §4.5 multirate loop.
+
+    Parameters
+    ----------
+    outdir : pathlib.Path
+        Directory for the figures (created if missing).
+
+    Returns
+    -------
+    CaseResult
+        Book-vs-servokit rows, figure paths and extras (runtime included).
+    """
     from servokit.cases.hdd_sensitivity import hdd_multirate
     from servokit.models import HDD_SAMPLED_DATA_TS, controller_eq_4_69, hdd_sampled_data
 

@@ -320,7 +320,11 @@ def margins_cmd(
         from servokit.feedback.plots import bode_responses_plot
 
         f = np.geomspace(10.0, 0.5 / dt, 3000)
-        wrote(bode_responses_plot({"L = P C F": loop}, f, path=target, title="open loop L"))
+        title = (
+            f"open loop L: PM {m.phase_margin_deg:.3g}° at {m.pm_freq_hz:.4g} Hz, "
+            f"GM {m.gain_margin_db:.3g} dB at {m.gm_freq_hz:.4g} Hz"
+        )
+        wrote(bode_responses_plot({"L = P C F": loop}, f, path=target, title=title))
     if json_out:
         emit_json({"plant": p.name, "controller": controller, "dt_s": dt, **m.to_dict()})
         return

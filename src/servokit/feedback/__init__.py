@@ -2,10 +2,12 @@
 
 * :mod:`~servokit.feedback.filters`: notch (5.14), inverse pairs, complex lag (5.92)-(5.94),
   lead-lag (5.91), lag (5.96), PI, peak filter (5.17), pseudo plant (5.16).
+* :mod:`~servokit.feedback.dual_stage`: parallel / CMS / DMS dual-stage loops (5.79)-(5.89).
 * :mod:`~servokit.feedback.margins`: gain/phase/delay/second phase margins on the exact
   frequency response.
 """
 
+from servokit.feedback.dual_stage import DualStageLoops, dual_stage_loops
 from servokit.feedback.filters import (
     complex_lag,
     design_peak_filter,
@@ -22,10 +24,12 @@ from servokit.feedback.filters import (
 from servokit.feedback.margins import Margins, loop_response, stability_margins
 
 __all__ = [
+    "DualStageLoops",
     "Margins",
     "complex_lag",
     "design_peak_filter",
     "discretize_filter",
+    "dual_stage_loops",
     "inverse_pair",
     "lag",
     "lead_lag",

@@ -84,6 +84,11 @@ def notch(
     filter_damping : float
         ζD of the filter poles; the book's range is √2/2 ≤ ζD ≤ 1 (printed garbled as
         "√2 < ζD ≤ 1").
+
+    Returns
+    -------
+    control.TransferFunction
+        The continuous notch filter.
     """
     f_r = check_positive("freq_hz", freq_hz, "Hz")
     z_r = _damping("damping", damping, upper=1.0)
@@ -107,6 +112,18 @@ def inverse_pair(
     plant resonance at ``zero_hz`` and its poles restore an anti-resonance at ``pole_hz``
     (e.g. the (4449, 4775) Hz pair of §5.5.2.1, which the book lists as "zero-pole
     pairs" without damping: the dampings are parameters).
+
+    Parameters
+    ----------
+    zero_hz, pole_hz : float
+        Natural frequencies of the zeros and of the poles [Hz].
+    zero_damping, pole_damping : float
+        Their damping ratios (pole damping > 0).
+
+    Returns
+    -------
+    control.TransferFunction
+        The continuous second-order filter.
     """
     f_z = check_positive("zero_hz", zero_hz, "Hz")
     f_p = check_positive("pole_hz", pole_hz, "Hz")
@@ -131,6 +148,11 @@ def complex_lag(freq_hz: float, damping: float, phase_rad: float) -> control.Tra
         ζlg (> 0).
     phase_rad : float
         φm [rad], in (−π/2, π/2) (tan φm must be finite).
+
+    Returns
+    -------
+    control.TransferFunction
+        The continuous complex lag.
     """
     f_m = check_positive("freq_hz", freq_hz, "Hz")
     zeta = check_positive("damping", damping)
@@ -150,7 +172,18 @@ def lead_lag(
 ) -> control.TransferFunction:
     """Lead-lag VCM controller CCV(s) = K (s + ωz)^2 / (s (s + ωp)), eq. (5.91).
 
-    The book's values are ωz = 100π rad/s (50 Hz) and ωp = 2π·30000 rad/s.
+    Parameters
+    ----------
+    gain : float
+        KCV (> 0).
+    zero_hz, pole_hz : float
+        Double zero and pole frequencies [Hz]; the book's are 50 Hz (ωz = 100π rad/s) and
+        30 kHz.
+
+    Returns
+    -------
+    control.TransferFunction
+        The continuous controller.
     """
     k = check_positive("gain", gain)
     w_z = TWO_PI * check_positive("zero_hz", zero_hz, "Hz")
@@ -159,7 +192,20 @@ def lead_lag(
 
 
 def lag(gain: float, zero_hz: float = 30000.0, pole_hz: float = 900.0) -> control.TransferFunction:
-    """First-order lag CCM(s) = K (s + ωz) / (s + ωp) of zero relative degree, eq. (5.96)."""
+    """First-order lag CCM(s) = K (s + ωz) / (s + ωp) of zero relative degree, eq. (5.96).
+
+    Parameters
+    ----------
+    gain : float
+        KCM (> 0).
+    zero_hz, pole_hz : float
+        Zero and pole frequencies [Hz]; the book's are 30 kHz and 900 Hz.
+
+    Returns
+    -------
+    control.TransferFunction
+        The continuous lag.
+    """
     k = check_positive("gain", gain)
     w_z = TWO_PI * check_positive("zero_hz", zero_hz, "Hz")
     w_p = TWO_PI * check_positive("pole_hz", pole_hz, "Hz")
@@ -167,7 +213,20 @@ def lag(gain: float, zero_hz: float = 30000.0, pole_hz: float = 900.0) -> contro
 
 
 def pi_controller(gain: float, corner_hz: float) -> control.TransferFunction:
-    """PI compensator K (s + ωi) / s with integral corner ωi = 2π·corner_hz."""
+    """PI compensator K (s + ωi) / s with integral corner ωi = 2π·corner_hz.
+
+    Parameters
+    ----------
+    gain : float
+        Proportional gain K (> 0).
+    corner_hz : float
+        Integral corner frequency [Hz].
+
+    Returns
+    -------
+    control.TransferFunction
+        The continuous PI controller.
+    """
     k = check_positive("gain", gain)
     w_i = TWO_PI * check_positive("corner_hz", corner_hz, "Hz")
     return control.tf([k, k * w_i], [1.0, 0.0])
@@ -189,6 +248,11 @@ def peak_filter(
     phi : float
         Zero-placement phase φ [rad]; any real value (F is 2π-periodic in φ). Choose it with
         :func:`peak_filter_phase`.
+
+    Returns
+    -------
+    control.TransferFunction
+        The continuous peak filter; at ω1 it equals ``K/(2ζ1) j e^{−jφ}``.
     """
     w1 = TWO_PI * check_positive("freq_hz", freq_hz, "Hz")
     zeta = check_positive("damping", damping)
@@ -199,7 +263,18 @@ def peak_filter(
 
 
 def pseudo_plant(loop: control.LTI) -> control.LTI:
-    """Pseudo plant Sh = PC / (1 + PC) seen by an add-on filter, eq. (5.16)."""
+    """Pseudo plant Sh = PC / (1 + PC) seen by an add-on filter, eq. (5.16).
+
+    Parameters
+    ----------
+    loop : control.LTI
+        The baseline open loop P C.
+
+    Returns
+    -------
+    control.LTI
+        The baseline complementary sensitivity Sh.
+    """
     return control.feedback(loop, 1)
 
 
@@ -222,6 +297,18 @@ def peak_filter_phase(sh_at_w1: complex, method: str = "stable") -> float:
     module docstring), filter poles depart at 0° and plant poles at −180°. The book states
     φ ∈ [−π/2, π/2]; the formulas give any angle and F is 2π-periodic in φ, so the full
     circle is kept.
+
+    Parameters
+    ----------
+    sh_at_w1 : complex
+        Sh(jω1), the pseudo plant at the filter frequency.
+    method : str
+        One of :data:`ZERO_PLACEMENTS`.
+
+    Returns
+    -------
+    float
+        φ [rad].
     """
     if method not in ZERO_PLACEMENTS:
         raise ServokitValueError(
@@ -235,7 +322,19 @@ def design_peak_filter(
 ) -> tuple[control.TransferFunction, float]:
     """Peak filter (5.17) at ``freq_hz`` with its zero placed on the pseudo plant ``sh``.
 
-    Returns ``(F, phi)``. ``sh`` is continuous (Sh = PC/(1+PC), see :func:`pseudo_plant`).
+    Parameters
+    ----------
+    sh : control.LTI
+        Continuous pseudo plant Sh = PC/(1+PC) (see :func:`pseudo_plant`).
+    freq_hz, damping, gain : float
+        f1 [Hz], ζ1 and K of (5.17).
+    method : str
+        Zero placement, see :func:`peak_filter_phase`.
+
+    Returns
+    -------
+    tuple of (control.TransferFunction, float)
+        The filter F and its φ [rad].
     """
     f1 = check_positive("freq_hz", freq_hz, "Hz")
     phi = peak_filter_phase(complex(sh(2j * np.pi * f1)), method)
@@ -243,7 +342,23 @@ def design_peak_filter(
 
 
 def discretize_filter(filt: control.LTI, dt: float, freq_hz: float) -> control.LTI:
-    """Sample a continuous filter by the Tustin transform prewarped at ``freq_hz``."""
+    """Sample a continuous filter by the Tustin transform prewarped at ``freq_hz``.
+
+    Parameters
+    ----------
+    filt : control.LTI
+        Continuous filter.
+    dt : float
+        Sampling period [s].
+    freq_hz : float
+        Prewarping frequency [Hz], below the Nyquist frequency: the discrete filter equals
+        the continuous one there.
+
+    Returns
+    -------
+    control.LTI
+        The discrete filter with ``dt``.
+    """
     h = check_positive("dt", dt, "s")
     f = check_positive("freq_hz", freq_hz, "Hz")
     if f >= 0.5 / h:

@@ -30,7 +30,24 @@ __all__ = ["LtvPeakFilter", "LoopResponse", "schedule", "simulate_peak_filter_lo
 
 
 def schedule(initial: float, final: float, gamma: float, t: np.ndarray) -> np.ndarray:
-    """θ(t) = θ̄ [1 + (θ(0)/θ̄ − 1) e^{−γt}], eq. (5.49) (θ̄ = ``final``, θ(0) = ``initial``)."""
+    """θ(t) = θ̄ [1 + (θ(0)/θ̄ − 1) e^{−γt}], eq. (5.49).
+
+    Parameters
+    ----------
+    initial : float
+        θ(0) (> 0).
+    final : float
+        θ̄, the lower bound reached as t → ∞ (> 0).
+    gamma : float
+        Decay rate γ [1/s] (>= 0).
+    t : numpy.ndarray
+        Times [s].
+
+    Returns
+    -------
+    numpy.ndarray
+        θ at ``t``.
+    """
     final = check_positive("final", final)
     initial = check_positive("initial", initial)
     gamma = float(check_finite("gamma", gamma))
@@ -108,8 +125,21 @@ def simulate_peak_filter_loop(
 ) -> LoopResponse:
     """Error samples of ``u = C (1 + F) e``, ``e = −(y + d)``, (5.15)-(5.16) in discrete time.
 
-    ``plant_d`` and ``controller`` are discrete with the same ``dt``; ``disturbance`` holds
-    the output disturbance d_k at the samples; ``flt=None`` runs the baseline loop.
+    Parameters
+    ----------
+    plant_d : control.LTI
+        Discrete plant (e.g. ``ModalPlant.discretize(dt)``), strictly proper.
+    controller : control.LTI
+        Discrete baseline controller C with the same ``dt``.
+    flt : LtvPeakFilter or None
+        The (LTV) peak filter; ``None`` runs the baseline loop.
+    disturbance : numpy.ndarray
+        Output disturbance d_k at the samples.
+
+    Returns
+    -------
+    LoopResponse
+        Times and error samples e_k.
     """
     dt = float(controller.dt)
     d = check_finite("disturbance", disturbance).ravel()
@@ -135,8 +165,23 @@ def simulate_peak_filter_loop(
 
 
 def decay_time(resp: LoopResponse, freq_hz: float, level: float = 0.1) -> float:
-    """Time [s] after which the one-period envelope of |e| stays below ``level`` times its
-    value over the first period (Fig. 5.25's transient, measured)."""
+    """Time after which the one-period envelope of |e| stays below ``level`` times its
+    value over the first period (Fig. 5.25's transient, measured).
+
+    Parameters
+    ----------
+    resp : LoopResponse
+        A simulated error.
+    freq_hz : float
+        Disturbance frequency [Hz] (sets the envelope window).
+    level : float
+        Fraction of the initial envelope.
+
+    Returns
+    -------
+    float
+        The time [s]; ``inf`` if the envelope never settles below the level.
+    """
     dt = resp.t[1] - resp.t[0]
     m = max(1, int(np.ceil(1.0 / (freq_hz * dt))))
     if resp.e.size < 2 * m:

@@ -131,7 +131,21 @@ def loop_response(loop: Any, delay: float = 0.0) -> tuple[Response, float | None
     Factors are python-control LTI systems, :class:`~servokit.models.ModalPlant` objects or
     callables ``freq_hz -> complex``; a sequence is multiplied point by point, so a
     high-order loop never becomes one ill-conditioned polynomial ratio. All discrete
-    factors must share one sampling period ``dt``.
+    factors must share one sampling period ``dt``; continuous and discrete LTI factors
+    cannot be mixed.
+
+    Parameters
+    ----------
+    loop : LTI, ModalPlant, callable or sequence of them
+        The loop factors.
+    delay : float
+        Extra pure delay [s], applied exactly.
+
+    Returns
+    -------
+    tuple of (callable, float or None)
+        The response ``L(freq_hz)`` (complex array) and the sampling period (None if
+        continuous).
     """
     items: Sequence[Any] = loop if isinstance(loop, list | tuple) else [loop]
     if not items:
@@ -141,6 +155,12 @@ def loop_response(loop: Any, delay: float = 0.0) -> tuple[Response, float | None
     if len(dts) > 1:
         raise ServokitValueError(f"loop factors have different sampling periods {sorted(dts)}")
     dt = dts.pop() if dts else None
+    continuous = [it for it in items if not callable(it) or isinstance(it, control.LTI)]
+    if dt is not None and any(_timebase(it) is None for it in continuous):
+        raise ServokitValueError(
+            "loop mixes continuous and discrete factors; discretise the continuous ones "
+            "(ModalPlant.discretize(dt), control.sample_system)"
+        )
     tau = float(check_finite("delay", delay))
     if tau < 0:
         raise ServokitValueError(f"delay must be >= 0 s (got {tau})")

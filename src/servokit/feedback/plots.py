@@ -23,7 +23,26 @@ def bode_responses_plot(
     title: str,
     magnitude_only: bool = False,
 ) -> Path:
-    """Magnitude [dB] and phase [deg] of labelled systems (LTI, ModalPlant, callable, list)."""
+    """Magnitude [dB] and phase [deg] of labelled systems (LTI, ModalPlant, callable, list).
+
+    Parameters
+    ----------
+    systems : mapping of str to loop
+        Label -> anything :func:`~servokit.feedback.margins.loop_response` accepts.
+    freq_hz : numpy.ndarray
+        Frequencies [Hz].
+    path : str or pathlib.Path
+        Figure file.
+    title : str
+        Figure title (with the book's figure number).
+    magnitude_only : bool
+        Draw the magnitude only.
+
+    Returns
+    -------
+    pathlib.Path
+        The written figure.
+    """
     import matplotlib.pyplot as plt
 
     rows = 1 if magnitude_only else 2
@@ -57,8 +76,25 @@ def root_locus_plot(
 ) -> Path:
     """Branches of a root locus in [kHz]: filter branches solid, others dashed (Figs. 5.16-5.22).
 
-    With ``window_hz`` only branches starting in that band of |Im s|/2π are drawn and the
-    axes zoom on it (upper half-plane); ``real_window_hz`` sets the real-axis range.
+    Parameters
+    ----------
+    locus : RootLocus
+        Tracked branches.
+    filter_branch : numpy.ndarray of bool
+        Which branches start at a filter pole.
+    path : str or pathlib.Path
+        Figure file.
+    title : str
+        Figure title.
+    window_hz : tuple of float, optional
+        Only branches starting in this band of Im s / 2π are drawn, axes zoomed on it.
+    real_window_hz : tuple of float, optional
+        Real-axis range [Hz].
+
+    Returns
+    -------
+    pathlib.Path
+        The written figure.
     """
     import matplotlib.pyplot as plt
 

@@ -58,10 +58,18 @@ def _polys(g: control.TransferFunction) -> tuple[np.ndarray, np.ndarray, float]:
 
 
 def departure_angles(g: control.TransferFunction) -> tuple[np.ndarray, np.ndarray]:
-    """Poles of G and the exact departure angle of the root locus from each [deg].
+    """Poles of G and the exact departure angle of the root locus from each.
 
-    Returns ``(poles, angles_deg)``, angles in (−180°, 180]; a repeated pole gives NaN
-    (its departure is not defined by one residue).
+    Parameters
+    ----------
+    g : control.TransferFunction
+        Continuous open loop G of 1 + k G = 0.
+
+    Returns
+    -------
+    tuple of (numpy.ndarray, numpy.ndarray)
+        The poles and their departure angles [deg] in (−180°, 180]; a repeated pole gives
+        NaN (its departure is not defined by one residue).
     """
     g = g if isinstance(g, control.TransferFunction) else control.tf(g)
     poles = np.asarray(g.poles(), dtype=complex)
@@ -96,7 +104,17 @@ class RootLocus:
 def root_locus(g: control.TransferFunction, gains: np.ndarray) -> RootLocus:
     """Closed-loop roots of 1 + k G = 0 for increasing ``gains`` (k ≥ 0), branches tracked.
 
-    The first row is the open-loop poles (k = 0 is prepended if absent).
+    Parameters
+    ----------
+    g : control.TransferFunction
+        Continuous, proper open loop G.
+    gains : numpy.ndarray
+        Gains k >= 0 (k = 0 is prepended if absent).
+
+    Returns
+    -------
+    RootLocus
+        Gains and tracked roots; the first row holds the open-loop poles.
     """
     nn, nd, w_ref = _polys(g)
     k = np.unique(np.concatenate([[0.0], np.asarray(gains, dtype=float)]))
@@ -120,9 +138,23 @@ def branch_gain_margins(
 ) -> tuple[np.ndarray, np.ndarray]:
     """Gain k at which each root-locus branch first reaches the imaginary axis.
 
-    Returns ``(start_poles, k_crit)``; ``k_crit`` is ``inf`` for a branch that stays in
-    the open left half-plane for all k ≤ ``k_max``. The crossing gains come from the
-    frequency response (k = 1/|G(jω)| where G(jω) < 0), the branch from tracking.
+    The crossing gains come from the frequency response (k = 1/|G(jω)| where G(jω) < 0),
+    the branch from tracking.
+
+    Parameters
+    ----------
+    g : control.TransferFunction
+        Stable continuous G.
+    n_gain : int
+        Points of the tracking grid.
+    k_max : float
+        Largest gain considered.
+
+    Returns
+    -------
+    tuple of (numpy.ndarray, numpy.ndarray)
+        Start poles and critical gains; ``inf`` for a branch that stays in the open left
+        half-plane for all k <= ``k_max``.
     """
     if np.any(np.real(control.tf(g).poles()) >= 0):
         raise ServokitValueError("G must be stable (all poles in the open left half-plane)")
@@ -183,7 +215,22 @@ def peak_filter_locus(
     sh: control.TransferFunction, flt: control.TransferFunction, plant_hz: float
 ) -> PeakFilterLocus:
     """Departure angles and branch gain margins of the filter pole and of the pseudo-plant
-    pole nearest ``plant_hz`` (Figs. 5.12-5.22)."""
+    pole nearest ``plant_hz`` (Figs. 5.12-5.22).
+
+    Parameters
+    ----------
+    sh : control.TransferFunction
+        Continuous pseudo plant.
+    flt : control.TransferFunction
+        The peak filter F (its gain is the reference of the critical multipliers).
+    plant_hz : float
+        Frequency near which the pseudo-plant pole of interest lies [Hz].
+
+    Returns
+    -------
+    PeakFilterLocus
+        Poles, departure angles and critical multipliers.
+    """
     g = control.tf(sh) * control.tf(flt)
     poles, angles = departure_angles(g)
     starts, k_crit = branch_gain_margins(g)

@@ -74,7 +74,20 @@ class Identification:
 
 
 def aliased_frequency(freq_hz: np.ndarray, dt: float) -> np.ndarray:
-    """ω'd / 2π = fd − n/T in [0, 1/T), eq. (5.11) [Hz]."""
+    """ω'd / 2π = fd − n/T in [0, 1/T), eq. (5.11).
+
+    Parameters
+    ----------
+    freq_hz : numpy.ndarray
+        Excitation frequencies [Hz].
+    dt : float
+        Sampling period T [s].
+
+    Returns
+    -------
+    numpy.ndarray
+        The aliased frequencies [Hz].
+    """
     fs = 1.0 / dt
     a = np.mod(np.asarray(freq_hz, dtype=float), fs)
     # 1/(1/fs) may round above fs: a multiple of fs must alias to 0, not to fs
@@ -85,7 +98,26 @@ def settling_samples(
     plant: ModalPlant, controller: control.LTI, dt: float, tol: float, *, in_loop: bool = True
 ) -> int:
     """Samples for the slowest pole to decay to ``tol``: of the digital loop P C, or of
-    the plant alone when it sits outside the loop (``in_loop=False``)."""
+    the plant alone when it sits outside the loop (``in_loop=False``).
+
+    Parameters
+    ----------
+    plant : ModalPlant
+        The continuous plant (discretised exactly at ``dt``).
+    controller : control.LTI
+        Discrete controller.
+    dt : float
+        Sampling period [s].
+    tol : float
+        Relative decay.
+    in_loop : bool
+        Whether ``plant`` is inside the loop.
+
+    Returns
+    -------
+    int
+        Number of samples.
+    """
     pd = plant.discretize(dt)
     sys = control.feedback(pd * controller, 1) if in_loop else pd
     rho = float(np.max(np.abs(sys.poles())))
@@ -183,6 +215,15 @@ def identify_above_nyquist(
         The actuator the loop is closed around when ``plant`` is measured outside it (the
         PZT of Fig. 5.9 with the VCM loop): Sd is that loop's, ``plant``'s output adds to
         the PES. Default: ``plant`` itself is in the loop (Fig. 5.5).
+    max_memory_mb : float, optional
+        Memory limit of one chunk [MB] (checked before allocating).
+    progress : callable, optional
+        Called with the number of frequencies done after each chunk.
+
+    Returns
+    -------
+    Identification
+        Recovered Pm(jωd), measured Sd and the excluded frequencies.
     """
     dt = check_positive("controller dt", getattr(controller, "dt", None) or np.nan, "s")
     f = np.asarray(freq_hz, dtype=float).ravel()
@@ -245,7 +286,24 @@ def identification_plot(
     path: str,
     title: str,
 ) -> str:
-    """Recovered vs true magnitude [dB] and phase [deg]; multiples of 1/T marked."""
+    """Recovered vs true magnitude [dB] and phase [deg]; multiples of 1/T marked.
+
+    Parameters
+    ----------
+    result : Identification
+        The identification.
+    true_response : numpy.ndarray
+        The true plant response at ``result.freq_hz``.
+    path : str
+        Figure file.
+    title : str
+        Figure title (with the book's figure number).
+
+    Returns
+    -------
+    str
+        The written figure's path.
+    """
     import matplotlib.pyplot as plt
 
     from servokit._figures import save_figure
