@@ -20,13 +20,13 @@ def test_plant_show_json():
     r = run("plant", "show", "hdd-benchmark", "--json")
     assert r.returncode == 0, r.stderr
     data = json.loads(r.stdout)
-    assert data["gain"] == 3.93e9 and len(data["modes"]) == 7
+    assert data["gain"] == pytest.approx(1 / (1e-3 * 2.54e-7)) and len(data["modes"]) == 7
     assert data["modes"][2] == {"freq_hz": 4100.0, "damping": 0.03, "residue": -1.0}
 
 
 def test_plant_bode_plot(tmp_path: Path):
     out = tmp_path / "bode.png"
-    r = run("plant", "bode", "hdd-sampled-data", "--plot", str(out), "--json", "--n", "50")
+    r = run("plant", "bode", "hdd-sampled-data", "--plot", str(out), "--json", "--n-freq", "50")
     assert r.returncode == 0, r.stderr
     assert out.stat().st_size > 10_000
     data = json.loads(r.stdout)

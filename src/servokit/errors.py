@@ -17,9 +17,14 @@ __all__ = [
     "check_count",
     "check_memory",
     "check_plot_path",
+    "check_range",
+    "check_work",
+    "check_out_dir",
+    "check_input_file",
     "DEFAULT_MAX_MEMORY_MB",
 ]
 
+import os
 from pathlib import Path
 
 import numpy as np
@@ -100,6 +105,39 @@ def check_memory(
         )
 
 
+def check_range(
+    lo: float, hi: float, flags: tuple[str, str] = ("--fmin", "--fmax"), unit: str = "Hz"
+) -> tuple[float, float]:
+    """Return ``(lo, hi)`` if both are finite and ``0 < lo < hi``, else raise naming ``flags``."""
+    check_finite(f"{flags[0]}/{flags[1]}", [lo, hi])
+    if not 0 < lo < hi:
+        raise ServokitValueError(
+            f"need 0 < {flags[0]} < {flags[1]} [{unit}] (got {float(lo):g}, {float(hi):g})"
+        )
+    return float(lo), float(hi)
+
+
+def check_work(n_ops: float, *, what: str, limit: float, about: str) -> None:
+    """Refuse a request whose estimated operation count exceeds ``limit``, before starting.
+
+    Parameters
+    ----------
+    n_ops : float
+        Estimated elementary evaluations (cells) the request costs.
+    what : str
+        The arguments that set the work, as the user typed them.
+    limit : float
+        Largest accepted count.
+    about : str
+        What ``limit`` means in wall time (``"about half a minute"``).
+    """
+    if not np.isfinite(float(n_ops)) or n_ops > limit:
+        raise ServokitValueError(
+            f"{what} needs about {float(n_ops):.3g} evaluations, above the {limit:.3g} limit "
+            f"({about}); reduce it"
+        )
+
+
 def check_plot_path(path: str | Path, flag: str = "--plot") -> Path:
     """Return ``path`` if it names a new or existing .png/.svg file in an existing directory."""
     p = Path(path)
@@ -113,4 +151,42 @@ def check_plot_path(path: str | Path, flag: str = "--plot") -> Path:
         raise ServokitValueError(
             f"{flag} {path}: directory {p.parent} does not exist; create it first"
         )
+    _check_writable(flag, p)
+    return p
+
+
+def _check_writable(flag: str, p: Path) -> None:
+    """Refuse a path the user cannot write (read-only file or directory), before any work."""
+    target = p if p.exists() else p.parent if str(p.parent) else Path(".")
+    if not os.access(target, os.W_OK):
+        raise ServokitValueError(f"{flag} {p}: {target} is not writable; choose another path")
+
+
+def check_out_dir(path: str | Path, flag: str = "--out") -> Path:
+    """Return ``path`` if it is (or can be created as) a writable directory."""
+    p = Path(path)
+    if str(path) == "":
+        raise ServokitValueError(f"{flag} is empty; give a directory name")
+    if p.exists() and not p.is_dir():
+        raise ServokitValueError(f"{flag} {path} is an existing file; give a directory")
+    existing = p
+    while not existing.exists() and existing != existing.parent:
+        existing = existing.parent
+    if existing.exists() and not existing.is_dir():
+        raise ServokitValueError(f"{flag} {path}: {existing} is a file, not a directory")
+    _check_writable(flag, existing)
+    return p
+
+
+def check_input_file(path: str | Path, flag: str) -> Path:
+    """Return ``path`` if it names an existing readable file (not a directory, not empty)."""
+    if str(path).strip() == "":
+        raise ServokitValueError(f"{flag} is empty; give a file name")
+    p = Path(path)
+    if p.is_dir():
+        raise ServokitValueError(f"{flag} {path} is a directory; give a file")
+    if not p.is_file():
+        raise ServokitValueError(f"{flag} {path}: no such file")
+    if not os.access(p, os.R_OK):
+        raise ServokitValueError(f"{flag} {path}: not readable (permissions)")
     return p

@@ -8,8 +8,10 @@ mistakes into one line on stderr with exit status 2.
 from __future__ import annotations
 
 import json
+import re
 import sys
-from collections.abc import Iterator
+import warnings
+from collections.abc import Iterator, Mapping
 from contextlib import contextmanager
 from pathlib import Path
 from typing import Annotated, Any
@@ -17,11 +19,34 @@ from typing import Annotated, Any
 import numpy as np
 import typer
 from rich.console import Console
+from typer.core import TyperGroup
 
 from servokit.errors import ServokitError
 
+#: Commands listed first in ``servokit --help``, in the order a new user meets them;
+#: commands not named here follow alphabetically.
+COMMAND_ORDER = (
+    "plant",
+    "simulate",
+    "feedforward",
+    "seek",
+    "sensitivity",
+    "unobservable",
+    "srs",
+    "reproduce",
+)
+
+
+class _OrderedGroup(TyperGroup):
+    def list_commands(self, ctx: Any) -> list[str]:
+        names = super().list_commands(ctx)
+        rank = {name: i for i, name in enumerate(COMMAND_ORDER)}
+        return sorted(names, key=lambda n: (rank.get(n, len(rank)), n))
+
+
 app = typer.Typer(
     name="servokit",
+    cls=_OrderedGroup,
     help="Design and analyse high-speed, high-precision motion control.",
     no_args_is_help=True,
     add_completion=False,
@@ -48,6 +73,45 @@ MaxMemoryOpt = Annotated[
     ),
 ]
 SeedOpt = Annotated[int, typer.Option("--seed", help="random seed")]
+DtOpt = Annotated[float, typer.Option("--dt", help="sampling (hold) period [s]")]
+NSamplesOpt = Annotated[int, typer.Option("--n-samples", help="number of samples [count]")]
+NFreqOpt = Annotated[int, typer.Option("--n-freq", help="number of frequency points [count]")]
+FminOpt = Annotated[float, typer.Option("--fmin", help="lowest frequency [Hz]")]
+FmaxOpt = Annotated[float, typer.Option("--fmax", help="highest frequency [Hz]")]
+FreqOpt = Annotated[float, typer.Option("--freq", help="oscillation frequency [Hz]")]
+DampingOpt = Annotated[float, typer.Option("--damping", help="damping ratio [1]")]
+DurationOpt = Annotated[float, typer.Option("--duration", help="simulated time [s]")]
+SettleBandOpt = Annotated[
+    float,
+    typer.Option("--settle-band", help="settling band half-width around the target [output unit]"),
+]
+PlantOpt = Annotated[
+    str, typer.Option("--plant", help="catalogue name or .toml plant file", metavar="NAME_OR_TOML")
+]
+
+
+def _print_version(value: bool) -> None:
+    if value:
+        from importlib.metadata import PackageNotFoundError, version
+
+        try:
+            v = version("servokit")
+        except PackageNotFoundError:  # run from a source tree without installing
+            from servokit import __version__ as v
+        typer.echo(f"servokit {v}")
+        raise typer.Exit()
+
+
+@app.callback()
+def _root(
+    version: Annotated[
+        bool,
+        typer.Option(
+            "--version", callback=_print_version, is_eager=True, help="print the version and exit"
+        ),
+    ] = False,
+) -> None:
+    """Design and analyse high-speed, high-precision motion control."""
 
 
 def sub_app(name: str, help: str) -> typer.Typer:
@@ -104,6 +168,55 @@ def progress(total: int, description: str, *, enabled: bool = True) -> Iterator[
         yield lambda n=1: bar.advance(task, n)
 
 
+def load_plant(value: str, flag: str = "--plant") -> Any:
+    """A catalogue plant or plant file named on the command line; errors name ``flag``."""
+    from servokit.errors import ServokitValueError
+
+    if value.strip() in ("", "."):
+        raise ServokitValueError(f"{flag} {value!r}: give a catalogue name or a .toml plant file")
+    from servokit.models import get_plant
+
+    if Path(value).is_dir():
+        raise ServokitValueError(f"{flag} {value} is a directory; give a .toml plant file")
+    with flag_names({}, prefix=f"{flag} {value}: "):
+        return get_plant(value)
+
+
+def load_controller(value: str, dt: float | None = None, flag: str = "--controller") -> Any:
+    """A book controller or controller file named on the command line; errors name ``flag``."""
+    from servokit.errors import ServokitValueError
+
+    if value.strip() in ("", ".") or Path(value).is_dir():
+        raise ServokitValueError(f"{flag} {value!r}: give a book name or a .toml controller file")
+    from servokit.models import get_discrete_controller
+
+    with flag_names({}, prefix=f"{flag} {value}: "):
+        return get_discrete_controller(value, dt)
+
+
+@contextmanager
+def flag_names(mapping: Mapping[str, str], prefix: str = "") -> Iterator[None]:
+    """Re-raise library errors with Python parameter names replaced by the CLI flags.
+
+    ``mapping`` maps a parameter name (``"n_samples"``) to the flag the user typed
+    (``"--n-samples"``); ``prefix`` is put before the message (e.g. the flag and value).
+    Filesystem errors become a :class:`~servokit.errors.ServokitValueError` as well.
+    """
+    from servokit.errors import ServokitError, ServokitTypeError, ServokitValueError
+
+    try:
+        yield
+    except ServokitError as exc:
+        msg = str(exc)
+        for name, flag in mapping.items():
+            msg = re.sub(rf"(?<![\w-]){re.escape(name)}(?![\w-])", flag, msg)
+        cls = ServokitTypeError if isinstance(exc, TypeError) else ServokitValueError
+        raise cls(prefix + msg) from None
+    except OSError as exc:
+        where = exc.filename if exc.filename is not None else ""
+        raise ServokitValueError(f"{prefix}{where}: {exc.strerror or exc}") from None
+
+
 def _jsonable(obj: Any) -> Any:
     if isinstance(obj, dict):
         return {str(k): _jsonable(v) for k, v in obj.items()}
@@ -155,22 +268,39 @@ def main() -> None:
 
     _discover()
     usage = _usage_errors()
+    # numpy/matplotlib warnings are held back: on an error only the one error line shows
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("default")
+        code = _run(usage)
+    if code == 0:
+        for w in caught:
+            warn(str(w.message).splitlines()[0])
+    sys.exit(code)
+
+
+def _run(usage: tuple[type[BaseException], ...]) -> int:
+    """Run the app; return the exit status (errors printed as one line)."""
     try:
         app(standalone_mode=False)
     except typer.Exit as exc:
-        sys.exit(exc.exit_code)
+        return int(exc.exit_code or 0)
     except typer.Abort:
-        sys.exit(1)
-    except (ServokitError, ValueError, TypeError, OSError, OverflowError, MemoryError) as exc:
+        return 1
+    except OSError as exc:
+        where = f"{exc.filename}: " if exc.filename is not None else ""
+        typer.echo(f"servokit: error: {where}{exc.strerror or exc}", err=True)
+        return 2
+    except (ServokitError, ValueError, TypeError, OverflowError, MemoryError) as exc:
         msg = str(exc).splitlines()[0] if str(exc) else type(exc).__name__
         typer.echo(f"servokit: error: {msg}", err=True)
-        sys.exit(2)
+        return 2
     except usage as exc:
         text = exc.format_message() if hasattr(exc, "format_message") else str(exc)
         if type(exc).__name__ == "NoArgsIsHelpError":  # bare `servokit` / group: show help
             typer.echo(text)
-            sys.exit(0)
+            return 0
         typer.echo(
             f"servokit: error: {text.strip().splitlines()[0] if text.strip() else exc}", err=True
         )
-        sys.exit(2)
+        return 2
+    return 0

@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import json
+import re
 from pathlib import Path
 
 import typer
@@ -10,10 +11,33 @@ from rich.markup import escape
 from rich.table import Table
 
 from servokit.cli._app import app, console, emit_json, example, progress, wrote
+from servokit.errors import check_out_dir
+
+_CASES_DIR = Path(__file__).resolve().parent.parent / "cases"
+_REGISTER = re.compile(r"@register\(\s*\"([^\"]+)\"(?:\s*,\s*order\s*=\s*(-?\d+))?")
+
+
+def case_names() -> list[str]:
+    """Registered case names in run order, read from the case modules without importing them.
+
+    ``--help`` must stay fast: importing the cases pulls in scipy, python-control and
+    matplotlib.  :func:`servokit.cases.registry` remains the authority when running.
+    """
+    found: list[tuple[int, str]] = []
+    for path in sorted(_CASES_DIR.glob("*.py")):
+        if not path.name.startswith("_"):
+            text = path.read_text(encoding="utf-8")
+            found += [(int(order or 100), name) for name, order in _REGISTER.findall(text)]
+    return [name for _, name in sorted(found)]
 
 
 @app.command(
     "reproduce",
+    help="Reproduce the book's published numbers and figures; write report.html and "
+    "results.json.\n\nresults.json: servokit_version, generated_utc, cases (name, title, "
+    "chapter, runtime_s, figures, notes), rows (case, chapter, source, quantity, unit, book, "
+    "book_text, servokit, ratio, tolerance, within_tolerance, kind, note, bound) and summary "
+    "(counts per chapter).\n\nCases: " + ", ".join(case_names()),
     epilog=example("servokit reproduce --chapter 2 --out out", "servokit reproduce --json"),
 )
 def reproduce(
@@ -30,15 +54,10 @@ def reproduce(
         False, "--json", help="print results.json on stdout (nothing else on stdout)"
     ),
 ) -> None:
-    """Reproduce the book's published numbers and figures; write report.html and results.json.
-
-    results.json: servokit_version, generated_utc, cases (name, title, chapter, runtime_s,
-    figures), rows (case, chapter, source, quantity, unit, book, book_text, servokit,
-    ratio, tolerance, within_tolerance, kind, note, bound) and summary (counts per chapter).
-    """
     from servokit.report.output import clear_report, run_cases, select_cases, write_report
 
-    names = select_cases(case, chapter)
+    out = check_out_dir(out)
+    names = select_cases(case, chapter)  # before any file is written
     out.mkdir(parents=True, exist_ok=True)
     clear_report(out)
     with progress(len(names), "reproducing") as advance:
@@ -51,7 +70,7 @@ def reproduce(
         return
     n_ok = n_all = 0
     for r in results:
-        table = Table(title=f"{r.title}  [{r.name}]", title_justify="left")
+        table = Table(title=escape(f"{r.title}  [{r.name}]"), title_justify="left")
         for col in ("quantity", "book", "servokit", "ratio", "tol", "ok"):
             table.add_column(col, justify="left" if col == "quantity" else "right")
         for c in r.comparisons:
@@ -69,7 +88,7 @@ def reproduce(
             console.print(table)
         else:
             console.print(
-                f"{r.title}  [{r.name}]: the book prints no number this model can "
+                f"{escape(r.title)}  \\[{r.name}]: the book prints no number this model can "
                 "reproduce; see the figures and the case's notes"
             )
         for f in r.figures:

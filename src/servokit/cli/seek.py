@@ -2,107 +2,285 @@
 
 from __future__ import annotations
 
-from pathlib import Path
-from typing import Annotated
+from typing import Annotated, Any
 
-import numpy as np
 import typer
 
-from servokit.cli._app import app, console, emit_json
-from servokit.errors import ServokitValueError
-from servokit.models import HDD_BENCHMARK_TS, get_plant, hdd_benchmark_variants
+from servokit.cli._app import (
+    JsonOpt,
+    MaxMemoryOpt,
+    PlantOpt,
+    PlotOpt,
+    SettleBandOpt,
+    app,
+    console,
+    emit_json,
+    example,
+    flag_names,
+    load_plant,
+    plot_target,
+    progress,
+    warn,
+    wrote,
+)
+from servokit.errors import (
+    DEFAULT_MAX_MEMORY_MB,
+    ServokitValueError,
+    check_count,
+    check_finite,
+    check_memory,
+    check_positive,
+)
+
+_FLAGS = {
+    "band_weights": "--band-weight",
+    "N_range": "--n-samples-max",
+    "N": "--n-samples",
+    "dt": "--dt",
+    "target": "--target",
+    "band": "--settle-band",
+    "model": "--model",
+}
+_SMALLEST_N = 3
+# the book's Ts = 37.879 us with 2 ms of settling record: horizon = max(3 T, T + 2 ms)
+_SETTLE_RECORD_S = 2e-3
+_SUBSTEPS = 10
+_JSON_KEYS = (
+    "plant, method, target, n_samples, dt_s, seek_time_s, worst_plant, n_plants, seek_times_s, "
+    "peak, delay_simulated, input, n_search {n_samples, worst_seek_time_s} (null unless auto), "
+    "plot"
+)
 
 
-def _parse_band(spec: str) -> tuple[float, float, float, int]:
+def _parse_band_weight(spec: str) -> tuple[float, float, float, int]:
     parts = spec.split(":")
     try:
         if len(parts) != 4:
             raise ValueError
-        return float(parts[0]), float(parts[1]), float(parts[2]), int(parts[3])
+        lo, hi, weight = (float(p) for p in parts[:3])
+        points = int(parts[3])
     except ValueError:
         raise ServokitValueError(
-            f"--band {spec!r} must be F_LOW_HZ:F_HIGH_HZ:WEIGHT:N_POINTS, e.g. 6860:7070:1e10:60"
+            f"--band-weight {spec!r} must be F_LOW:F_HIGH:WEIGHT:N_POINTS, e.g. 6860:7070:1e10:60"
         ) from None
+    check_finite("--band-weight", [lo, hi, weight])
+    if not (0 <= lo < hi and weight >= 0 and points >= 1):
+        raise ServokitValueError(
+            f"--band-weight {spec!r}: need 0 <= F_LOW < F_HIGH [Hz], WEIGHT >= 0, N_POINTS >= 1"
+        )
+    return lo, hi, weight, points
 
 
-@app.command("seek")
+def _check_size(
+    n_max: int, n_plants: int, n_states: int, dt: float, bands, max_mb: float, flag: str
+) -> None:
+    """Memory of the largest design (N x N Gram and band matrices) and its simulation."""
+    points = sum(b[3] for b in bands)
+    design = (8 * n_max * n_max + 4 * points * n_max) * 8
+    samples = max(3 * n_max, n_max + _SETTLE_RECORD_S / dt) * _SUBSTEPS
+    sim = n_plants * samples * (n_states + 2) * 8
+    check_memory(design + sim, what=f"{flag} {n_max}", max_memory_mb=max_mb)
+
+
+@app.command(
+    "seek",
+    epilog=example(
+        "servokit seek --plant hdd-benchmark --target 1 --method ffsc --json",
+        "servokit seek --target 10 --method fsc --n-samples 26 --plot seek.png",
+    )
+    + f"  JSON: {_JSON_KEYS}.",
+)
 def seek_cmd(
-    plant: str = typer.Option("hdd-benchmark", help="catalogue name or .toml plant file"),
-    tracks: float = typer.Option(1.0, help="seek distance (plant output units, tracks for HDDs)"),
-    method: str = typer.Option("fsc", help="'fsc' (minimum jerk) or 'ffsc' (frequency shaped)"),
-    n_steps: str = typer.Option("auto", "--N", help="step number, or 'auto' to minimise the "
-                                "worst-case seek time"),
-    dt: float | None = typer.Option(None, help="hold period in seconds (default: Ts of the HDD "
-                                    "benchmark for hdd-benchmark; required otherwise)"),
-    band: Annotated[list[str] | None, typer.Option(
-        "--band", help="FFSC band F_LOW:F_HIGH:WEIGHT:N_POINTS (repeatable; default for "
-        "hdd-benchmark: Table 2.4, 1-track column up to 3 tracks, 10-track beyond)")] = None,
-    model: str = typer.Option("rigid-body", help="design model: 'rigid-body' (book) or 'plant'"),
-    settle_band: float = typer.Option(0.1, "--settle-band", help="settling band half-width"),
-    delay: bool = typer.Option(True, "--delay/--no-delay", help="simulate the plant's input "
-                               "delay (--no-delay: the book's §2.4 convention)"),
-    n_max: int = typer.Option(40, "--n-max", help="largest N tried by --N auto"),
-    plot: Annotated[Path | None, typer.Option(
-        "--plot", help="write the input/response plot here")] = None,
-    json_out: bool = typer.Option(False, "--json", help="machine-readable output"),
+    plant: PlantOpt = "hdd-benchmark",
+    target: Annotated[
+        float,
+        typer.Option("--target", "--tracks", help="seek distance [output unit; track for HDDs]"),
+    ] = 1.0,
+    method: Annotated[
+        str, typer.Option("--method", help="'fsc' (minimum jerk) or 'ffsc' (frequency shaped)")
+    ] = "fsc",
+    n_samples: Annotated[
+        str,
+        typer.Option(
+            "--n-samples",
+            help="step number N [count], or 'auto' to minimise the worst-case seek time",
+        ),
+    ] = "auto",
+    dt: Annotated[
+        float | None,
+        typer.Option(
+            "--dt",
+            help="hold period [s] (default: Ts of the "
+            "HDD benchmark for hdd-benchmark; required otherwise)",
+        ),
+    ] = None,
+    band_weight: Annotated[
+        list[str] | None,
+        typer.Option(
+            "--band-weight",
+            help="FFSC band weight F_LOW:F_HIGH:WEIGHT:N_POINTS [Hz:Hz:1:count] "
+            "(repeatable; default for hdd-benchmark: Table 2.4, 1-track column up to 3 tracks, "
+            "10-track beyond)",
+        ),
+    ] = None,
+    model: Annotated[
+        str, typer.Option("--model", help="design model: 'rigid-body' (book) or 'plant'")
+    ] = "rigid-body",
+    settle_band: SettleBandOpt = 0.1,
+    delay: Annotated[
+        bool,
+        typer.Option(
+            "--delay/--no-delay",
+            help="simulate the plant's input delay (--no-delay: the book's §2.4 convention)",
+        ),
+    ] = True,
+    n_samples_max: Annotated[
+        int, typer.Option("--n-samples-max", help="largest N tried by --n-samples auto [count]")
+    ] = 40,
+    max_memory_mb: MaxMemoryOpt = DEFAULT_MAX_MEMORY_MB,
+    plot: PlotOpt = None,
+    json_out: JsonOpt = False,
 ) -> None:
     """Design an FSC/FFSC seek input and report the worst-case seek time over the plant set.
 
-    For ``hdd-benchmark`` the input is evaluated on the 18 plants of Table 2.3; a plant
+    For hdd-benchmark the input is evaluated on the 18 plants of Table 2.3; a plant
     file is evaluated on itself.
     """
-    from servokit.cases.hdd_seek import seek_plot, simulate_seek, table_2_4_weights
-    from servokit.feedforward import fsc_input
-    from servokit.simulate import choose_N
-
     if method not in ("fsc", "ffsc"):
         raise ServokitValueError(f"--method must be 'fsc' or 'ffsc', got {method!r}")
     if model not in ("rigid-body", "plant"):
         raise ServokitValueError(f"--model must be 'rigid-body' or 'plant', got {model!r}")
+    target = float(check_finite("--target", target))
+    if target == 0:
+        raise ServokitValueError("--target must be non-zero (a seek distance)")
+    check_positive("--settle-band", settle_band)
+    auto = n_samples == "auto"
+    n_top = check_count(
+        "--n-samples-max" if auto else "--n-samples",
+        n_samples_max if auto else _parse_n(n_samples),
+        lo=_SMALLEST_N if auto else 1,
+    )
+    bands = [_parse_band_weight(b) for b in band_weight or []]
+    plot = plot_target(plot)
+
+    from servokit.models import HDD_BENCHMARK_TS, hdd_benchmark_variants
+
     is_hdd = plant == "hdd-benchmark"
-    nominal = get_plant(plant)
+    nominal = load_plant(plant)
     plants = hdd_benchmark_variants() if is_hdd else [nominal]
     if dt is None:
         if not is_hdd:
             raise ServokitValueError("--dt is required for plants other than hdd-benchmark")
         dt = HDD_BENCHMARK_TS
-    if dt <= 0:
-        raise ServokitValueError(f"--dt must be > 0 seconds, got {dt}")
-    if tracks == 0:
-        raise ServokitValueError("--tracks must be non-zero")
-    bands = [_parse_band(b) for b in band or []]
+    check_positive("--dt", dt, "s")
     if method == "ffsc" and not bands:
         if not is_hdd:
-            raise ServokitValueError("--method ffsc needs at least one --band for this plant")
-        bands = table_2_4_weights(tracks)
-    if method == "fsc" and bands:
-        raise ServokitValueError("--band only applies to --method ffsc")
-    sim_plants = plants if delay else [p.replace(delay=0.0) for p in plants]
-    design_kw = {"band_weights": bands, "model": model}
+            raise ServokitValueError(
+                "--method ffsc needs at least one --band-weight for this plant"
+            )
+        from servokit.cases.hdd_seek import table_2_4_weights
 
-    search = None
-    if n_steps == "auto":
-        search = choose_N(sim_plants, dt, tracks, range(3, n_max + 1), design_plant=nominal,
-                          band=settle_band, **design_kw)
-        ff = search.ff
-    else:
-        try:
-            N = int(n_steps)
-        except ValueError:
-            raise ServokitValueError(f"--N must be an integer or 'auto', got {n_steps!r}") from None
-        ff = fsc_input(nominal, dt, N, tracks, **design_kw)
-    out = simulate_seek(sim_plants, ff, tracks, band=settle_band)
+        bands = table_2_4_weights(target)
+    if method == "fsc" and bands:
+        raise ServokitValueError("--band-weight only applies to --method ffsc")
+    _check_size(
+        n_top,
+        len(plants),
+        nominal.order + 4,
+        dt,
+        bands,
+        max_memory_mb,
+        "--n-samples-max" if auto else "--n-samples",
+    )
+    sim_plants = plants if delay else [p.replace(delay=0.0) for p in plants]
+    design_kw: dict[str, Any] = {"band_weights": bands, "model": model}
+    with flag_names(_FLAGS):
+        ff, search = _design(
+            nominal, sim_plants, dt, target, settle_band, n_top, auto, design_kw, show=not json_out
+        )
+        from servokit.cases.hdd_seek import simulate_seek
+
+        out = simulate_seek(sim_plants, ff, target, band=settle_band)
+    if search is not None and ff.N == n_top:
+        warn(
+            f"the best N sits at --n-samples-max {n_top}; a larger N may seek faster: "
+            "raise --n-samples-max"
+        )
     if plot is not None:
-        resonances = [m.freq_hz for m in nominal.modes if m.freq_hz > 0]
-        seek_plot(out, tracks, f"{method.upper()} seek of {tracks:g} on {plant}, N = {ff.N}",
-                  plot, resonances_hz=resonances, bands=bands, band=settle_band,
-                  unit="track" if is_hdd else "output unit")
-    data = {
+        _plot(out, nominal, target, method, plant, ff.N, plot, bands, settle_band, is_hdd)
+    data = _result(plant, method, target, ff, dt, out, plants, delay, search, plot)
+    if json_out:
+        emit_json(data)
+        return
+    console.print(
+        f"{method.upper()} seek of {target:g} on {plant}: N = {ff.N}, worst-case seek time "
+        f"{out.worst * 1e3:.6g} ms ({data['worst_plant']}, {len(plants)} plant(s)"
+        f"{'' if delay else ', input delay not simulated'})"
+    )
+
+
+def _parse_n(text: str) -> int | str:
+    try:
+        return int(text)
+    except ValueError:
+        raise ServokitValueError(
+            f"--n-samples must be an integer or 'auto', got {text!r}"
+        ) from None
+
+
+def _design(nominal, sim_plants, dt, target, settle_band, n_top, auto, design_kw, *, show):  # noqa: ANN001
+    """The seek input: fixed N, or the N search of §2.4.2 with a progress bar."""
+    from servokit.feedforward import fsc_input
+    from servokit.simulate import choose_N, seek_time
+
+    if not auto:
+        return fsc_input(nominal, dt, n_top, target, **design_kw), None
+    candidates = range(_SMALLEST_N, n_top + 1)
+    with progress(len(candidates), "searching N", enabled=show) as advance:
+
+        def timed(*args: Any, **kw: Any):
+            advance()
+            return seek_time(*args, **kw)
+
+        search = choose_N(
+            sim_plants,
+            dt,
+            target,
+            candidates,
+            design_plant=nominal,
+            band=settle_band,
+            seek_time_fn=timed,
+            **design_kw,
+        )
+    return search.ff, search
+
+
+def _plot(out, nominal, target, method, plant, N, path, bands, settle_band, is_hdd) -> None:  # noqa: ANN001
+    from servokit.cases.hdd_seek import seek_plot
+
+    resonances = [m.freq_hz for m in nominal.modes if m.freq_hz > 0]
+    seek_plot(
+        out,
+        target,
+        f"{method.upper()} seek of {target:g} on {plant}, N = {N}",
+        path,
+        resonances_hz=resonances,
+        bands=bands,
+        band=settle_band,
+        unit="track" if is_hdd else "output unit",
+    )
+    wrote(path)
+
+
+def _result(plant, method, target, ff, dt, out, plants, delay, search, plot) -> dict:  # noqa: ANN001
+    import numpy as np
+
+    return {
         "plant": plant,
         "method": method,
-        "tracks": tracks,
-        "N": ff.N,
-        "dt": dt,
+        "target": target,
+        "n_samples": ff.N,
+        "dt_s": dt,
         "seek_time_s": out.worst,
         "worst_plant": plants[out.worst_plant].name or str(out.worst_plant),
         "n_plants": len(plants),
@@ -110,15 +288,8 @@ def seek_cmd(
         "peak": float(np.max(out.y)),
         "delay_simulated": delay,
         "input": ff.u,
-        "N_search": None if search is None else {
-            "N": search.N_values, "worst_seek_time_s": search.worst_seek_times},
+        "n_search": None
+        if search is None
+        else {"n_samples": search.N_values, "worst_seek_time_s": search.worst_seek_times},
         "plot": str(plot) if plot else None,
     }
-    if json_out:
-        emit_json(data)
-        return
-    console.print(
-        f"{method.upper()} seek of {tracks:g} on {plant}: N = {ff.N}, worst-case seek time "
-        f"{out.worst * 1e3:.6g} ms ({data['worst_plant']}, {len(plants)} plant(s)"
-        f"{'' if delay else ', input delay not simulated'})"
-    )

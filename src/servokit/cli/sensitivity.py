@@ -2,84 +2,216 @@
 
 from __future__ import annotations
 
-from pathlib import Path
-from typing import Annotated
+from typing import Annotated, Any
 
-import numpy as np
 import typer
-from rich.table import Table
 
-from servokit.cli._app import app, console, emit_json
-from servokit.errors import ServokitValueError
-from servokit.models import get_discrete_controller, get_plant
-from servokit.sampled import sampled_data_sensitivity, sensitivity_plot
+from servokit.cli._app import (
+    FmaxOpt,
+    FminOpt,
+    JsonOpt,
+    MaxMemoryOpt,
+    NFreqOpt,
+    PlantOpt,
+    PlotOpt,
+    app,
+    console,
+    emit_json,
+    example,
+    flag_names,
+    load_controller,
+    load_plant,
+    plot_target,
+    progress,
+    wrote,
+)
+from servokit.errors import (
+    DEFAULT_MAX_MEMORY_MB,
+    ServokitValueError,
+    check_count,
+    check_memory,
+    check_range,
+)
+
+_FLAGS = {
+    "freq_hz": "--fmin/--fmax",
+    "tol": "--tol",
+    "band_limit_hz": "--band-limit",
+    "controller_d": "--controller",
+    "dt": "--controller's dt",
+    "plant": "--plant",
+}
+# frequencies per call: a progress step, and the alias-sum work per call stays bounded
+_CHUNK = 2000
+# complex arrays per frequency in the result and the alias sums
+_ARRAYS_PER_FREQ = 24
+_ALIAS_BLOCK_BYTES = 2_000_000 * 16 * 4
+_JSON_KEYS = (
+    "plant, controller, dt_s, m, peak_ssd, peak_ssd_freq_hz, peak_tsd, peak_tsd_freq_hz, "
+    "peak_sd, alias_terms, tail_estimate, freq_hz, ssd, tsd, sd_mag, td_mag, s_delta, t_delta, "
+    "gamma_sum, pd_mag, pd_phase_deg, plot"
+)
 
 
-@app.command("sensitivity")
+@app.command(
+    "sensitivity",
+    epilog=example(
+        "servokit sensitivity --plant hdd-sampled-data --controller eq-4.69 --multirate "
+        "--plot ssd.png"
+    )
+    + f"  JSON: {_JSON_KEYS}.",
+)
 def sensitivity_cmd(
-    plant: str = typer.Option("hdd-sampled-data", help="catalogue name or .toml plant file"),
-    controller: str = typer.Option("eq-4.69", help="'eq-4.69' or a discrete controller .toml"),
-    multirate: bool = typer.Option(
-        True, help="use the §4.5.2 multirate path: Ip (4.67), Fm (4.68) at 3.6 kHz, ZOH at Ts/m"
-    ),
-    m: int = typer.Option(4, help="multirate number (with --multirate)"),
-    fmin: float = typer.Option(10.0, help="lowest frequency [Hz]"),
-    fmax: float = typer.Option(10000.0, help="highest frequency [Hz]"),
-    n: int = typer.Option(1000, help="number of frequencies (linear grid)"),
-    tol: float = typer.Option(1e-6, help="relative truncation tolerance of the alias sums"),
-    band_limit: float | None = typer.Option(
-        None, help="band limit of eq. (4.62) [Hz]: plant response set to 0 above it"
-    ),
-    plot: Annotated[
-        Path | None, typer.Option("--plot", help="write |Ssd|, |Tsd|, |Sd| here (PNG)")
+    plant: PlantOpt = "hdd-sampled-data",
+    controller: Annotated[
+        str,
+        typer.Option(
+            "--controller",
+            help="'eq-4.69' or a discrete controller .toml file",
+            metavar="NAME_OR_TOML",
+        ),
+    ] = "eq-4.69",
+    multirate: Annotated[
+        bool,
+        typer.Option(
+            "--multirate/--no-multirate",
+            help="use the §4.5.2 multirate path: Ip (4.67), Fm (4.68) at 3.6 kHz, ZOH at Ts/m",
+        ),
+    ] = True,
+    m: Annotated[
+        int, typer.Option("--m", help="multirate number m [count] (with --multirate)")
+    ] = 4,
+    fmin: FminOpt = 10.0,
+    fmax: FmaxOpt = 10000.0,
+    n_freq: NFreqOpt = 1000,
+    tol: Annotated[
+        float, typer.Option("--tol", help="relative truncation tolerance of the alias sums [1]")
+    ] = 1e-6,
+    band_limit: Annotated[
+        float | None,
+        typer.Option(
+            "--band-limit", help="band limit of eq. (4.62) [Hz]: plant response set to 0 above it"
+        ),
     ] = None,
-    json_out: bool = typer.Option(False, "--json", help="machine-readable output"),
+    max_memory_mb: MaxMemoryOpt = DEFAULT_MAX_MEMORY_MB,
+    plot: PlotOpt = None,
+    json_out: JsonOpt = False,
 ) -> None:
     """Sensitivity of a digital loop including the intersample response (eqs. 4.13-4.38)."""
-    if not 0 < fmin < fmax:
-        raise ServokitValueError(f"need 0 < --fmin < --fmax (got {fmin}, {fmax})")
-    if n < 2:
-        raise ServokitValueError(f"--n must be >= 2 (got {n})")
-    p = get_plant(plant)
-    ctrl = get_discrete_controller(controller)
+    import numpy as np
+
+    fmin, fmax = check_range(fmin, fmax)
+    n = check_count("--n-freq", n_freq, lo=2)
+    if not (np.isfinite(tol) and 0 < tol < 1):
+        raise ServokitValueError(f"--tol must be in (0, 1) (got {tol:g})")
+    if band_limit is not None and not (np.isfinite(band_limit) and band_limit > 0):
+        raise ServokitValueError(f"--band-limit must be > 0 Hz (got {band_limit:g})")
+    check_memory(
+        n * _ARRAYS_PER_FREQ * 16 + _ALIAS_BLOCK_BYTES,
+        what=f"--n-freq {n}",
+        max_memory_mb=max_memory_mb,
+    )
+    plot = plot_target(plot)
+    p = load_plant(plant)
+    ctrl = load_controller(controller)
     dt = float(ctrl.dt)
     mr = None
     if multirate:
         from servokit.cases.hdd_sensitivity import hdd_multirate
 
-        if m < 1:
-            raise ServokitValueError(f"--m must be >= 1 (got {m})")
-        mr = hdd_multirate(dt, m)
+        mr = hdd_multirate(dt, check_count("--m", m))
     freq = np.linspace(fmin, fmax, n)
-    res = sampled_data_sensitivity(
-        p, ctrl, dt, freq, multirate=mr, tol=tol, band_limit_hz=band_limit
-    )
+    with flag_names(_FLAGS):
+        res = _sweep(p, ctrl, dt, freq, mr, tol, band_limit, show=not json_out)
     if plot is not None:
+        from servokit.sampled import sensitivity_plot
+
         sensitivity_plot(res, quantities=("Ssd", "Tsd", "Sd"), filename=str(plot))
+        wrote(plot)
     i_s, i_t = int(np.argmax(res.Ssd)), int(np.argmax(res.Tsd))
     summary = {
         "plant": p.name,
         "controller": controller,
-        "dt": dt,
+        "dt_s": dt,
         "m": res.m,
-        "peak_Ssd": float(res.Ssd[i_s]),
-        "peak_Ssd_freq_hz": float(freq[i_s]),
-        "peak_Tsd": float(res.Tsd[i_t]),
-        "peak_Tsd_freq_hz": float(freq[i_t]),
-        "peak_Sd": float(np.abs(res.Sd).max()),
+        "peak_ssd": float(res.Ssd[i_s]),
+        "peak_ssd_freq_hz": float(freq[i_s]),
+        "peak_tsd": float(res.Tsd[i_t]),
+        "peak_tsd_freq_hz": float(freq[i_t]),
+        "peak_sd": float(np.abs(res.Sd).max()),
         "plot": str(plot) if plot else None,
     }
     if json_out:
-        emit_json({**summary, **res.to_dict()})
+        emit_json({**summary, **_curves(res)})
         return
-    table = Table(title=f"{p.name}: Ts = {dt * 1e6:.4g} us, m = {res.m}")
+    _print_table(res, p.name, dt, freq, summary)
+
+
+def _sweep(p, ctrl, dt, freq, mr, tol, band_limit, *, show: bool):  # noqa: ANN001
+    """``sampled_data_sensitivity`` in chunks of the grid, with a progress bar."""
+    import dataclasses
+
+    import numpy as np
+
+    from servokit.sampled import sampled_data_sensitivity
+
+    chunks = [freq[i : i + _CHUNK] for i in range(0, freq.size, _CHUNK)]
+    parts = []
+    with progress(len(chunks), "sensitivity sweep", enabled=show) as advance:
+        for f in chunks:
+            parts.append(
+                sampled_data_sensitivity(
+                    p, ctrl, dt, f, multirate=mr, tol=tol, band_limit_hz=band_limit
+                )
+            )
+            advance()
+    if len(parts) == 1:
+        return parts[0]
+    merged: dict[str, Any] = {}
+    for fld in dataclasses.fields(parts[0]):
+        values = [getattr(r, fld.name) for r in parts]
+        if isinstance(values[0], np.ndarray):
+            merged[fld.name] = np.concatenate(values)
+        elif fld.name in ("alias_terms", "tail_estimate"):
+            merged[fld.name] = max(values)
+        else:
+            merged[fld.name] = values[0]
+    return type(parts[0])(**merged)
+
+
+def _curves(res) -> dict:  # noqa: ANN001
+    import numpy as np
+
+    return {
+        "alias_terms": res.alias_terms,
+        "tail_estimate": res.tail_estimate,
+        "freq_hz": res.freq_hz,
+        "ssd": res.Ssd,
+        "tsd": res.Tsd,
+        "sd_mag": np.abs(res.Sd),
+        "td_mag": np.abs(res.Td),
+        "s_delta": res.S_delta,
+        "t_delta": res.T_delta,
+        "gamma_sum": res.gamma_sum,
+        "pd_mag": np.abs(res.Pd),
+        "pd_phase_deg": np.degrees(np.angle(res.Pd)),
+    }
+
+
+def _print_table(res, name: str, dt: float, freq, summary: dict) -> None:  # noqa: ANN001
+    import numpy as np
+    from rich.table import Table
+
+    table = Table(title=f"{name}: Ts = {dt * 1e6:.4g} us, m = {res.m}")
     for col in ("f [Hz]", "|Ssd|", "|Tsd|", "|Sd|", "|Td|"):
         table.add_column(col, justify="right")
+    n = freq.size
     for i in np.unique(np.linspace(0, n - 1, min(n, 12)).astype(int)):
-        table.add_row(*(f"{v:.4g}" for v in (freq[i], res.Ssd[i], res.Tsd[i],
-                                             abs(res.Sd[i]), abs(res.Td[i]))))
+        table.add_row(
+            *(f"{v:.4g}" for v in (freq[i], res.Ssd[i], res.Tsd[i], abs(res.Sd[i]), abs(res.Td[i])))
+        )
     console.print(table)
     console.print(
-        f"peak |Ssd| = {summary['peak_Ssd']:.4g} at {summary['peak_Ssd_freq_hz']:.4g} Hz; "
-        f"peak |Tsd| = {summary['peak_Tsd']:.4g} at {summary['peak_Tsd_freq_hz']:.4g} Hz"
+        f"peak |Ssd| = {summary['peak_ssd']:.4g} at {summary['peak_ssd_freq_hz']:.4g} Hz; "
+        f"peak |Tsd| = {summary['peak_tsd']:.4g} at {summary['peak_tsd_freq_hz']:.4g} Hz"
     )

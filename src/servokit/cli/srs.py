@@ -2,96 +2,247 @@
 
 from __future__ import annotations
 
-from pathlib import Path
 from typing import Annotated
 
-import numpy as np
 import typer
-from rich.table import Table
 
-from servokit.cli._app import app, console, emit_json
-from servokit.errors import ServokitValueError
-from servokit.sampled.srs import (
-    half_sine,
-    polynomial_wave,
-    shock_response_spectrum,
-    spectrum_peaks,
-    srs_plot,
+from servokit.cli._app import (
+    DampingOpt,
+    FmaxOpt,
+    FminOpt,
+    JsonOpt,
+    MaxMemoryOpt,
+    NFreqOpt,
+    PlotOpt,
+    app,
+    console,
+    emit_json,
+    example,
+    flag_names,
+    plot_target,
+    progress,
+    wrote,
+)
+from servokit.errors import (
+    DEFAULT_MAX_MEMORY_MB,
+    ServokitValueError,
+    check_count,
+    check_finite,
+    check_input_file,
+    check_memory,
+    check_positive,
+    check_range,
+    check_work,
+)
+
+_FLAGS = {
+    "dt_hold": "--dt",
+    "duration": "--duration",
+    "damping": "--damping",
+    "N": "--n-samples",
+    "freq_hz": "--fmin/--fmax",
+    "accel": "--input",
+    "kind": "--kind",
+    "target": "--target",
+}
+_CHUNK = 500  # oscillators per call: one progress step
+_ARRAYS_PER_FREQ = 12  # complex arrays per oscillator (lam, states, peaks, ...)
+_BLOCK_BYTES = 4_000_000 * 16 * 3  # the library's time blocks (complex cells)
+# oscillator x hold-sample (or x Gauss node) updates one request may cost: 1e8 per CPU
+# second measured, so about twenty seconds
+MAX_CELLS = 2e9
+_GL_NODES = 12  # Gauss-Legendre nodes per panel of a continuous input (library)
+_JSON_KEYS = (
+    "input, dt_s, duration_s, damping, kind, freq_hz, magnitude, peaks_hz, "
+    "at [{freq_hz, magnitude}], plot"
 )
 
 
-def _read_samples(path: str) -> np.ndarray:
-    p = Path(path)
-    if not p.is_file():
+def _read_samples(path: str) -> object:
+    from pathlib import Path
+
+    import numpy as np
+
+    if not Path(path).exists():
         raise ServokitValueError(
             f"--input {path!r} is neither 'half-sine', 'polynomial' nor an existing file"
         )
+    p = check_input_file(path, "--input")
     try:
         data = np.loadtxt(p, delimiter="," if p.suffix == ".csv" else None, ndmin=1)
     except ValueError as exc:
-        raise ServokitValueError(f"--input {path}: not a column of numbers ({exc})") from None
-    return np.ravel(data)
+        first = str(exc).splitlines()[0]
+        raise ServokitValueError(f"--input {path}: not a column of numbers ({first})") from None
+    return check_finite(f"--input {path}", np.ravel(data))
 
 
-@app.command("srs")
+@app.command(
+    "srs",
+    epilog=example("servokit srs --input half-sine --duration 0.5e-3 --dt 25e-6 --plot srs.png")
+    + f"  JSON: {_JSON_KEYS}.",
+)
 def srs_cmd(
-    input_: Annotated[str, typer.Option(
-        "--input", help="'half-sine', 'polynomial' (eq. 4.60) or a file of held samples")]
-    = "half-sine",
-    hold: Annotated[float | None, typer.Option(
-        "--hold", help="hold period Tzoh [s] (omit for a continuous half-sine)")] = None,
-    duration: Annotated[float, typer.Option(
-        "--duration", help="half-sine width Tsrs [s]")] = 0.5e-3,
-    n: Annotated[int, typer.Option("--n", help="polynomial length N [samples]")] = 40,
-    target: Annotated[float, typer.Option("--target", help="polynomial move Pt")] = 1.0,
-    damping: Annotated[float, typer.Option("--damping", help="zeta_srs of (4.54)")] = 0.0,
-    kind: Annotated[str, typer.Option("--kind", help="'residual' (4.57) or 'initial' (4.56)")]
-    = "residual",
-    fmin: Annotated[float, typer.Option("--fmin", help="lowest oscillator frequency [Hz]")] = 100.0,
-    fmax: Annotated[float, typer.Option("--fmax", help="highest oscillator frequency [Hz]")]
-    = 100e3,
-    n_freq: Annotated[int, typer.Option("--n-freq", help="number of frequencies")] = 5000,
-    at: Annotated[list[float] | None, typer.Option("--at", help="report gsrs at this [Hz]")]
-    = None,
-    plot: Annotated[Path | None, typer.Option("--plot", help="write the SRS here (PNG)")] = None,
-    json_out: Annotated[bool, typer.Option("--json", help="machine-readable output")] = False,
+    input_: Annotated[
+        str,
+        typer.Option(
+            "--input", help="'half-sine', 'polynomial' (eq. 4.60) or a file of held samples"
+        ),
+    ] = "half-sine",
+    dt: Annotated[
+        float | None,
+        typer.Option("--dt", help="hold period Tzoh [s] (omit for a continuous half-sine)"),
+    ] = None,
+    duration: Annotated[
+        float, typer.Option("--duration", help="half-sine width Tsrs [s]")
+    ] = 0.5e-3,
+    n_samples: Annotated[int, typer.Option("--n-samples", help="polynomial length N [count]")] = 40,
+    target: Annotated[
+        float, typer.Option("--target", help="polynomial move Pt [output unit]")
+    ] = 1.0,
+    damping: DampingOpt = 0.0,
+    kind: Annotated[
+        str, typer.Option("--kind", help="'residual' (4.57) or 'initial' (4.56)")
+    ] = "residual",
+    fmin: FminOpt = 100.0,
+    fmax: FmaxOpt = 100e3,
+    n_freq: NFreqOpt = 5000,
+    at: Annotated[
+        list[float] | None,
+        typer.Option("--freq", help="also report gsrs exactly at this frequency [Hz] (repeatable)"),
+    ] = None,
+    max_memory_mb: MaxMemoryOpt = DEFAULT_MAX_MEMORY_MB,
+    plot: PlotOpt = None,
+    json_out: JsonOpt = False,
 ) -> None:
     """Shock response spectrum on the relative-acceleration model (eqs. 4.53-4.61)."""
-    if not 0 < fmin < fmax:
-        raise ServokitValueError(f"need 0 < --fmin < --fmax (got {fmin}, {fmax})")
-    if n_freq < 2:
-        raise ServokitValueError(f"--n-freq must be >= 2 (got {n_freq})")
-    freq = np.linspace(fmin, fmax, n_freq)
-    if input_ == "half-sine":
-        accel, dur = half_sine(duration), duration
-    else:
-        u = None if input_ == "polynomial" else _read_samples(input_)
-        if hold is None:
-            raise ServokitValueError("--hold is required for held samples (the hold period [s])")
-        accel, dur = (polynomial_wave(n, hold, target) if u is None else u), None
+    import numpy as np
 
-    def spectrum(f: np.ndarray):
-        return shock_response_spectrum(accel, hold, f, damping, kind=kind, duration=dur)
-
-    spec = spectrum(freq)
-    peaks = spectrum_peaks(freq, spec.magnitude)
-    # Exact values at the requested frequencies, not interpolated from the grid.
-    values: dict[str, float] = {}
+    fmin, fmax = check_range(fmin, fmax)
+    n = check_count("--n-freq", n_freq, lo=2)
     if at:
-        exact = spectrum(np.asarray(at, dtype=float)).magnitude
-        values = {f"{f:g}": float(m) for f, m in zip(at, exact, strict=True)}
+        check_finite("--freq", at)
+        if min(at) <= 0:
+            raise ServokitValueError("--freq must be > 0 Hz")
+    if dt is not None:
+        check_positive("--dt", dt, "s")
+    accel, dur = _input(input_, dt, duration, n_samples, target, (n, fmax, max_memory_mb))
+    plot = plot_target(plot)
+    freq = np.linspace(fmin, fmax, n)
+    with flag_names(_FLAGS):
+        spec = _spectrum(accel, dt, freq, damping, kind, dur, show=not json_out)
+        from servokit.sampled.srs import spectrum_peaks
+
+        peaks = spectrum_peaks(freq, spec.magnitude)
+        # exact values at the requested frequencies, not interpolated from the grid
+        exact = (
+            _spectrum(accel, dt, np.asarray(at, float), damping, kind, dur, show=False)
+            if at
+            else None
+        )
+    values = (
+        []
+        if exact is None
+        else [
+            {"freq_hz": float(f), "magnitude": float(m)}
+            for f, m in zip(at, exact.magnitude, strict=True)
+        ]
+    )
     if plot is not None:
+        from servokit.sampled.srs import srs_plot
+
         srs_plot(spec, [f"{input_}, zeta = {damping:g}"], path=plot, marks_hz=at or ())
+        wrote(plot)
     if json_out:
-        emit_json({"input": input_, "hold": hold, "duration": spec.duration, "damping": damping,
-                   "kind": kind, "freq_hz": freq, "magnitude": spec.magnitude,
-                   "peaks_hz": peaks, "at": values, "plot": str(plot) if plot else None})
+        emit_json(
+            {
+                "input": input_,
+                "dt_s": dt,
+                "duration_s": spec.duration,
+                "damping": damping,
+                "kind": kind,
+                "freq_hz": freq,
+                "magnitude": spec.magnitude,
+                "peaks_hz": peaks,
+                "at": values,
+                "plot": str(plot) if plot else None,
+            }
+        )
         return
-    table = Table(title=f"{kind} SRS of {input_} (Tsrs = {spec.duration * 1e3:.4g} ms)")
+    _print(spec, input_, kind, peaks, values)
+
+
+def _check_size(n: int, length: float, steps: float, max_memory_mb: float) -> None:
+    """Memory and work of ``n`` oscillators over ``length`` held samples / ``steps`` updates."""
+    check_memory(
+        n * _ARRAYS_PER_FREQ * 16 + _BLOCK_BYTES + length * 8 * 4,
+        what=f"--n-freq {n} with {length:.3g} input samples",
+        max_memory_mb=max_memory_mb,
+    )
+    check_work(
+        n * steps,
+        what=f"--n-freq {n} x {steps:.3g} input steps (--n-samples, --input or --duration)",
+        limit=MAX_CELLS,
+        about="about twenty seconds",
+    )
+
+
+def _input(input_: str, dt, duration, n_samples, target, size):  # noqa: ANN001
+    """The input as (accel, duration or None); its size is checked before it is built.
+
+    ``size`` is ``(n_freq, fmax, max_memory_mb)``.
+    """
+    from servokit.sampled.srs import half_sine, polynomial_wave
+
+    n, fmax, max_mb = size
+    if input_ == "half-sine":
+        check_positive("--duration", duration, "s")
+        # a continuous input is integrated on panels of half a period of the fastest oscillator
+        steps = 2 * fmax * duration * _GL_NODES if dt is None else duration / dt
+        _check_size(n, 0 if dt is None else steps, steps, max_mb)
+        return half_sine(duration), duration
+    u = None if input_ == "polynomial" else _read_samples(input_)
+    if dt is None:
+        raise ServokitValueError("--dt is required for held samples (the hold period [s])")
+    if u is not None:
+        _check_size(n, u.size, u.size, max_mb)
+        return u, None
+    length = check_count("--n-samples", n_samples)
+    _check_size(n, length, length, max_mb)
+    with flag_names(_FLAGS):
+        return polynomial_wave(length, dt, float(check_finite("--target", target))), None
+
+
+def _spectrum(accel, dt, freq, damping, kind, dur, *, show: bool):  # noqa: ANN001
+    """The spectrum over ``freq`` in chunks of oscillators, with a progress bar."""
+    import numpy as np
+
+    from servokit.sampled.srs import ShockResponseSpectrum, shock_response_spectrum
+
+    chunks = [freq[i : i + _CHUNK] for i in range(0, freq.size, _CHUNK)]
+    parts = []
+    with progress(len(chunks), "shock response spectrum", enabled=show) as advance:
+        for f in chunks:
+            parts.append(shock_response_spectrum(accel, dt, f, damping, kind=kind, duration=dur))
+            advance()
+    first = parts[0]
+    return ShockResponseSpectrum(
+        np.concatenate([p.freq_hz for p in parts]),
+        np.concatenate([p.magnitude for p in parts]),
+        first.damping,
+        first.kind,
+        first.duration,
+    )
+
+
+def _print(spec, input_: str, kind: str, peaks, values: list[dict]) -> None:  # noqa: ANN001
+    from rich.markup import escape
+    from rich.table import Table
+
+    table = Table(title=escape(f"{kind} SRS of {input_} (Tsrs = {spec.duration * 1e3:.4g} ms)"))
     table.add_column("peak at [Hz]", justify="right")
     table.add_column("gsrs", justify="right")
     for f in peaks:
         table.add_row(f"{f:.5g}", f"{spec.at(f):.4g}")
     console.print(table)
-    for f, v in values.items():
-        console.print(f"gsrs({f} Hz) = {v:.4g}")
+    for v in values:
+        console.print(f"gsrs({v['freq_hz']:g} Hz) = {v['magnitude']:.4g}")

@@ -2,104 +2,226 @@
 
 from __future__ import annotations
 
-from pathlib import Path
 from typing import Annotated
 
-import numpy as np
 import typer
-from rich.table import Table
 
-from servokit.cli._app import app, console, emit_json
-from servokit.errors import ServokitValueError
-from servokit.sampled.unobservable import (
-    required_measurement_time,
-    unacceptable_sampling_frequencies,
-    unobservable_magnitude,
-    unobservable_plot,
+from servokit.cli._app import (
+    DampingOpt,
+    DtOpt,
+    FreqOpt,
+    JsonOpt,
+    MaxMemoryOpt,
+    PlotOpt,
+    console,
+    emit_json,
+    example,
+    flag_names,
+    plot_target,
+    sub_app,
+    wrote,
+)
+from servokit.errors import (
+    DEFAULT_MAX_MEMORY_MB,
+    ServokitValueError,
+    check_count,
+    check_finite,
+    check_memory,
+    check_positive,
+    check_range,
+    check_work,
 )
 
-unobservable_app = typer.Typer(
-    help="Unobservable magnitude of oscillations between samples (eqs. 4.39-4.52).",
-    no_args_is_help=True,
+unobservable_app = sub_app(
+    "unobservable", "Unobservable magnitude of oscillations between samples (eqs. 4.39-4.52)."
 )
-app.add_typer(unobservable_app, name="unobservable")
 
-PlotOpt = Annotated[Path | None, typer.Option("--plot", help="write a figure here (PNG)")]
-JsonOpt = Annotated[bool, typer.Option("--json", help="machine-readable output")]
-FreqOpt = Annotated[float, typer.Option("--freq", help="damped oscillation frequency [Hz]")]
-DampOpt = Annotated[float, typer.Option("--damping", help="damping ratio zeta of (4.46)")]
+_FLAGS = {
+    "freq_hz": "--freq",
+    "dt": "--dt",
+    "damping": "--damping",
+    "n_samples": "--n-samples",
+    "max_samples": "--n-samples-max",
+    "level": "--level",
+    "fs_range": "--fs-min/--fs-max",
+}
+# phase-sample evaluations (exp, sin) one request may cost: 2.5e7 per CPU second measured,
+# so about twenty seconds
+MAX_PHASE_CELLS = 5e8
+_PHASES_MAGNITUDE = 720  # phase grid of `magnitude` (library default)
+_PHASES_SCAN = 360  # phase grid of `sampling` and `time`
+_SCAN_POINTS = 3000  # sampling-frequency grid of `sampling` (library default)
+_PLOT_POINTS = 1500
+_ARRAYS_PER_CELL = 3  # s, yd and a temporary per phase-sample cell
+LevelOpt = Annotated[float, typer.Option("--level", help="acceptable yui [1]")]
 
 
-@unobservable_app.command("magnitude")
+def _check_work(n_samples: int, cells: float, flag: str, max_memory_mb: float) -> None:
+    """Refuse a request whose largest block or total phase-sample work is too large."""
+    check_memory(
+        _PHASES_MAGNITUDE * n_samples * _ARRAYS_PER_CELL * 8,
+        what=f"{flag} {n_samples}",
+        max_memory_mb=max_memory_mb,
+    )
+    check_work(
+        cells, what=f"{flag} {n_samples}", limit=MAX_PHASE_CELLS, about="about twenty seconds"
+    )
+
+
+def _common(freq: float, damping: float) -> None:
+    check_positive("--freq", freq, "Hz")
+    z = float(check_finite("--damping", damping))
+    if not 0 <= z < 1:
+        raise ServokitValueError(f"--damping must lie in [0, 1) (got {z:g})")
+
+
+def _check_level(level: float) -> None:
+    if not (float(check_finite("--level", level)) > 0):
+        raise ServokitValueError(f"--level must be > 0 (got {level:g})")
+
+
+@unobservable_app.command(
+    "magnitude",
+    epilog=example("servokit unobservable magnitude --freq 4000 --dt 25e-6 --json")
+    + "  JSON: freq_hz, dt_s, damping, n_samples, worst, worst_sampling_phase, minimum, "
+    "minimum_sampling_phase, rms, histogram_edges, histogram_percent, plot (sampling phases "
+    "as a fraction of --dt).",
+)
 def magnitude_cmd(
     freq: FreqOpt,
-    dt: Annotated[float, typer.Option("--dt", help="sampling period tau [s]")],
-    damping: DampOpt = 0.0,
-    ns: Annotated[
-        int | None, typer.Option("--ns", help="judgement samples Ns (omit: steady state)")
+    dt: DtOpt,
+    damping: DampingOpt = 0.0,
+    n_samples: Annotated[
+        int | None,
+        typer.Option("--n-samples", help="judgement samples Ns [count] (omit: steady state)"),
     ] = None,
+    max_memory_mb: MaxMemoryOpt = DEFAULT_MAX_MEMORY_MB,
     plot: PlotOpt = None,
     json_out: JsonOpt = False,
 ) -> None:
     """yu over the sampling phase, worst case yuw (4.42)/(4.51) and RMS index yui (4.52)."""
-    r = unobservable_magnitude(freq, dt, damping=damping, n_samples=ns)
+    _common(freq, damping)
+    check_positive("--dt", dt, "s")
+    if n_samples is not None:
+        ns = check_count("--n-samples", n_samples)
+        _check_work(ns, _PHASES_MAGNITUDE * ns, "--n-samples", max_memory_mb)
+    plot = plot_target(plot)
+    from servokit.sampled.unobservable import unobservable_magnitude, unobservable_plot
+
+    with flag_names(_FLAGS):
+        r = unobservable_magnitude(freq, dt, damping=damping, n_samples=n_samples)
     edges, pct = r.histogram(0.1)
     out = {
-        "freq_hz": freq, "dt": dt, "damping": damping, "n_samples": ns,
-        "worst": float(r.worst), "worst_delta_s": float(r.worst_delta_s),
-        "minimum": float(r.minimum), "minimum_delta_s": float(r.minimum_delta_s),
-        "rms": float(r.rms), "histogram_edges": edges, "histogram_percent": pct,
+        "freq_hz": freq,
+        "dt_s": dt,
+        "damping": damping,
+        "n_samples": n_samples,
+        "worst": float(r.worst),
+        "worst_sampling_phase": float(r.worst_delta_s),
+        "minimum": float(r.minimum),
+        "minimum_sampling_phase": float(r.minimum_delta_s),
+        "rms": float(r.rms),
+        "histogram_edges": edges,
+        "histogram_percent": pct,
         "plot": str(plot) if plot else None,
     }
     if plot is not None:
-        unobservable_plot(r.delta_s, {"yu": r.yu}, xlabel="Sampling phase delta_s [-]",
-                          ylabel="yu [-]", title=f"yu at {freq:g} Hz, tau = {dt:g} s", path=plot)
+        unobservable_plot(
+            r.delta_s,
+            {"yu": r.yu},
+            xlabel="Sampling phase delta_s [-]",
+            ylabel="yu [-]",
+            title=f"yu at {freq:g} Hz, tau = {dt:g} s",
+            path=plot,
+        )
+        wrote(plot)
     if json_out:
         emit_json(out)
         return
     console.print(
-        f"yuw = {out['worst']:.4g} (delta_s = {out['worst_delta_s']:.4g}), "
-        f"min yu = {out['minimum']:.4g} (delta_s = {out['minimum_delta_s']:.4g}), "
+        f"yuw = {out['worst']:.4g} (delta_s = {out['worst_sampling_phase']:.4g}), "
+        f"min yu = {out['minimum']:.4g} (delta_s = {out['minimum_sampling_phase']:.4g}), "
         f"yui = {out['rms']:.4g}"
     )
 
 
-@unobservable_app.command("sampling")
+@unobservable_app.command(
+    "sampling",
+    epilog=example("servokit unobservable sampling --freq 4000 --damping 0.01 --n-samples 10")
+    + "  JSON: freq_hz, damping, n_samples, level, fs_range_hz, intervals [{low_hz, high_hz, "
+    "peak_hz, peak_rms}], plot.",
+)
 def sampling_cmd(
     freq: FreqOpt,
-    damping: DampOpt = 0.01,
-    ns: Annotated[int, typer.Option("--ns", help="judgement samples Ns")] = 10,
-    level: Annotated[float, typer.Option("--level", help="acceptable yui")] = 0.1,
+    damping: DampingOpt = 0.01,
+    n_samples: Annotated[
+        int, typer.Option("--n-samples", help="judgement samples Ns [count]")
+    ] = 10,
+    level: LevelOpt = 0.1,
     fs_min: Annotated[
         float, typer.Option("--fs-min", help="lowest sampling frequency [Hz] (0: freq/5)")
     ] = 0.0,
     fs_max: Annotated[
         float, typer.Option("--fs-max", help="highest sampling frequency [Hz] (0: 4 freq)")
     ] = 0.0,
+    max_memory_mb: MaxMemoryOpt = DEFAULT_MAX_MEMORY_MB,
     plot: PlotOpt = None,
     json_out: JsonOpt = False,
 ) -> None:
     """Unacceptable sampling frequencies where yui > level (Figs. 4.24, 4.54)."""
-    lo = fs_min or freq / 5
-    hi = fs_max or freq * 4
-    if not 0 < lo < hi:
-        raise ServokitValueError(f"need 0 < --fs-min < --fs-max (got {lo}, {hi})")
-    iv = unacceptable_sampling_frequencies(freq, damping, ns, level, (lo, hi))
+    _common(freq, damping)
+    _check_level(level)
+    ns = check_count("--n-samples", n_samples)
+    check_finite("--fs-min/--fs-max", [fs_min, fs_max])
+    lo, hi = check_range(fs_min or freq / 5, fs_max or freq * 4, ("--fs-min", "--fs-max"))
+    points = _SCAN_POINTS + (_PLOT_POINTS if plot is not None else 0)
+    _check_work(ns, points * _PHASES_SCAN * ns, "--n-samples", max_memory_mb)
+    plot = plot_target(plot)
+    import numpy as np
+
+    from servokit.sampled.unobservable import (
+        unacceptable_sampling_frequencies,
+        unobservable_magnitude,
+        unobservable_plot,
+    )
+
+    with flag_names(_FLAGS):
+        iv = unacceptable_sampling_frequencies(freq, damping, ns, level, (lo, hi))
     rows = [
         {"low_hz": i.low_hz, "high_hz": i.high_hz, "peak_hz": i.peak_hz, "peak_rms": i.peak_rms}
         for i in iv
     ]
     if plot is not None:
-        fs = np.geomspace(lo, hi, 1500)
-        rms = unobservable_magnitude(freq, 1 / fs, damping=damping, n_samples=ns,
-                                     n_phases=360).rms
-        unobservable_plot(fs, {f"Ns = {ns}": rms}, xlabel="Sampling frequency [Hz]",
-                          ylabel="yui [-]", title=f"yui vs sampling frequency ({freq:g} Hz)",
-                          level=level, path=plot, logx=True)
+        fs = np.geomspace(lo, hi, _PLOT_POINTS)
+        rms = unobservable_magnitude(
+            freq, 1 / fs, damping=damping, n_samples=ns, n_phases=_PHASES_SCAN
+        ).rms
+        unobservable_plot(
+            fs,
+            {f"Ns = {ns}": rms},
+            xlabel="Sampling frequency [Hz]",
+            ylabel="yui [-]",
+            title=f"yui vs sampling frequency ({freq:g} Hz)",
+            level=level,
+            path=plot,
+            logx=True,
+        )
+        wrote(plot)
     if json_out:
-        emit_json({"freq_hz": freq, "damping": damping, "n_samples": ns, "level": level,
-                   "fs_range": [lo, hi], "intervals": rows, "plot": str(plot) if plot else None})
+        emit_json(
+            {
+                "freq_hz": freq,
+                "damping": damping,
+                "n_samples": ns,
+                "level": level,
+                "fs_range_hz": [lo, hi],
+                "intervals": rows,
+                "plot": str(plot) if plot else None,
+            }
+        )
         return
+    from rich.table import Table
+
     table = Table(title=f"sampling frequencies with yui > {level:g} ({freq:g} Hz, Ns = {ns})")
     for col in ("from [Hz]", "to [Hz]", "peak at [Hz]", "peak yui"):
         table.add_column(col, justify="right")
@@ -108,33 +230,66 @@ def sampling_cmd(
     console.print(table)
 
 
-@unobservable_app.command("time")
+@unobservable_app.command(
+    "time",
+    epilog=example("servokit unobservable time --freq 4000 --dt 25e-6 --damping 0.01")
+    + "  JSON: freq_hz, dt_s, damping, level, n_samples (null if not reached), time_s, "
+    "crossing_time_s, rms, plot.",
+)
 def time_cmd(
     freq: FreqOpt,
-    dt: Annotated[float, typer.Option("--dt", help="sampling period tau [s]")],
-    damping: DampOpt = 0.01,
-    level: Annotated[float, typer.Option("--level", help="acceptable yui")] = 0.1,
-    max_ns: Annotated[int, typer.Option("--max-ns", help="largest Ns examined")] = 100,
+    dt: DtOpt,
+    damping: DampingOpt = 0.01,
+    level: LevelOpt = 0.1,
+    n_samples_max: Annotated[
+        int, typer.Option("--n-samples-max", help="largest Ns examined [count]")
+    ] = 100,
+    max_memory_mb: MaxMemoryOpt = DEFAULT_MAX_MEMORY_MB,
     plot: PlotOpt = None,
     json_out: JsonOpt = False,
 ) -> None:
     """Measurement time tau x Ns needed for yui <= level (Figs. 4.25, 4.55)."""
-    req = required_measurement_time(freq, dt, damping, level, max_samples=max_ns)
+    _common(freq, damping)
+    _check_level(level)
+    check_positive("--dt", dt, "s")
+    n_max = check_count("--n-samples-max", n_samples_max)
+    # Ns = 1..n_max each cost P x Ns cells: P n_max^2 / 2 in all
+    _check_work(n_max, _PHASES_SCAN * n_max * (n_max + 1) / 2, "--n-samples-max", max_memory_mb)
+    plot = plot_target(plot)
+    from servokit.sampled.unobservable import required_measurement_time, unobservable_plot
+
+    with flag_names(_FLAGS):
+        req = required_measurement_time(freq, dt, damping, level, max_samples=n_max)
     if plot is not None:
+        import numpy as np
+
         ns = np.arange(1, req.rms.size + 1)
-        unobservable_plot(ns * dt * 1e3, {f"tau = {dt * 1e6:.4g} us": req.rms},
-                          xlabel="Measurement time tau x Ns [ms]", ylabel="yui [-]",
-                          title=f"yui vs measurement time ({freq:g} Hz)", level=level,
-                          path=plot)
-    out = {"freq_hz": freq, "dt": dt, "damping": damping, "level": level,
-           "n_samples": req.n_samples, "time_s": req.time_s,
-           "crossing_time_s": req.crossing_time_s, "rms": req.rms,
-           "plot": str(plot) if plot else None}
+        unobservable_plot(
+            ns * dt * 1e3,
+            {f"tau = {dt * 1e6:.4g} us": req.rms},
+            xlabel="Measurement time tau x Ns [ms]",
+            ylabel="yui [-]",
+            title=f"yui vs measurement time ({freq:g} Hz)",
+            level=level,
+            path=plot,
+        )
+        wrote(plot)
+    out = {
+        "freq_hz": freq,
+        "dt_s": dt,
+        "damping": damping,
+        "level": level,
+        "n_samples": req.n_samples,
+        "time_s": req.time_s,
+        "crossing_time_s": req.crossing_time_s,
+        "rms": req.rms,
+        "plot": str(plot) if plot else None,
+    }
     if json_out:
         emit_json(out)
         return
     if req.n_samples is None:
-        console.print(f"yui stays above {level:g} up to Ns = {max_ns}; raise --max-ns")
+        console.print(f"yui stays above {level:g} up to Ns = {n_max}; raise --n-samples-max")
         return
     console.print(
         f"Ns >= {req.n_samples} (tau x Ns = {req.time_s * 1e3:.4g} ms); "

@@ -15,7 +15,8 @@ weighting matrix W with ``Q = W^T W``) and ``V = R U``, the problem becomes the
 minimum-Euclidean-norm solution of ``(Sigma R^{-1}) V = X``; its rows are equilibrated
 (each state scaled by its row norm, which does not change the solution) and the
 minimum-norm solution is taken from a QR factorisation of the transposed matrix.  The
-final-state residual is checked component-wise before returning.
+final-state residual is checked row-wise against the size of each equation
+(||Sigma_i|| ||U|| + |x_i|) before returning.
 """
 
 from __future__ import annotations
@@ -137,7 +138,7 @@ def min_norm_final_state(
     R : ndarray (N, N), optional
         Upper-triangular, non-singular factor of the weight ``Q = R^T R``; identity if None.
     rtol : float
-        Largest accepted component-wise backward error of the final state.
+        Largest accepted row-wise normwise backward error of the final state.
 
     Returns
     -------
@@ -174,8 +175,11 @@ def min_norm_final_state(
         raise ServokitValueError(
             "final-state control produced a non-finite input; rescale the model"
         )
-    # Component-wise (Oettli-Prager) backward error of the final-state equation.
-    denom = np.abs(Sigma) @ np.abs(U) + np.abs(X)
+    # Row-wise normwise backward error of the final-state equation: each residual is
+    # judged against the size of its equation, ||Sigma_i|| ||U|| + |x_i|.  The
+    # component-wise (Oettli-Prager) form divided a rounding-level residual by a zero
+    # target (the delay state u[N-1] = 0) and refused correct inputs (issue 7).
+    denom = np.linalg.norm(Sigma, axis=1) * np.linalg.norm(U) + np.abs(X)
     resid = np.abs(Sigma @ U - X)
     scale = np.where(denom > 0, denom, 1.0)
     err = float(np.max(resid / scale))
@@ -220,7 +224,8 @@ def final_state_control(
         when the weight is a sum of squares, as in the frequency-shaped cost (2.59):
         it is QR-factorised instead of forming and Cholesky-factorising ``Q``.
     rtol : float
-        Largest accepted component-wise relative residual of the final state.
+        Largest accepted row-wise normwise backward error of the final state
+        (residual of each equation over ``||Sigma_i|| ||U|| + |x_i|``).
 
     Returns
     -------

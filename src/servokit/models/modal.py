@@ -19,14 +19,22 @@ from __future__ import annotations
 import dataclasses
 from collections.abc import Iterable, Sequence
 from dataclasses import dataclass, field
+from typing import TYPE_CHECKING, Literal
 
-import control
 import numpy as np
 
 from servokit.errors import ServokitTypeError, ServokitValueError
 from servokit.models._zoh import delayed_zoh
 
-__all__ = ["Mode", "ModalPlant", "modal_matrices"]
+if TYPE_CHECKING:
+    import control
+
+__all__ = ["MAX_DELAY_S", "Mode", "ModalPlant", "modal_matrices"]
+
+#: Largest input delay accepted [s].  Servo delays are micro- to milliseconds; a delay
+#: of seconds is almost always a unit slip (``delay=10`` meant 10 us) and would make the
+#: exact discretisation allocate ``delay / dt`` delay states.
+MAX_DELAY_S = 1.0
 
 
 def _finite(name: str, value: float) -> float:
@@ -110,6 +118,11 @@ class ModalPlant:
         d = _finite("delay", self.delay)
         if d < 0:
             raise ServokitValueError(f"delay must be >= 0 seconds (got {d})")
+        if d > MAX_DELAY_S:
+            raise ServokitValueError(
+                f"delay must be <= {MAX_DELAY_S:g} s (got {d:g}); the delay is in seconds "
+                f"(did you mean {d:g}e-6 for {d:g} us?)"
+            )
         if isinstance(self.modes, Mode) or not isinstance(self.modes, Iterable):
             raise ServokitTypeError("modes must be a sequence of Mode(freq_hz, damping, residue)")
         modes = tuple(self.modes)
@@ -177,14 +190,64 @@ class ModalPlant:
         modal = np.sum(r / den, axis=-1)
         return modal * np.exp(-s[..., 0] * self.delay)
 
-    def to_statespace(self) -> control.StateSpace:
-        """Continuous real modal state space (no delay).
+    def to_statespace(
+        self, delay: Literal["none", "pade"] = "none", pade_order: int = 3
+    ) -> control.StateSpace:
+        """Continuous real modal state space, without or with a Padé approximation of the delay.
 
-        State order: for each mode, ``[q_i, dq_i/dt]`` with
-        ``q_i'' + 2 zeta_i w_i q_i' + w_i^2 q_i = K A_i u`` and ``y = sum_i q_i``.
+        Parameters
+        ----------
+        delay : {"none", "pade"}
+            ``"none"`` drops the input delay (the modal part only, exact); ``"pade"``
+            puts a ``pade_order`` Padé approximant of ``exp(-s Td)`` in front of it
+            (:func:`control.pade`), so that ``control.feedback`` and products with
+            controllers see the delay's phase lag up to roughly ``pade_order / (pi Td)`` Hz.
+            :meth:`freqresp` and :meth:`to_frd` are exact; use them to check.
+        pade_order : int
+            Order of the Padé approximant (``delay="pade"`` only), 1..10.
+
+        Returns
+        -------
+        control.StateSpace
+            State order: for each mode ``[q_i, dq_i/dt]`` with
+            ``q_i'' + 2 zeta_i w_i q_i' + w_i^2 q_i = K A_i u`` and ``y = sum_i q_i``;
+            with ``delay="pade"`` the Padé states come last.
         """
+        import control
+
         A, B, C = modal_matrices(*self.arrays())
-        return control.ss(A, B, C, np.zeros((1, 1)))
+        modal = control.ss(A, B, C, np.zeros((1, 1)))
+        if delay == "none" or (delay == "pade" and self.delay == 0.0):
+            return modal
+        if delay != "pade":
+            raise ServokitValueError(f"delay must be 'none' or 'pade' (got {delay!r})")
+        if isinstance(pade_order, bool) or not isinstance(pade_order, int | np.integer):
+            raise ServokitTypeError(f"pade_order must be an integer 1..10, got {pade_order!r}")
+        if not 1 <= pade_order <= 10:
+            raise ServokitValueError(f"pade_order must be 1..10 (got {pade_order})")
+        # Pade of a unit delay, then s -> s Td: the direct approximant for Td = 10 us has
+        # coefficients up to 1e35 and a singular companion realisation
+        unit = control.ss(control.tf(*control.pade(1.0, int(pade_order))))
+        T = self.delay
+        pade = control.ss(unit.A / T, unit.B / T, unit.C, unit.D)
+        return control.series(pade, modal)
+
+    def to_frd(self, freq_hz: Sequence[float] | np.ndarray) -> control.FrequencyResponseData:
+        """Exact frequency response data (delay included) for python-control.
+
+        ``control.bode_plot(plant.to_frd(f))`` plots it; frequencies are given in Hz and
+        stored in rad/s as python-control expects.
+        """
+        import control
+
+        f = np.asarray(freq_hz, dtype=float).ravel()
+        if f.size == 0 or np.any(f <= 0):
+            raise ServokitValueError("freq_hz must be a non-empty array of frequencies > 0 Hz")
+        return control.frd(self.freqresp(f), 2.0 * np.pi * f, name=self.name or "plant")
+
+    def to_discrete(self, dt: float) -> control.StateSpace:
+        """Exact ZOH discretisation with the input delay (the same as :meth:`discretize`)."""
+        return self.discretize(dt)
 
     def discretize(self, dt: float) -> control.StateSpace:
         """Exact ZOH discretisation with the input delay, as a python-control ``StateSpace``.
@@ -194,6 +257,8 @@ class ModalPlant:
         delay is a whole number of samples (see :func:`servokit.models._zoh.delayed_zoh`).
         The modal states come first, the delay states last.
         """
+        import control
+
         dt = _finite("dt", dt)
         if dt <= 0:
             raise ServokitValueError(f"dt must be > 0 seconds (got {dt})")

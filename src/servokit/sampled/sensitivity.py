@@ -35,6 +35,7 @@ import numpy as np
 
 from servokit._figures import save_figure
 from servokit.errors import ServokitTypeError, ServokitValueError, check_finite
+from servokit.models.convert import as_modal_plant
 from servokit.models.modal import ModalPlant
 from servokit.sampled.multirate import (
     Multirate,
@@ -371,6 +372,7 @@ def sampled_data_sensitivity(
         Unstable discrete closed loop, non-converged alias sum, a frequency on a pole,
         or a bad argument.
     """
+    plant = as_modal_plant(plant)  # python-control plants too (servokit.models.convert)
     dt, f, mr = _check_inputs(plant, controller_d, dt, freq_hz, multirate)
     tol = float(check_finite("tol", tol))
     if not 0 < tol < 1:
@@ -430,6 +432,7 @@ def gamma_terms(
     ``Pd`` in the denominator is exact (state-space discretisation), so
     ``sum_l Gamma(w, l) -> -Td(w)`` as more orders are included.
     """
+    plant = as_modal_plant(plant)  # python-control plants too (servokit.models.convert)
     dt, f, mr = _check_inputs(plant, controller_d, dt, freq_hz, multirate)
     orders = np.asarray(orders, dtype=int).ravel()
     _, _, common = _loop_common(plant, controller_d, dt, f, mr, None, None, 0.0)

@@ -22,8 +22,9 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from servokit.errors import ServokitTypeError, ServokitValueError
+from servokit.errors import ServokitValueError
 from servokit.models._zoh import delayed_zoh
+from servokit.models.convert import as_modal_plants
 from servokit.models.modal import ModalPlant
 
 __all__ = ["PlantBank", "as_plant_list"]
@@ -31,14 +32,10 @@ __all__ = ["PlantBank", "as_plant_list"]
 
 def as_plant_list(plants: ModalPlant | Sequence[ModalPlant]) -> list[ModalPlant]:
     """Accept one plant or a non-empty sequence of plants that share one delay."""
-    if isinstance(plants, ModalPlant):
-        return [plants]
-    plist = list(plants)
+    # python-control plants are converted (servokit.models.convert); others: TypeError
+    plist = as_modal_plants(plants)
     if not plist:
         raise ServokitValueError("plants is empty; pass a ModalPlant or a list of them")
-    for i, p in enumerate(plist):
-        if not isinstance(p, ModalPlant):
-            raise ServokitTypeError(f"plants[{i}] must be a ModalPlant, got {type(p).__name__}")
     delays = {p.delay for p in plist}
     if len(delays) > 1:
         raise ServokitValueError(

@@ -13,7 +13,7 @@ from typing import Protocol
 
 import numpy as np
 
-from servokit.errors import ServokitValueError, check_finite
+from servokit.errors import ServokitTypeError, ServokitValueError, check_finite
 from servokit.models.modal import ModalPlant
 from servokit.simulate.hybrid import simulate
 
@@ -109,6 +109,11 @@ def seek_response(
     ``grid`` defaults to ``ff.dt / 10``; ``horizon`` to ``max(3 T, T + 2 ms)`` with
     ``T`` the input's duration.
     """
+    if not (hasattr(ff, "u") and hasattr(ff, "dt")):
+        raise ServokitTypeError(
+            f"ff must be a held input with .u (samples) and .dt (hold period [s]), e.g. a "
+            f"servokit.feedforward.FeedforwardInput; got {type(ff).__name__}"
+        )
     u = check_finite("ff.u", ff.u)
     dt = float(ff.dt)
     grid = dt / 10 if grid is None else float(grid)

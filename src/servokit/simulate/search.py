@@ -17,6 +17,7 @@ import numpy as np
 from servokit.errors import ServokitValueError
 from servokit.feedforward.constraints import InfeasibleConstraintsError
 from servokit.feedforward.ffsc import FeedforwardInput, StepsBelowOrderError, fsc_input
+from servokit.models.convert import as_modal_plants
 from servokit.models.modal import ModalPlant
 from servokit.simulate.metrics import seek_time
 
@@ -98,7 +99,7 @@ def choose_N(
     ServokitValueError
         Empty ``plants`` or ``N_range``, or no N settles every plant.
     """
-    plant_list = [plants] if isinstance(plants, ModalPlant) else list(plants)
+    plant_list = as_modal_plants(plants)  # python-control plants too
     if not plant_list:
         raise ServokitValueError("plants is empty; pass at least one ModalPlant")
     Ns = sorted({int(n) for n in N_range})
