@@ -53,7 +53,8 @@ def test_readme_rigid_body_model_for_n_that_used_to_fail() -> None:
     A, B = np.asarray(rigid.A), np.asarray(rigid.B).ravel()
     for N in (12, 100, 351, 1000, 2000):
         U = final_state_control(A, B, N, np.zeros(3), [1.0, 0.0, 0.0])
-        np.testing.assert_allclose(_run(A, B, U), [1.0, 0.0, 0.0], atol=1e-12)
+        # velocity reaches ~1e3 track/s mid-seek: 1e-9 absolute is 1e-12 of that scale
+        np.testing.assert_allclose(_run(A, B, U), [1.0, 0.0, 0.0], atol=1e-9)
 
 
 @settings(max_examples=30, deadline=None)
