@@ -32,6 +32,22 @@ OutOpt = Annotated[Path, typer.Option("--out", help="output directory")]
 NameOpt = Annotated[str, typer.Option("--name", help="C prefix and file stem (a C identifier)")]
 
 
+def _check_common(out: Path, name: str, fmt: str, precision: str) -> Path:
+    """Refuse bad --out/--name/--format/--precision before any work."""
+    import re
+
+    from servokit.errors import ServokitValueError, check_out_dir
+    from servokit.export import FILE_FORMATS, FORMATS
+
+    if fmt not in FILE_FORMATS:
+        raise ServokitValueError(f"--format {fmt!r}: choose one of {', '.join(FILE_FORMATS)}")
+    if precision not in FORMATS:
+        raise ServokitValueError(f"--precision {precision!r}: choose one of {', '.join(FORMATS)}")
+    if not re.fullmatch(r"[A-Za-z_][A-Za-z0-9_]*", name):
+        raise ServokitValueError(f"--name {name!r}: use a C identifier (letters, digits, _)")
+    return check_out_dir(out)
+
+
 def _finish(tables: list, out: Path, name: str, fmt: str, precision: str, step: str | None,
             title: str, json_out: bool) -> None:  # fmt: skip
     """Write the files; report them and each table's quantisation error."""
@@ -86,6 +102,7 @@ def feedforward_cmd(
     from servokit.export import feedforward_tables
     from servokit.export.designs import hdd_feedforward
 
+    out = _check_common(out, name, fmt, precision)
     ff = hdd_feedforward(design, target, n_samples)
     tables = feedforward_tables(ff.u, ff.dt, name="u")
     title = f"HDD benchmark Design {design}, {target:g} track(s), N = {ff.N} (book §2.4.2)"
@@ -117,6 +134,7 @@ def controller_cmd(
     from servokit.export import sos_tables, statespace_tables
     from servokit.models.controllers import get_discrete_controller
 
+    out = _check_common(out, name, fmt, precision)
     if realization not in ("ss", "sos"):
         raise ServokitValueError(f"--realization {realization!r}: choose ss or sos")
     try:
@@ -147,16 +165,16 @@ def table_cmd(
 
     JSON keys: files, precision, tables (table, shape, scale, error_bound, max_error).
     """
+    out = _check_common(out, name, fmt, precision)
     tables = _read_tables(input_file)
     _finish(tables, out, name, fmt, precision, None, f"tables of {input_file.name}", json_out)
 
 
 def _read_tables(path: Path) -> list:
-    from servokit.errors import ServokitValueError
+    from servokit.errors import ServokitValueError, check_input_file
     from servokit.export import FirmwareTable
 
-    if not path.is_file():
-        raise ServokitValueError(f"--input {path}: no such file; give a .json or .csv file")
+    path = check_input_file(path, "--input")
     if path.suffix.lower() == ".json":
         try:
             data = json.loads(path.read_text(encoding="utf-8"))
