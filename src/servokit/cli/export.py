@@ -6,7 +6,6 @@ import json
 from pathlib import Path
 from typing import Annotated
 
-import numpy as np
 import typer
 
 from servokit.cli._app import JsonOpt, emit_json, example, sub_app, wrote
@@ -171,6 +170,8 @@ def table_cmd(
 
 
 def _read_tables(path: Path) -> list:
+    import numpy as np  # here, not at the top: `servokit --help` stays fast
+
     from servokit.errors import ServokitValueError, check_input_file
     from servokit.export import FirmwareTable
 
