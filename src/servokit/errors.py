@@ -108,7 +108,21 @@ def check_memory(
 def check_range(
     lo: float, hi: float, flags: tuple[str, str] = ("--fmin", "--fmax"), unit: str = "Hz"
 ) -> tuple[float, float]:
-    """Return ``(lo, hi)`` if both are finite and ``0 < lo < hi``, else raise naming ``flags``."""
+    """Return ``(lo, hi)`` if both are finite and ``0 < lo < hi``, else raise naming ``flags``.
+
+    Parameters
+    ----------
+    lo, hi : float
+        The range's ends, as typed.
+    flags : (str, str)
+        The flags that set them (named in the error).
+    unit : str
+        Their unit (named in the error).
+
+    Returns
+    -------
+    (float, float)
+    """
     check_finite(f"{flags[0]}/{flags[1]}", [lo, hi])
     if not 0 < lo < hi:
         raise ServokitValueError(
@@ -163,7 +177,19 @@ def _check_writable(flag: str, p: Path) -> None:
 
 
 def check_out_dir(path: str | Path, flag: str = "--out") -> Path:
-    """Return ``path`` if it is (or can be created as) a writable directory."""
+    """Return ``path`` if it is (or can be created as) a writable directory.
+
+    Parameters
+    ----------
+    path : str or Path
+        The directory as typed.
+    flag : str
+        The flag that set it (named in the error).
+
+    Returns
+    -------
+    Path
+    """
     p = Path(path)
     if str(path) == "":
         raise ServokitValueError(f"{flag} is empty; give a directory name")
@@ -179,7 +205,19 @@ def check_out_dir(path: str | Path, flag: str = "--out") -> Path:
 
 
 def check_input_file(path: str | Path, flag: str) -> Path:
-    """Return ``path`` if it names an existing readable file (not a directory, not empty)."""
+    """Return ``path`` if it names an existing readable file (not a directory, not empty).
+
+    Parameters
+    ----------
+    path : str or Path
+        The file as typed.
+    flag : str
+        The flag that set it (named in the error).
+
+    Returns
+    -------
+    Path
+    """
     if str(path).strip() == "":
         raise ServokitValueError(f"{flag} is empty; give a file name")
     p = Path(path)

@@ -26,15 +26,15 @@ from servokit.errors import ServokitError
 #: Commands listed first in ``servokit --help``, in the order a new user meets them;
 #: commands not named here follow alphabetically.
 COMMAND_ORDER = (
-    "plant",
-    "simulate",
-    "feedforward",
-    "seek",
-    "sensitivity",
-    "unobservable",
-    "srs",
-    "reproduce",
-)
+    # models and simulation, then the book's chapters 2-6, then output
+    "plant", "simulate",
+    "feedforward", "seek", "sweep",
+    "switching",
+    "sensitivity", "unobservable", "srs", "identify",
+    "filter", "margins", "dual-stage", "ssa",
+    "limits", "settle",
+    "export", "reproduce",
+)  # fmt: skip
 
 
 class _OrderedGroup(TyperGroup):

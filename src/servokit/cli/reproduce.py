@@ -33,12 +33,10 @@ def case_names() -> list[str]:
 
 @app.command(
     "reproduce",
-    help="Reproduce the book's published numbers and figures; write report.html and "
-    "results.json.\n\nresults.json: servokit_version, generated_utc, cases (name, title, "
-    "chapter, runtime_s, figures, notes), rows (case, chapter, source, quantity, unit, book, "
-    "book_text, servokit, ratio, tolerance, within_tolerance, kind, note, bound) and summary "
-    "(counts per chapter).\n\nCases: " + ", ".join(case_names()),
-    epilog=example("servokit reproduce --chapter 2 --out out", "servokit reproduce --json"),
+    epilog="Cases: "
+    + ", ".join(case_names())
+    + ".  "
+    + example("servokit reproduce --chapter 2 --out out", "servokit reproduce --json"),
 )
 def reproduce(
     out: Path = typer.Option(
@@ -54,6 +52,12 @@ def reproduce(
         False, "--json", help="print results.json on stdout (nothing else on stdout)"
     ),
 ) -> None:
+    """Reproduce the book's published numbers and figures; write report.html and results.json.
+
+    results.json: servokit_version, generated_utc, cases (name, title, chapter, runtime_s,
+    figures, notes), rows (case, chapter, source, quantity, unit, book, book_text, servokit,
+    ratio, tolerance, within_tolerance, kind, note, bound) and summary (counts per chapter).
+    """
     from servokit.report.output import clear_report, run_cases, select_cases, write_report
 
     out = check_out_dir(out)

@@ -97,7 +97,12 @@ def seek_cmd(
         typer.Option("--target", "--tracks", help="seek distance [output unit; track for HDDs]"),
     ] = 1.0,
     method: Annotated[
-        str, typer.Option("--method", help="'fsc' (minimum jerk) or 'ffsc' (frequency shaped)")
+        str,
+        typer.Option(
+            "--method",
+            help="'fsc' (minimum jerk), 'ffsc' (frequency shaped) or 'robust' (LP over the "
+            "plant set, needs --u-max)",
+        ),
     ] = "fsc",
     n_samples: Annotated[
         str,
@@ -140,14 +145,30 @@ def seek_cmd(
     max_memory_mb: MaxMemoryOpt = DEFAULT_MAX_MEMORY_MB,
     plot: PlotOpt = None,
     json_out: JsonOpt = False,
+    u_max: Annotated[
+        float | None,
+        typer.Option(
+            "--u-max", help="robust: input limit |u| [plant input unit, A for hdd-benchmark]"
+        ),
+    ] = None,
+    margin: Annotated[float, typer.Option("--margin", help="robust: band shrink [fraction]")] = 0.2,
+    slew_max: Annotated[
+        float | None,
+        typer.Option(
+            "--slew-max", help="robust: |u[k]-u[k-1]| limit [plant input unit per sample]"
+        ),
+    ] = None,
+    objective: Annotated[
+        str, typer.Option("--objective", help="robust: 'peak' or 'energy'")
+    ] = "peak",
 ) -> None:
     """Design an FSC/FFSC seek input and report the worst-case seek time over the plant set.
 
     For hdd-benchmark the input is evaluated on the 18 plants of Table 2.3; a plant
     file is evaluated on itself.
     """
-    if method not in ("fsc", "ffsc"):
-        raise ServokitValueError(f"--method must be 'fsc' or 'ffsc', got {method!r}")
+    if method not in ("fsc", "ffsc", "robust"):
+        raise ServokitValueError(f"--method must be 'fsc', 'ffsc' or 'robust', got {method!r}")
     if model not in ("rigid-body", "plant"):
         raise ServokitValueError(f"--model must be 'rigid-body' or 'plant', got {model!r}")
     target = float(check_finite("--target", target))
@@ -181,7 +202,7 @@ def seek_cmd(
         from servokit.cases.hdd_seek import table_2_4_weights
 
         bands = table_2_4_weights(target)
-    if method == "fsc" and bands:
+    if method != "ffsc" and bands:
         raise ServokitValueError("--band-weight only applies to --method ffsc")
     _check_size(
         n_top,
@@ -193,6 +214,26 @@ def seek_cmd(
         "--n-samples-max" if auto else "--n-samples",
     )
     sim_plants = plants if delay else [p.replace(delay=0.0) for p in plants]
+    if method == "robust":  # servokit.cli.robust: design over the set, verify, report
+        from servokit.cli.robust import RobustSeekRequest, robust_seek
+
+        return robust_seek(
+            RobustSeekRequest(
+                plant,
+                sim_plants,
+                dt,
+                target,
+                settle_band,
+                u_max,
+                None if auto else n_top,
+                n_samples_max,
+                margin,
+                slew_max,
+                objective,
+                plot,
+                json_out,
+            )
+        )
     design_kw: dict[str, Any] = {"band_weights": bands, "model": model}
     with flag_names(_FLAGS):
         ff, search = _design(

@@ -170,7 +170,19 @@ def as_modal_plant(
 
 
 def as_modal_plants(plants: Any, delay: float = 0.0) -> list[ModalPlant]:
-    """:func:`as_modal_plant` on one plant or each of a sequence (``delay`` added to each)."""
+    """:func:`as_modal_plant` on one plant or each of a sequence (``delay`` added to each).
+
+    Parameters
+    ----------
+    plants : ModalPlant, python-control LTI, or a sequence of them
+        The plant set.
+    delay : float
+        Input dead time [s] added to each python-control plant.
+
+    Returns
+    -------
+    list of ModalPlant
+    """
     if isinstance(plants, ModalPlant) or _is_lti(plants):
         return [as_modal_plant(plants, delay)]
     if isinstance(plants, str | bytes) or not isinstance(plants, Sequence | np.ndarray):

@@ -1,0 +1,189 @@
+"""``servokit limits``: waterbed bound, Bode integrals and the variance bound (book §6.3)."""
+
+from __future__ import annotations
+
+from typing import Annotated
+
+import numpy as np
+import typer
+
+from servokit.cli._app import (
+    JsonOpt,
+    PlotOpt,
+    console,
+    emit_json,
+    example,
+    plot_target,
+    sub_app,
+    wrote,
+)
+from servokit.errors import ServokitValueError
+
+limits_app = sub_app("limits", "Performance limits: waterbed, Bode integrals, variance (§6.3).")
+
+NumOpt = Annotated[
+    str, typer.Option("--num", help="loop numerator, comma-separated, highest power first")
+]
+DenOpt = Annotated[str, typer.Option("--den", help="loop denominator, comma-separated")]
+DtOpt = Annotated[
+    float | None, typer.Option("--dt", help="sampling period [s] (omit for a continuous loop)")
+]
+
+
+def _coeffs(text: str, flag: str) -> np.ndarray:
+    try:
+        vals = np.array([float(v) for v in text.split(",") if v.strip()])
+    except ValueError:
+        raise ServokitValueError(f"{flag} {text!r}: give comma-separated numbers") from None
+    if vals.size == 0 or not np.all(np.isfinite(vals)) or vals[0] == 0:
+        raise ServokitValueError(f"{flag} {text!r}: give finite numbers, first one non-zero")
+    return vals
+
+
+def _loop(num: str, den: str, dt: float | None, flags: tuple[str, str] = ("--num", "--den")):
+    n, d = _coeffs(num, flags[0]), _coeffs(den, flags[1])
+    if dt is not None and dt <= 0:
+        raise ServokitValueError(f"--dt must be > 0 s (got {dt})")
+    import control
+
+    return control.tf(n, d) if dt is None else control.tf(n, d, dt)
+
+
+@limits_app.command(
+    "waterbed",
+    epilog=example("servokit limits waterbed --alpha-db -40 --freq 1000 --dt 4e-5"),
+)
+def waterbed_cmd(
+    alpha_db: float = typer.Option(
+        -40.0, "--alpha-db", help="bound of |S| below the bandwidth [dB]"
+    ),
+    freq: float = typer.Option(1000.0, "--freq", help="sensitivity bandwidth [Hz]"),
+    dt: float = typer.Option(4e-5, "--dt", help="sampling period [s]"),
+    plot: PlotOpt = None,
+    json_out: JsonOpt = False,
+) -> None:
+    """Lower bound of ||S||inf from eq. (6.20).  JSON: phi1_rad, bound, bound_db."""
+    from servokit.limits import waterbed_lower_bound, waterbed_phi1
+
+    plot = plot_target(plot)
+    if not alpha_db < 0:
+        raise ServokitValueError(f"--alpha-db must be < 0 dB (got {alpha_db})")
+    if dt <= 0:
+        raise ServokitValueError(f"--dt must be > 0 s (got {dt})")
+    alpha = 10 ** (alpha_db / 20)
+    phi1 = waterbed_phi1(freq, 1.0 / dt)
+    bound = waterbed_lower_bound(alpha, phi1)
+    if plot is not None:
+        from servokit.limits.plots import waterbed_plot
+
+        wrote(waterbed_plot(alpha, 1.0 / dt, plot, mark_hz=freq))
+    data = {"phi1_rad": phi1, "bound": bound, "bound_db": 20 * np.log10(bound)}
+    if json_out:
+        emit_json(data)
+        return
+    console.print(
+        f"|S| <= {alpha_db:g} dB up to {freq:g} Hz at {1 / dt:g} Hz sampling: "
+        f"||S||inf >= {bound:.4f} ({data['bound_db']:.3f} dB)"
+    )
+
+
+@limits_app.command(
+    "bode-integral",
+    epilog=example("servokit limits bode-integral --num 0.5,0.1 --den 1,-0.5,0.1 --dt 1e-4"),
+)
+def bode_integral_cmd(
+    num: NumOpt,
+    den: DenOpt,
+    dt: DtOpt = None,
+    n_freq: int = typer.Option(1 << 16, "--n-freq", help="number of frequency points", min=64),
+    plot: PlotOpt = None,
+    json_out: JsonOpt = False,
+) -> None:
+    """Integral of ln|S| against (6.17) / (6.18).  JSON: integral, theory, limit_gain, corollary."""
+    from servokit.limits import continuous_bode_integral, discrete_bode_integral
+
+    plot = plot_target(plot)
+    loop = _loop(num, den, dt)
+    res = discrete_bode_integral(loop, n_freq=n_freq) if dt else continuous_bode_integral(loop)
+    if plot is not None:
+        from servokit.limits.plots import bode_integral_plot
+
+        wrote(bode_integral_plot(loop, plot))
+    data = {
+        "integral": res.integral,
+        "theory": res.theory,
+        "limit_gain": res.limit_gain,
+        "corollary": res.corollary,
+    }
+    if json_out:
+        emit_json(data)
+        return
+    console.print(
+        f"integral of ln|S| = {res.integral:.6g} (theory {res.theory:.6g}; "
+        f"{'Kz' if dt else 'Ks'} = {res.limit_gain:.6g}): {res.corollary}"
+    )
+
+
+@limits_app.command(
+    "variance",
+    epilog=example(
+        "servokit limits variance --num 40000 --den 1,300,0 --dist-num 1 --dist-den 0.01,1"
+    ),
+)
+def variance_cmd(
+    num: NumOpt,
+    den: DenOpt,
+    dist_num: str = typer.Option(..., "--dist-num", help="disturbance filter numerator"),
+    dist_den: str = typer.Option(..., "--dist-den", help="disturbance filter denominator"),
+    dt: DtOpt = None,
+    delta: float = typer.Option(0.5, "--delta", help="roll-off constant delta of (6.14)"),
+    k: int = typer.Option(1, "--k", help="roll-off order k of (6.14)", min=1),
+    json_out: JsonOpt = False,
+) -> None:
+    """Output variance (6.13) against its lower bound (6.16, corrected).
+
+    JSON: bandwidth_hz, variance, bound, bound_low, bound_high, beta, gamma, printed_bound.
+    """
+    from servokit.limits import output_variance, rolloff_bandwidth, variance_lower_bound
+
+    loop = _loop(num, den, dt)
+    dist = _loop(dist_num, dist_den, dt, ("--dist-num", "--dist-den"))
+    omega_hz = rolloff_bandwidth(loop, delta=delta, k=k)
+    vb = variance_lower_bound(dist, omega_hz, delta=delta, k=k, dt=dt)
+    var = output_variance(loop, dist)
+    data = {
+        "bandwidth_hz": omega_hz,
+        "variance": var,
+        "bound": vb.bound,
+        "bound_low": vb.low,
+        "bound_high": vb.high,
+        "beta": vb.beta,
+        "gamma": vb.gamma,
+        "printed_bound": vb.printed,
+    }
+    if json_out:
+        emit_json(data)
+        return
+    console.print(
+        f"Omega = {omega_hz:.4g} Hz; var(y) = {var:.5g} >= bound {vb.bound:.5g} "
+        f"(printed form {vb.printed:.5g}); ratio var/bound = {var / vb.bound:.3f}"
+    )
+
+
+@limits_app.command(
+    "dynamic-range",
+    epilog=example("servokit limits dynamic-range --stroke-m 0.03 --accuracy-m 3e-9"),
+)
+def dynamic_range_cmd(
+    stroke_m: float = typer.Option(..., "--stroke-m", help="actuator stroke [m]"),
+    accuracy_m: float = typer.Option(..., "--accuracy-m", help="positioning accuracy [m]"),
+    json_out: JsonOpt = False,
+) -> None:
+    """Dynamic range accuracy/stroke of §6.1.1 (Fig. 6.1).  JSON: dynamic_range."""
+    from servokit.limits import dynamic_range
+
+    value = dynamic_range(stroke_m, accuracy_m)
+    if json_out:
+        emit_json({"dynamic_range": value})
+        return
+    console.print(f"dynamic range = {value:.3g}")

@@ -1,0 +1,433 @@
+"""``servokit filter ...`` and ``servokit margins``: resonance-compensation filters (§5.3)
+and stability margins on the exact loop frequency response."""
+
+from __future__ import annotations
+
+from collections.abc import Iterator
+from contextlib import contextmanager
+from typing import TYPE_CHECKING, Annotated, Any
+
+import numpy as np
+import typer
+
+from servokit.cli._app import (
+    JsonOpt,
+    MaxMemoryOpt,
+    PlotOpt,
+    app,
+    console,
+    emit_json,
+    example,
+    plot_target,
+    progress,
+    sub_app,
+    wrote,
+)
+from servokit.errors import ServokitValueError, check_positive
+
+if TYPE_CHECKING:
+    import control
+
+filter_app = sub_app("filter", "Resonance-compensation filters of book §5.3 (continuous/Tustin).")
+
+FreqOpt = Annotated[float, typer.Option("--freq", help="filter / mode frequency [Hz]")]
+DampingOpt = Annotated[float, typer.Option("--damping", help="damping ratio [1]")]
+DtOpt = Annotated[
+    float | None,
+    typer.Option("--dt", help="also give the Tustin discretisation prewarped at --freq [s]"),
+]
+_JSON_HELP = (
+    " JSON keys: num, den (descending powers of s), zeros_hz, poles_hz (natural frequencies), "
+    "zero_dampings, pole_dampings, and with --dt: dt_s, num_z, den_z."
+)
+
+
+@contextmanager
+def _flags(**names: str) -> Iterator[None]:
+    """Re-raise a library error naming the flag the user typed instead of the parameter."""
+    try:
+        yield
+    except ServokitValueError as exc:
+        msg = str(exc)
+        for param, flag in names.items():
+            if msg.startswith(param + " "):
+                msg = flag + msg[len(param) :]
+        raise ServokitValueError(msg) from None
+
+
+def _natural(roots: np.ndarray) -> tuple[list[float], list[float]]:
+    w = np.abs(roots)
+    zeta = np.where(w > 0, -np.real(roots) / np.where(w > 0, w, 1.0), 1.0)
+    return (w / (2 * np.pi)).tolist(), zeta.tolist()
+
+
+def _describe(tf: control.TransferFunction, freq: float, dt: float | None) -> dict[str, Any]:
+    zf, zd = _natural(tf.zeros())
+    pf, pd = _natural(tf.poles())
+    out: dict[str, Any] = {
+        "num": np.asarray(tf.num[0][0], dtype=float),
+        "den": np.asarray(tf.den[0][0], dtype=float),
+        "zeros_hz": zf,
+        "zero_dampings": zd,
+        "poles_hz": pf,
+        "pole_dampings": pd,
+    }
+    if dt is not None:
+        from servokit.feedback import discretize_filter
+
+        with _flags(freq_hz="--freq"):
+            fd = discretize_filter(tf, check_positive("--dt", dt, "s"), freq)
+        out.update(dt_s=dt, num_z=np.asarray(fd.num[0][0]), den_z=np.asarray(fd.den[0][0]))
+    return out
+
+
+def _show(
+    name: str,
+    tf: control.TransferFunction,
+    freq: float,
+    dt: float | None,
+    plot: Any,
+    json_out: bool,
+) -> None:
+    target = plot_target(plot)
+    info = _describe(tf, freq, dt)
+    if target is not None:
+        from servokit.feedback.plots import bode_responses_plot
+
+        f = np.geomspace(freq / 100, min(freq * 100, 1e6), 2000)
+        systems: dict[str, Any] = {f"{name} (continuous)": tf}
+        if dt is not None:
+            from servokit.feedback import discretize_filter
+
+            f = f[f < 0.5 / dt]
+            systems[f"{name} (Tustin, dt = {dt:g} s)"] = discretize_filter(tf, dt, freq)
+        wrote(bode_responses_plot(systems, f, path=target, title=f"{name} filter (book §5.3)"))
+    if json_out:
+        emit_json({"filter": name, **info})
+        return
+    console.print(f"{name}: num = {np.array2string(info['num'], precision=6)}")
+    console.print(f"{' ' * len(name)}  den = {np.array2string(info['den'], precision=6)}")
+    for kind in ("zero", "pole"):
+        pairs = zip(info[f"{kind}s_hz"], info[f"{kind}_dampings"], strict=True)
+        console.print(f"  {kind}s: " + ", ".join(f"{f:.6g} Hz (ζ {z:.4g})" for f, z in pairs))
+    if dt is not None:
+        console.print(f"  Tustin at dt = {dt:g} s, prewarped at {freq:g} Hz:")
+        console.print(f"    num_z = {np.array2string(np.asarray(info['num_z']), precision=8)}")
+        console.print(f"    den_z = {np.array2string(np.asarray(info['den_z']), precision=8)}")
+
+
+@filter_app.command(
+    "notch",
+    epilog=example("servokit filter notch --freq 4449 --damping 0.09 --filter-damping 0.7"),
+    help="Notch N(s) of eq. (5.14) cancelling a mode (fR, ζR); fD > fR: high-pass notch."
+    + _JSON_HELP,
+)
+def notch_cmd(
+    freq: FreqOpt,
+    damping: DampingOpt,
+    filter_freq: Annotated[
+        float | None, typer.Option("--filter-freq", help="pole frequency fD [Hz] (default fR)")
+    ] = None,
+    filter_damping: Annotated[
+        float, typer.Option("--filter-damping", help="pole damping ζD, √2/2..1 [1]")
+    ] = 0.7,
+    dt: DtOpt = None,
+    plot: PlotOpt = None,
+    json_out: JsonOpt = False,
+) -> None:
+    from servokit.feedback import notch
+
+    with _flags(
+        freq_hz="--freq",
+        damping="--damping",
+        filter_freq_hz="--filter-freq",
+        filter_damping="--filter-damping",
+    ):
+        tf = notch(freq, damping, filter_freq_hz=filter_freq, filter_damping=filter_damping)
+    _show("notch", tf, freq, dt, plot, json_out)
+
+
+@filter_app.command(
+    "peak",
+    epilog=example("servokit filter peak --freq 4449 --damping 0.015 --gain 0.1778 --phi 2.5414"),
+    help="Peak filter F(s) = K s (s cos φ + ω1 sin φ)/(s² + 2ζ1ω1 s + ω1²), eq. (5.17)."
+    + _JSON_HELP,
+)
+def peak_cmd(
+    freq: FreqOpt,
+    damping: DampingOpt,
+    gain: Annotated[float, typer.Option("--gain", help="filter gain K [1]")],
+    phi: Annotated[float, typer.Option("--phi", help="zero-placement phase φ [rad]")],
+    dt: DtOpt = None,
+    plot: PlotOpt = None,
+    json_out: JsonOpt = False,
+) -> None:
+    from servokit.feedback import peak_filter
+
+    with _flags(freq_hz="--freq", damping="--damping", gain="--gain", phi="--phi"):
+        tf = peak_filter(freq, damping, gain, phi)
+    _show("peak", tf, freq, dt, plot, json_out)
+
+
+@filter_app.command(
+    "lag",
+    epilog=example("servokit filter lag --freq 6900 --damping 0.1 --phase 1.1519"),
+    help="Complex lag Clag(s) of eqs. (5.92)-(5.94): phase lag 2φm at fm." + _JSON_HELP,
+)
+def lag_cmd(
+    freq: FreqOpt,
+    damping: DampingOpt,
+    phase: Annotated[float, typer.Option("--phase", help="half the lag φm at --freq [rad]")],
+    dt: DtOpt = None,
+    plot: PlotOpt = None,
+    json_out: JsonOpt = False,
+) -> None:
+    from servokit.feedback import complex_lag
+
+    with _flags(freq_hz="--freq", damping="--damping", phase_rad="--phase"):
+        tf = complex_lag(freq, damping, phase)
+    _show("complex lag", tf, freq, dt, plot, json_out)
+
+
+@filter_app.command(
+    "inverse",
+    epilog=example("servokit filter inverse --zero-freq 4449 --pole-freq 4775"),
+    help="Inverse-compensation zero/pole pair of §5.3.2 (unit DC gain)." + _JSON_HELP,
+)
+def inverse_cmd(
+    zero_freq: Annotated[float, typer.Option("--zero-freq", help="zero frequency [Hz]")],
+    pole_freq: Annotated[float, typer.Option("--pole-freq", help="pole frequency [Hz]")],
+    zero_damping: Annotated[float, typer.Option("--zero-damping", help="zero damping [1]")] = 0.05,
+    pole_damping: Annotated[float, typer.Option("--pole-damping", help="pole damping [1]")] = 0.05,
+    dt: DtOpt = None,
+    plot: PlotOpt = None,
+    json_out: JsonOpt = False,
+) -> None:
+    from servokit.feedback import inverse_pair
+
+    with _flags(
+        zero_hz="--zero-freq",
+        pole_hz="--pole-freq",
+        zero_damping="--zero-damping",
+        pole_damping="--pole-damping",
+    ):
+        tf = inverse_pair(
+            zero_freq, pole_freq, zero_damping=zero_damping, pole_damping=pole_damping
+        )
+    _show("inverse pair", tf, zero_freq, dt, plot, json_out)
+
+
+_FILTER_FORMS = {
+    "notch": ("notch:FREQ:DAMPING[:FILTER_FREQ:FILTER_DAMPING]", (2, 4)),
+    "peak": ("peak:FREQ:DAMPING:GAIN:PHI", (4, 4)),
+    "lag": ("lag:FREQ:DAMPING:PHASE", (3, 3)),
+    "inverse": ("inverse:ZERO_FREQ:POLE_FREQ[:ZERO_DAMPING:POLE_DAMPING]", (2, 4)),
+}
+
+
+def parse_filter(spec: str) -> tuple[control.TransferFunction, float]:
+    """A ``--filter`` spec such as ``notch:4449:0.09`` -> (continuous filter, its frequency)."""
+    from servokit import feedback as fb
+
+    kind, *fields = spec.split(":")
+    if kind not in _FILTER_FORMS:
+        raise ServokitValueError(
+            f"--filter {spec}: unknown kind {kind!r}; use one of "
+            + ", ".join(form for form, _ in _FILTER_FORMS.values())
+        )
+    form, (lo, hi) = _FILTER_FORMS[kind]
+    try:
+        x = [float(v) for v in fields]
+    except ValueError:
+        raise ServokitValueError(f"--filter {spec}: numbers expected, as in {form}") from None
+    if not lo <= len(x) <= hi or len(x) == 3 and hi == 4 and lo == 2:
+        raise ServokitValueError(f"--filter {spec}: write it as {form}")
+    with _flags(**{p: f"--filter {spec}: {p}" for p in _PARAMS}):
+        return _build(fb, kind, x)
+
+
+_PARAMS = (
+    "freq_hz",
+    "damping",
+    "filter_freq_hz",
+    "filter_damping",
+    "gain",
+    "phi",
+    "phase_rad",
+    "zero_hz",
+    "pole_hz",
+    "zero_damping",
+    "pole_damping",
+)
+
+
+def _build(fb: Any, kind: str, x: list[float]) -> tuple[control.TransferFunction, float]:
+    if kind == "notch":
+        kw = {"filter_freq_hz": x[2], "filter_damping": x[3]} if len(x) == 4 else {}
+        return fb.notch(x[0], x[1], **kw), x[0]
+    if kind == "peak":
+        return fb.peak_filter(*x), x[0]
+    if kind == "lag":
+        return fb.complex_lag(*x), x[0]
+    kw = {"zero_damping": x[2], "pole_damping": x[3]} if len(x) == 4 else {}
+    return fb.inverse_pair(x[0], x[1], **kw), x[0]
+
+
+@app.command(
+    "margins",
+    epilog=example(
+        "servokit margins --plant hdd-sampled-data --controller eq-4.69",
+        "servokit margins --plant vcm-dual-stage --controller table-5.2 --json",
+    ),
+    help="Gain, phase, delay and second phase margins of the digital loop P(z) C(z) F(z)"
+    " (P discretised exactly under a ZOH, filters by prewarped Tustin); every crossover is"
+    " found on a dense grid refined by root finding, the extra delay is exact."
+    " JSON keys: gain_margin_db, phase_margin_deg, gm_freq_hz, pm_freq_hz, delay_margin_s,"
+    " second_phase_margin_deg, gain_crossovers_hz, phase_margins_deg, phase_crossovers_hz,"
+    " gain_margins_db, plant, controller, dt_s.",
+)
+def margins_cmd(
+    plant: Annotated[str, typer.Option("--plant", help="catalogue name or .toml plant")],
+    controller: Annotated[
+        str, typer.Option("--controller", help="book controller name or discrete .toml")
+    ],
+    filters: Annotated[
+        list[str] | None,
+        typer.Option(
+            "--filter",
+            help="add a filter in series (repeatable): notch:F:Z[:FD:ZD], peak:F:Z:K:PHI,"
+            " lag:F:Z:PHI, inverse:FZ:FP[:ZZ:ZP] [Hz, 1, rad]",
+        ),
+    ] = None,
+    delay: Annotated[float, typer.Option("--delay", help="extra loop delay [s]", min=0.0)] = 0.0,
+    n_freq: Annotated[int, typer.Option("--n-freq", help="search grid points", min=16)] = 20000,
+    plot: PlotOpt = None,
+    json_out: JsonOpt = False,
+) -> None:
+    from servokit.feedback import discretize_filter, stability_margins
+    from servokit.models import get_discrete_controller, get_plant
+
+    target = plot_target(plot)
+    p = get_plant(plant)
+    ctrl = get_discrete_controller(controller)
+    dt = float(ctrl.dt)
+    loop: list[Any] = [p.discretize(dt), ctrl]
+    for spec in filters or []:
+        tf, f0 = parse_filter(spec)
+        loop.append(discretize_filter(tf, dt, f0))
+    m = stability_margins(loop, delay, n_freq=n_freq)
+    if target is not None:
+        from servokit.feedback.plots import bode_responses_plot
+
+        f = np.geomspace(10.0, 0.5 / dt, 3000)
+        wrote(bode_responses_plot({"L = P C F": loop}, f, path=target, title="open loop L"))
+    if json_out:
+        emit_json({"plant": p.name, "controller": controller, "dt_s": dt, **m.to_dict()})
+        return
+    console.print(
+        f"{p.name} with {controller} (dt = {dt:g} s): GM {m.gain_margin_db:.4g} dB at "
+        f"{m.gm_freq_hz:.5g} Hz, PM {m.phase_margin_deg:.4g} deg at {m.pm_freq_hz:.5g} Hz, "
+        f"delay margin {m.delay_margin_s * 1e6:.4g} us"
+    )
+    for f, pm in zip(m.gain_crossovers_hz, m.phase_margins_deg, strict=True):
+        console.print(f"  gain crossover {f:10.5g} Hz  phase margin {pm:8.4g} deg")
+    for f, gm in zip(m.phase_crossovers_hz, m.gain_margins_db, strict=True):
+        console.print(f"  phase crossover {f:9.5g} Hz  gain margin {gm:8.4g} dB")
+
+
+@app.command(
+    "identify",
+    epilog=example(
+        "servokit identify --plant vcm-dual-stage --controller table-5.2 --fs 30e3 --fmax 60e3",
+        "servokit identify --plant pzt-active-suspension --loop-plant vcm-dual-stage "
+        "--controller table-5.2 --fs 30e3 --json",
+    ),
+    help="Identify a continuous plant above the Nyquist frequency from a simulated"
+    " closed-loop measurement (book §5.2.1.2, eqs. 5.10-5.11): Sd measured with a T-held"
+    " sinusoid, the plant with a sinusoid held at T/--substeps. Frequencies whose alias is 0"
+    " or Nyquist are excluded. JSON keys: plant, controller, fs_hz, freq_hz, aliased_hz,"
+    " magnitude_db, phase_deg, sd_magnitude_db, sd_phase_deg, excluded_hz, dt_s,"
+    " max_error_db, max_error_deg (against the plant model).",
+)
+def identify_cmd(
+    plant: Annotated[str, typer.Option("--plant", help="catalogue name or .toml plant")],
+    controller: Annotated[
+        str, typer.Option("--controller", help="book controller name or discrete .toml")
+    ],
+    fs: Annotated[float, typer.Option("--fs", help="PES sampling frequency [Hz]")] = 30e3,
+    fmin: Annotated[float, typer.Option("--fmin", help="first excitation frequency [Hz]")] = 50.0,
+    fmax: Annotated[float, typer.Option("--fmax", help="last excitation frequency [Hz]")] = 60e3,
+    step: Annotated[float, typer.Option("--freq-step", help="excitation spacing [Hz]")] = 50.0,
+    loop_plant: Annotated[
+        str | None,
+        typer.Option("--loop-plant", help="actuator the loop is closed around, if not --plant"),
+    ] = None,
+    substeps: Annotated[
+        int, typer.Option("--substeps", help="excitation steps per PES period", min=1)
+    ] = 12,
+    max_memory_mb: MaxMemoryOpt = 2000.0,
+    plot: PlotOpt = None,
+    json_out: JsonOpt = False,
+) -> None:
+    from servokit.models import get_discrete_controller, get_plant
+    from servokit.sampled.identification import identification_plot, identify_above_nyquist
+
+    target = plot_target(plot)
+    check_positive("--fs", fs, "Hz")
+    if not 0 < fmin <= fmax or step <= 0:
+        raise ServokitValueError(
+            f"need 0 < --fmin <= --fmax and --freq-step > 0 (got {fmin}, {fmax}, {step})"
+        )
+    p = get_plant(plant)
+    lp = None if loop_plant is None else get_plant(loop_plant)
+    try:
+        ctrl = get_discrete_controller(controller, dt=1.0 / fs)
+    except ServokitValueError as exc:
+        raise ServokitValueError(f"--fs {fs:g} Hz: {exc}") from None
+    freq = fmin + step * np.arange(int(np.floor((fmax - fmin) / step + 1e-9)) + 1)
+    chunk = 150
+    with progress(
+        int(np.ceil(freq.size / chunk)), "identifying", enabled=freq.size > chunk
+    ) as tick:
+        with _flags(substeps="--substeps", freq_hz="--fmin/--fmax"):
+            res = identify_above_nyquist(
+                p,
+                ctrl,
+                freq,
+                substeps=substeps,
+                chunk=chunk,
+                max_memory_mb=max_memory_mb,
+                loop_plant=lp,
+                progress=lambda n: tick(1),
+            )
+    db, deg = res.errors(p.freqresp(res.freq_hz))
+    if target is not None:
+        wrote(
+            identification_plot(
+                res,
+                p.freqresp(res.freq_hz),
+                path=str(target),
+                title=f"{p.name} identified from PES sampled at {fs:g} Hz",
+            )
+        )
+    summary = {
+        "plant": p.name,
+        "controller": controller,
+        "fs_hz": fs,
+        "max_error_db": float(np.max(np.abs(db))),
+        "max_error_deg": float(np.max(np.abs(deg))),
+    }
+    if json_out:
+        emit_json({**summary, **res.to_dict()})
+        return
+    console.print(
+        f"{p.name}: {res.freq_hz.size} frequencies {fmin:g}-{fmax:g} Hz identified at "
+        f"fs = {fs:g} Hz; excluded {', '.join(f'{x:g}' for x in res.excluded_hz) or 'none'} Hz"
+    )
+    for lo, hi in ((0, fs / 2), (fs / 2, fs), (fs, 1.5 * fs), (1.5 * fs, np.inf)):
+        band = (res.freq_hz > lo) & (res.freq_hz <= hi)
+        if band.any():
+            console.print(
+                f"  {lo:8.0f}-{min(hi, fmax):8.0f} Hz: max error {np.max(np.abs(db[band])):.3g} dB,"
+                f" {np.max(np.abs(deg[band])):.3g} deg against the model"
+            )

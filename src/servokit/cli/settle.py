@@ -1,0 +1,198 @@
+"""``servokit settle``: train, evaluate and apply the SVM settling judge (book §6.2)."""
+
+from __future__ import annotations
+
+from pathlib import Path
+from typing import Annotated
+
+import numpy as np
+import typer
+
+from servokit.cli._app import (
+    JsonOpt,
+    PlotOpt,
+    SeedOpt,
+    console,
+    emit_json,
+    example,
+    plot_target,
+    progress,
+    sub_app,
+    wrote,
+)
+from servokit.errors import ServokitValueError
+
+settle_app = sub_app("settle", "SVM settling judgement of track seeks (§6.2).")
+
+JudgeOpt = Annotated[
+    Path, typer.Option("--judge", help="judge file written by 'settle train' (.skops)")
+]
+BandOpt = Annotated[
+    float, typer.Option("--settle-band", help="allowable tracking-error bound [track]")
+]
+
+
+def _load(path: Path):
+    from servokit.learn import SettlingJudge
+
+    if not path.is_file():
+        raise ServokitValueError(
+            f"--judge {path} does not exist; run 'servokit settle train' first"
+        )
+    return SettlingJudge.load(path)
+
+
+def _simulate(seeks: list[tuple[float, int]], what: str):
+    from servokit.learn import simulate_seeks
+
+    with progress(len(seeks), what) as advance:
+        out = []
+        for s in seeks:
+            out.extend(simulate_seeks([s]))
+            advance()
+    return out
+
+
+@settle_app.command(
+    "train",
+    epilog=example(
+        "servokit settle train --out judge.skops", "add --cv to choose C and the offset"
+    ),
+)
+def train_cmd(
+    out: Path = typer.Option(Path("judge.skops"), "--out", help="judge file to write (.skops)"),
+    n_distances: int = typer.Option(10, "--n-distances", help="distances 10-900 track", min=2),
+    n_lengths: int = typer.Option(18, "--n-lengths", help="FSC lengths 24-130 samples", min=2),
+    settle_band: BandOpt = 0.03,
+    c: float = typer.Option(10.0, "--c", help="SVM soft-margin weight C"),
+    coef0: float = typer.Option(0.5, "--coef0", help="polynomial kernel offset"),
+    cv: bool = typer.Option(False, "--cv", help="choose C and the offset by 3-fold CV (slower)"),
+    json_out: JsonOpt = False,
+) -> None:
+    """Train the judge on FSC seeks of plant (6.7).  JSON: n_states, n_class1, n_class2, c,
+    coef0, cv_scores, judge."""
+    from servokit.learn import SettlingJudge, training_seeks, training_set
+
+    if out.suffix != ".skops":
+        raise ServokitValueError(f"--out {out}: use a file name ending .skops")
+    seeks = training_seeks(n_distances, n_lengths)
+    data = training_set(_simulate(seeks, "simulating seeks"), bound=settle_band)
+    judge = SettlingJudge(bound=settle_band, C=c, coef0=coef0)
+    judge = judge.tune(data.X, data.labels) if cv else judge.fit(data.X, data.labels)
+    judge.save(out)
+    wrote(out)
+    n1, n2 = data.counts
+    res = {
+        "n_states": len(data.X),
+        "n_class1": n1,
+        "n_class2": n2,
+        "c": judge.C,
+        "coef0": judge.coef0,
+        "judge": str(out),
+        "cv_scores": [
+            {"c": k[0], "coef0": k[1], "balanced_accuracy": v} for k, v in judge.cv_scores_.items()
+        ],
+    }
+    if json_out:
+        emit_json(res)
+        return
+    console.print(
+        f"{len(seeks)} seeks, {len(data.X)} states (class 1: {n1}, class 2: {n2}); "
+        f"C = {judge.C:g}, offset = {judge.coef0:g}"
+    )
+
+
+@settle_app.command(
+    "evaluate",
+    epilog=example("servokit settle evaluate --judge judge.skops --plot hist.png"),
+)
+def evaluate_cmd(
+    judge_path: JudgeOpt = Path("judge.skops"),
+    n_seeks: int = typer.Option(100, "--n-seeks", help="validation seeks", min=1, max=100_000),
+    seed: SeedOpt = 1,
+    level: float = typer.Option(-0.8, "--level", help="safety decision level (book: -0.8)"),
+    plot: PlotOpt = None,
+    json_out: JsonOpt = False,
+) -> None:
+    """Validate on random seeks of 5-1000 tracks, 20-135 samples (Figs. 6.10-6.12).
+
+    JSON: methods[] with method, failures, never_judged, mean_delay_samples, delays_samples.
+    """
+    from servokit.learn import evaluate_judgements, validation_seeks
+
+    plot = plot_target(plot)
+    judge = _load(judge_path)
+    responses = _simulate(validation_seeks(n_seeks, seed), "simulating seeks")
+    stats = evaluate_judgements(responses, judge, levels=(0.0, level))
+    if plot is not None:
+        from servokit.learn import judgement_plot
+
+        wrote(
+            judgement_plot(
+                [stats[1], stats[0], stats[2]],
+                plot,
+                figures=["Fig. 6.10", "Fig. 6.11", "Fig. 6.12"],
+            )
+        )
+    if json_out:
+        emit_json({"methods": [s.to_dict() for s in stats]})
+        return
+    for s in stats:
+        console.print(
+            f"{s.method:>28}: failures {s.failures:3d}, mean N_judge - N0 "
+            f"{s.mean_delay:.2f} samples"
+        )
+
+
+@settle_app.command(
+    "judge",
+    epilog=example(
+        "servokit settle judge --judge judge.skops --target 300 --n-samples 50",
+        "servokit settle judge --judge judge.skops --record states.csv",
+    ),
+)
+def judge_cmd(
+    judge_path: JudgeOpt = Path("judge.skops"),
+    target: float = typer.Option(100.0, "--target", help="seek distance [track]"),
+    n_samples: int = typer.Option(50, "--n-samples", help="FSC input length [samples]", min=4),
+    record: Path | None = typer.Option(
+        None,
+        "--record",
+        help="CSV of recorded states: one row per sample, the six states "
+        "then the output [track], target at 0 (replaces the simulated seek)",
+    ),
+    level: float = typer.Option(0.0, "--level", help="decision level (0, or -0.8 safe side)"),
+    json_out: JsonOpt = False,
+) -> None:
+    """Judge one seek (simulated, or a recorded state sequence).
+
+    JSON: n_judge, n0, n_conventional (samples; -1 = never).
+    """
+    from servokit.learn import conventional_judgement, settled_index
+
+    judge = _load(judge_path)
+    if record is not None:
+        try:
+            table = np.loadtxt(record, delimiter=",", ndmin=2)
+        except (OSError, ValueError) as exc:
+            raise ServokitValueError(
+                f"--record {record}: cannot read a numeric CSV ({exc})"
+            ) from None
+        if table.shape[1] != 7:
+            raise ServokitValueError(f"--record {record}: need 7 columns (6 states, output)")
+        states, output, start = table[:, :6], table[:, 6], 0
+    else:
+        (r,) = _simulate([(target, n_samples)], "simulating")
+        states, output, start = r.states, r.output, r.n_input
+    res = {
+        "n_judge": judge.judge(states, output, level, start=start),
+        "n_conventional": conventional_judgement(output, judge.bound, start=start),
+        "n0": settled_index(output, judge.bound) if abs(output[-1]) <= judge.bound else -1,
+    }
+    if json_out:
+        emit_json(res)
+        return
+    console.print(
+        f"SVM judges settled at sample {res['n_judge']}, 5-in-a-row at "
+        f"{res['n_conventional']}; actual settling N0 = {res['n0']}"
+    )

@@ -1,0 +1,39 @@
+"""Phase 4 (feedback): resonance-compensation filters and stability margins (book chapter 5).
+
+* :mod:`~servokit.feedback.filters`: notch (5.14), inverse pairs, complex lag (5.92)-(5.94),
+  lead-lag (5.91), lag (5.96), PI, peak filter (5.17), pseudo plant (5.16).
+* :mod:`~servokit.feedback.margins`: gain/phase/delay/second phase margins on the exact
+  frequency response.
+"""
+
+from servokit.feedback.filters import (
+    complex_lag,
+    design_peak_filter,
+    discretize_filter,
+    inverse_pair,
+    lag,
+    lead_lag,
+    notch,
+    peak_filter,
+    peak_filter_phase,
+    pi_controller,
+    pseudo_plant,
+)
+from servokit.feedback.margins import Margins, loop_response, stability_margins
+
+__all__ = [
+    "Margins",
+    "complex_lag",
+    "design_peak_filter",
+    "discretize_filter",
+    "inverse_pair",
+    "lag",
+    "lead_lag",
+    "loop_response",
+    "notch",
+    "peak_filter",
+    "peak_filter_phase",
+    "pi_controller",
+    "pseudo_plant",
+    "stability_margins",
+]

@@ -1,0 +1,253 @@
+"""Resonance-compensation filters of book chapter 5 as python-control transfer functions.
+
+All filters are continuous; :func:`discretize_filter` samples one by the bilinear
+(Tustin) transform prewarped at the filter frequency, so that the notch/peak lands on
+the same frequency in the discrete filter.
+
+Book corrections
+----------------
+* (5.14) notch: the text says the notch damping is chosen in "√2 < ζD ≤ 1", an empty
+  range (√2 > 1); the PDF lost a "/2": the intended range is √2/2 ≤ ζD ≤ 1 (no
+  peaking of the filter's own poles), which :func:`notch` documents but does not enforce.
+* (5.17) peak filter: the book restricts φ to [−π/2, π/2] in (5.18) but itself uses
+  φ = 2.5414 rad and 4.2603 rad in §5.5.2; F is 2π-periodic in φ, so any real φ is
+  accepted.
+* (5.51) LTV transient-stage zero: printed φ = arg Sh(jω1) + π. The residue of
+  Sh F at the filter pole p1 ≈ jω1 is ≈ K ω1 |Sh| e^{j(arg Sh + π/2 − φ)} / 2, so the
+  departure angle is 180° + arg Sh + 90° − φ: (5.18) gives 180° (as printed), "+ π"
+  gives 90°, not the 0° of (5.53) (nor the −180° plant departure of (5.52)). The
+  printed departures need the residue of (5.18) reversed, φ = arg Sh(jω1) − π/2, which
+  :func:`peak_filter_phase` uses for ``method="transient"``.
+* (5.38) phase-shift zero φ = arg Sh(jω1): the same residue gives a filter departure of
+  −90° for the upper-half-plane pole; the book's "+90°" (5.41) is the lower pole's.
+* (5.92)-(5.94) complex lag: checked by hand; ωp ωz = ωm² and the phase of the lag at
+  ωm is exactly −2φm (zero angle π/2 − φm, pole angle π/2 + φm), as printed.
+"""
+
+from __future__ import annotations
+
+import control
+import numpy as np
+
+from servokit.errors import ServokitValueError, check_finite, check_positive
+
+__all__ = [
+    "notch",
+    "inverse_pair",
+    "complex_lag",
+    "lead_lag",
+    "lag",
+    "pi_controller",
+    "peak_filter",
+    "peak_filter_phase",
+    "design_peak_filter",
+    "ZERO_PLACEMENTS",
+    "pseudo_plant",
+    "discretize_filter",
+]
+
+TWO_PI = 2.0 * np.pi
+
+
+def _damping(name: str, value: float, *, upper: float | None = None) -> float:
+    v = float(check_finite(name, value))
+    if v < 0 or (upper is not None and v > upper):
+        rng = f"[0, {upper:g}]" if upper is not None else ">= 0"
+        raise ServokitValueError(f"{name} must be in {rng} (got {v})")
+    return v
+
+
+def _second_order(freq_hz: float, damping: float) -> np.ndarray:
+    """Coefficients of ``s^2 + 2 ζ ω s + ω^2`` with ω = 2π f."""
+    w = TWO_PI * freq_hz
+    return np.array([1.0, 2.0 * damping * w, w * w])
+
+
+def notch(
+    freq_hz: float,
+    damping: float,
+    *,
+    filter_freq_hz: float | None = None,
+    filter_damping: float = 0.5,
+) -> control.TransferFunction:
+    """Notch filter N(s) cancelling the resonant mode R(s) of (5.13), eq. (5.14).
+
+    ``N(s) = (ωD/ωR)^2 (s^2 + 2ζR ωR s + ωR^2) / (s^2 + 2ζD ωD s + ωD^2)``, unit DC gain.
+
+    Parameters
+    ----------
+    freq_hz, damping : float
+        Natural frequency fR [Hz] and damping ζR (0 < ζR < 1) of the mode to cancel.
+    filter_freq_hz : float, optional
+        Frequency fD of the filter poles [Hz]; ``fR`` by default. ``fD > fR`` gives the
+        book's high-pass notch, with less phase loss below fR.
+    filter_damping : float
+        ζD of the filter poles; the book's range is √2/2 ≤ ζD ≤ 1 (printed garbled as
+        "√2 < ζD ≤ 1").
+    """
+    f_r = check_positive("freq_hz", freq_hz, "Hz")
+    z_r = _damping("damping", damping, upper=1.0)
+    f_d = f_r if filter_freq_hz is None else check_positive("filter_freq_hz", filter_freq_hz, "Hz")
+    z_d = _damping("filter_damping", filter_damping)
+    if z_d == 0:
+        raise ServokitValueError("filter_damping must be > 0 (undamped filter poles)")
+    return control.tf((f_d / f_r) ** 2 * _second_order(f_r, z_r), _second_order(f_d, z_d))
+
+
+def inverse_pair(
+    zero_hz: float,
+    pole_hz: float,
+    *,
+    zero_damping: float = 0.05,
+    pole_damping: float = 0.05,
+) -> control.TransferFunction:
+    """Inverse-compensation zero/pole pair of §5.3.2, unit DC gain.
+
+    ``(ωp/ωz)^2 (s^2 + 2ζz ωz s + ωz^2) / (s^2 + 2ζp ωp s + ωp^2)``: its zeros cancel a
+    plant resonance at ``zero_hz`` and its poles restore an anti-resonance at ``pole_hz``
+    (e.g. the (4449, 4775) Hz pair of §5.5.2.1, which the book lists as "zero-pole
+    pairs" without damping: the dampings are parameters).
+    """
+    f_z = check_positive("zero_hz", zero_hz, "Hz")
+    f_p = check_positive("pole_hz", pole_hz, "Hz")
+    z_z = _damping("zero_damping", zero_damping, upper=1.0)
+    z_p = _damping("pole_damping", pole_damping)
+    if z_p == 0:
+        raise ServokitValueError("pole_damping must be > 0 (undamped filter poles)")
+    return control.tf((f_p / f_z) ** 2 * _second_order(f_z, z_z), _second_order(f_p, z_p))
+
+
+def complex_lag(freq_hz: float, damping: float, phase_rad: float) -> control.TransferFunction:
+    """Complex lag compensator Clag(s) of eqs. (5.92)-(5.94).
+
+    ``Clag = (ωp/ωz) (s^2 + 2ζ ωz s + ωz^2) / (s^2 + 2ζ ωp s + ωp^2)`` with
+    ``ωp,z = ωm (∓ζ tan φm + sqrt(ζ^2 tan^2 φm + 1))``; its phase at ωm is −2φm.
+
+    Parameters
+    ----------
+    freq_hz : float
+        Centre frequency fm = ωm / 2π [Hz].
+    damping : float
+        ζlg (> 0).
+    phase_rad : float
+        φm [rad], in (−π/2, π/2) (tan φm must be finite).
+    """
+    f_m = check_positive("freq_hz", freq_hz, "Hz")
+    zeta = check_positive("damping", damping)
+    phi = float(check_finite("phase_rad", phase_rad))
+    if abs(phi) >= np.pi / 2:
+        raise ServokitValueError(f"phase_rad must be in (-pi/2, pi/2) (got {phi})")
+    a = zeta * np.tan(phi)
+    root = np.sqrt(a * a + 1.0)
+    w_m = TWO_PI * f_m
+    w_p, w_z = w_m * (root - a), w_m * (root + a)
+    num = (w_p / w_z) * np.array([1.0, 2.0 * zeta * w_z, w_z * w_z])
+    return control.tf(num, [1.0, 2.0 * zeta * w_p, w_p * w_p])
+
+
+def lead_lag(
+    gain: float, zero_hz: float = 50.0, pole_hz: float = 30000.0
+) -> control.TransferFunction:
+    """Lead-lag VCM controller CCV(s) = K (s + ωz)^2 / (s (s + ωp)), eq. (5.91).
+
+    The book's values are ωz = 100π rad/s (50 Hz) and ωp = 2π·30000 rad/s.
+    """
+    k = check_positive("gain", gain)
+    w_z = TWO_PI * check_positive("zero_hz", zero_hz, "Hz")
+    w_p = TWO_PI * check_positive("pole_hz", pole_hz, "Hz")
+    return control.tf(k * np.array([1.0, 2.0 * w_z, w_z * w_z]), [1.0, w_p, 0.0])
+
+
+def lag(gain: float, zero_hz: float = 30000.0, pole_hz: float = 900.0) -> control.TransferFunction:
+    """First-order lag CCM(s) = K (s + ωz) / (s + ωp) of zero relative degree, eq. (5.96)."""
+    k = check_positive("gain", gain)
+    w_z = TWO_PI * check_positive("zero_hz", zero_hz, "Hz")
+    w_p = TWO_PI * check_positive("pole_hz", pole_hz, "Hz")
+    return control.tf([k, k * w_z], [1.0, w_p])
+
+
+def pi_controller(gain: float, corner_hz: float) -> control.TransferFunction:
+    """PI compensator K (s + ωi) / s with integral corner ωi = 2π·corner_hz."""
+    k = check_positive("gain", gain)
+    w_i = TWO_PI * check_positive("corner_hz", corner_hz, "Hz")
+    return control.tf([k, k * w_i], [1.0, 0.0])
+
+
+def peak_filter(
+    freq_hz: float, damping: float, gain: float, phi: float
+) -> control.TransferFunction:
+    """Peak filter F(s) = K s (s cos φ + ω1 sin φ) / (s^2 + 2ζ1 ω1 s + ω1^2), eq. (5.17).
+
+    Parameters
+    ----------
+    freq_hz : float
+        Centre frequency f1 = ω1 / 2π [Hz].
+    damping : float
+        ζ1 (> 0): sets the attenuation bandwidth.
+    gain : float
+        K (> 0).
+    phi : float
+        Zero-placement phase φ [rad]; any real value (F is 2π-periodic in φ). Choose it with
+        :func:`peak_filter_phase`.
+    """
+    w1 = TWO_PI * check_positive("freq_hz", freq_hz, "Hz")
+    zeta = check_positive("damping", damping)
+    k = check_positive("gain", gain)
+    p = float(check_finite("phi", phi))
+    num = k * np.array([np.cos(p), w1 * np.sin(p), 0.0])
+    return control.tf(num, [1.0, 2.0 * zeta * w1, w1 * w1])
+
+
+def pseudo_plant(loop: control.LTI) -> control.LTI:
+    """Pseudo plant Sh = PC / (1 + PC) seen by an add-on filter, eq. (5.16)."""
+    return control.feedback(loop, 1)
+
+
+#: Zero placements of the peak filter: offset added to arg Sh(jω1) [rad].
+ZERO_PLACEMENTS = {
+    "stable": np.pi / 2,  # (5.18) and the frequency-shift method (5.42)
+    "frequency-shift": np.pi / 2,  # (5.42): (5.18) at the pseudo plant's resonance
+    "phase-shift": 0.0,  # (5.38)
+    "transient": -np.pi / 2,  # (5.51) corrected (printed "+ π"), the LTV transient stage
+}
+
+
+def peak_filter_phase(sh_at_w1: complex, method: str = "stable") -> float:
+    """Zero-placement phase φ of the peak filter from Sh(jω1), wrapped into (−π, π].
+
+    ``"stable"`` / ``"frequency-shift"``: φ = arg Sh(jω1) + π/2, eqs. (5.18), (5.42)
+    (filter poles depart at 180°; for the frequency-shift method ω1 is the pseudo
+    plant's resonance); ``"phase-shift"``: φ = arg Sh(jω1), eq. (5.38), filter poles
+    depart at ∓90°; ``"transient"``: φ = arg Sh(jω1) − π/2, eq. (5.51) corrected (see the
+    module docstring), filter poles depart at 0° and plant poles at −180°. The book states
+    φ ∈ [−π/2, π/2]; the formulas give any angle and F is 2π-periodic in φ, so the full
+    circle is kept.
+    """
+    if method not in ZERO_PLACEMENTS:
+        raise ServokitValueError(
+            f"method must be one of {', '.join(ZERO_PLACEMENTS)} (got {method!r})"
+        )
+    return float(np.angle(complex(sh_at_w1) * np.exp(1j * ZERO_PLACEMENTS[method])))
+
+
+def design_peak_filter(
+    sh: control.LTI, freq_hz: float, damping: float, gain: float, method: str = "stable"
+) -> tuple[control.TransferFunction, float]:
+    """Peak filter (5.17) at ``freq_hz`` with its zero placed on the pseudo plant ``sh``.
+
+    Returns ``(F, phi)``. ``sh`` is continuous (Sh = PC/(1+PC), see :func:`pseudo_plant`).
+    """
+    f1 = check_positive("freq_hz", freq_hz, "Hz")
+    phi = peak_filter_phase(complex(sh(2j * np.pi * f1)), method)
+    return peak_filter(f1, damping, gain, phi), phi
+
+
+def discretize_filter(filt: control.LTI, dt: float, freq_hz: float) -> control.LTI:
+    """Sample a continuous filter by the Tustin transform prewarped at ``freq_hz``."""
+    h = check_positive("dt", dt, "s")
+    f = check_positive("freq_hz", freq_hz, "Hz")
+    if f >= 0.5 / h:
+        raise ServokitValueError(
+            f"freq_hz must be below the Nyquist frequency {0.5 / h:g} Hz (got {f:g})"
+        )
+    return control.sample_system(filt, h, method="tustin", prewarp_frequency=TWO_PI * f)

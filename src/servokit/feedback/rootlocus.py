@@ -1,0 +1,206 @@
+"""Root loci of the pseudo open loop G = Sh F (5.19): departure angles and branch margins.
+
+For the characteristic equation 1 + k G(s) = 0 (k ≥ 0, the add-on filter loop of
+Fig. 5.11 closes with SF = 1/(1 + Sh F), (5.16)), the root leaving a simple pole p of G
+starts as s − p ≈ −k Res_p G, so its departure angle is exactly
+``180° + arg Res_p G`` with ``Res_p G = g Π(p − z_i) / Π_{j≠p}(p − p_j)`` — the angle
+condition (5.26)-(5.28) without the approximations (5.30)-(5.35).
+
+The gain at which a branch reaches the imaginary axis is found on the frequency
+response: a root at jω needs G(jω) real and negative and then k = 1/|G(jω)|. Each such
+gain is assigned to the branch that crosses there by following the locus from k = 0
+(the branch's starting pole) to that gain on a logarithmic grid, matching roots
+between neighbouring gains by minimum total distance (Hungarian assignment).
+
+Polynomials are formed in the normalised variable s/ω_ref (ω_ref the largest pole
+magnitude) so that the root finder works on coefficients of order one.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import control
+import numpy as np
+from scipy.optimize import linear_sum_assignment
+
+from servokit.errors import ServokitValueError
+from servokit.feedback.margins import stability_margins
+
+__all__ = [
+    "RootLocus",
+    "PeakFilterLocus",
+    "departure_angles",
+    "root_locus",
+    "branch_gain_margins",
+    "peak_filter_locus",
+]
+
+
+def _polys(g: control.TransferFunction) -> tuple[np.ndarray, np.ndarray, float]:
+    """Numerator and denominator of G in s/ω_ref, leading denominator coefficient 1."""
+    if not isinstance(g, control.TransferFunction):
+        g = control.tf(g)
+    if g.dt not in (None, 0):
+        raise ServokitValueError("root-locus analysis needs a continuous G (dt = 0)")
+    num = np.trim_zeros(np.asarray(g.num[0][0], dtype=float), "f")
+    den = np.trim_zeros(np.asarray(g.den[0][0], dtype=float), "f")
+    if num.size > den.size:
+        raise ServokitValueError("G must be proper (numerator degree <= denominator degree)")
+    w_ref = float(np.max(np.abs(np.roots(den)))) if den.size > 1 else 1.0
+    w_ref = w_ref if w_ref > 0 else 1.0
+    scale_d = w_ref ** np.arange(den.size - 1, -1, -1.0)
+    scale_n = w_ref ** np.arange(num.size - 1, -1, -1.0)
+    nd = den * scale_d
+    # numerator in the same normalised variable, divided by the same leading coefficient
+    nn = num * scale_n / nd[0]
+    return nn, nd / nd[0], w_ref
+
+
+def departure_angles(g: control.TransferFunction) -> tuple[np.ndarray, np.ndarray]:
+    """Poles of G and the exact departure angle of the root locus from each [deg].
+
+    Returns ``(poles, angles_deg)``, angles in (−180°, 180]; a repeated pole gives NaN
+    (its departure is not defined by one residue).
+    """
+    g = g if isinstance(g, control.TransferFunction) else control.tf(g)
+    poles = np.asarray(g.poles(), dtype=complex)
+    zeros = np.asarray(g.zeros(), dtype=complex)
+    num = np.trim_zeros(np.asarray(g.num[0][0], dtype=float), "f")
+    den = np.trim_zeros(np.asarray(g.den[0][0], dtype=float), "f")
+    gain = num[0] / den[0]
+    angles = np.empty(poles.size)
+    for i, p in enumerate(poles):
+        others = np.delete(poles, i)
+        if np.any(np.isclose(others, p, rtol=1e-12, atol=0)):
+            angles[i] = np.nan
+            continue
+        res_arg = np.angle(gain) + np.sum(np.angle(p - zeros)) - np.sum(np.angle(p - others))
+        angles[i] = np.degrees(np.pi + res_arg)
+    return poles, 180.0 - np.mod(180.0 - angles, 360.0)
+
+
+@dataclass(frozen=True)
+class RootLocus:
+    """Branches of 1 + k G = 0: ``roots[i, j]`` is branch j at ``gains[i]`` [rad/s]."""
+
+    gains: np.ndarray
+    roots: np.ndarray
+
+    @property
+    def start(self) -> np.ndarray:
+        """The open-loop pole each branch starts from (k → 0)."""
+        return self.roots[0]
+
+
+def root_locus(g: control.TransferFunction, gains: np.ndarray) -> RootLocus:
+    """Closed-loop roots of 1 + k G = 0 for increasing ``gains`` (k ≥ 0), branches tracked.
+
+    The first row is the open-loop poles (k = 0 is prepended if absent).
+    """
+    nn, nd, w_ref = _polys(g)
+    k = np.unique(np.concatenate([[0.0], np.asarray(gains, dtype=float)]))
+    if k[0] < 0:
+        raise ServokitValueError("root-locus gains must be >= 0")
+    pad = np.concatenate([np.zeros(nd.size - nn.size), nn])
+    rows = [np.roots(nd)]
+    for kk in k[1:]:
+        r = np.roots(nd + kk * pad)
+        if r.size < rows[-1].size:  # leading coefficient cancelled: a root went to infinity
+            r = np.concatenate([r, np.full(rows[-1].size - r.size, np.inf + 0j)])
+        cost = np.abs(rows[-1][:, None] - r[None, :])
+        cost[~np.isfinite(cost)] = 1e300
+        _, col = linear_sum_assignment(cost)
+        rows.append(r[col])
+    return RootLocus(gains=k, roots=np.array(rows) * w_ref)
+
+
+def branch_gain_margins(
+    g: control.TransferFunction, *, n_gain: int = 800, k_max: float = 1e8
+) -> tuple[np.ndarray, np.ndarray]:
+    """Gain k at which each root-locus branch first reaches the imaginary axis.
+
+    Returns ``(start_poles, k_crit)``; ``k_crit`` is ``inf`` for a branch that stays in
+    the open left half-plane for all k ≤ ``k_max``. The crossing gains come from the
+    frequency response (k = 1/|G(jω)| where G(jω) < 0), the branch from tracking.
+    """
+    if np.any(np.real(control.tf(g).poles()) >= 0):
+        raise ServokitValueError("G must be stable (all poles in the open left half-plane)")
+    m = stability_margins(g)
+    k_cross = 10.0 ** (np.asarray(m.gain_margins_db) / 20.0)
+    w_cross = 2.0 * np.pi * np.asarray(m.phase_crossovers_hz)
+    keep = k_cross <= k_max
+    k_cross, w_cross = k_cross[keep], w_cross[keep]
+    crit = np.full(len(control.tf(g).poles()), np.inf)
+    if k_cross.size == 0:
+        return np.asarray(control.tf(g).poles(), dtype=complex), crit
+    grid = np.geomspace(1e-8 * k_cross.min(), k_cross.max(), n_gain)
+    locus = root_locus(g, np.concatenate([grid, k_cross]))
+    for kc, wc in zip(k_cross, w_cross, strict=True):
+        row = locus.roots[np.searchsorted(locus.gains, kc)]
+        j = int(np.argmin(np.abs(row - 1j * wc)))
+        if abs(row[j] - 1j * wc) > 1e-3 * max(wc, 1.0):  # conjugate branch crosses at -jω
+            j = int(np.argmin(np.abs(row + 1j * wc)))
+        crit[j] = min(crit[j], kc)
+    # a conjugate branch crosses at the same gain as its partner
+    for j, p in enumerate(locus.start):
+        mate = int(np.argmin(np.abs(locus.start - np.conj(p))))
+        crit[j] = crit[mate] = min(crit[j], crit[mate])
+    return locus.start, crit
+
+
+@dataclass(frozen=True)
+class PeakFilterLocus:
+    """Root-locus facts of G = Sh F for one peak filter (upper-half-plane poles).
+
+    Gains are critical values of the multiplier k on F (1 + k Sh F = 0); divide by the
+    designed filter gain for a margin relative to the design.
+    """
+
+    filter_pole: complex
+    plant_pole: complex
+    filter_departure_deg: float
+    plant_departure_deg: float
+    filter_k_crit: float
+    plant_k_crit: float
+
+    @property
+    def k_crit(self) -> float:
+        """The smallest critical multiplier of the two branches."""
+        return min(self.filter_k_crit, self.plant_k_crit)
+
+    def to_dict(self) -> dict[str, float]:
+        """Critical multipliers and departure angles [deg] (JSON-ready)."""
+        return {
+            "filter_k_crit": self.filter_k_crit,
+            "plant_k_crit": self.plant_k_crit,
+            "filter_departure_deg": self.filter_departure_deg,
+            "plant_departure_deg": self.plant_departure_deg,
+        }
+
+
+def peak_filter_locus(
+    sh: control.TransferFunction, flt: control.TransferFunction, plant_hz: float
+) -> PeakFilterLocus:
+    """Departure angles and branch gain margins of the filter pole and of the pseudo-plant
+    pole nearest ``plant_hz`` (Figs. 5.12-5.22)."""
+    g = control.tf(sh) * control.tf(flt)
+    poles, angles = departure_angles(g)
+    starts, k_crit = branch_gain_margins(g)
+    p_f = complex(max(control.tf(flt).poles(), key=lambda p: p.imag))
+    sh_poles = np.asarray(control.tf(sh).poles(), dtype=complex)
+    p_h = complex(sh_poles[np.argmin(np.abs(sh_poles - 2j * np.pi * plant_hz))])
+    if p_h.imag < 0:
+        p_h = p_h.conjugate()
+
+    def pick(values: np.ndarray, where: np.ndarray, p: complex) -> float:
+        return float(values[int(np.argmin(np.abs(where - p)))])
+
+    return PeakFilterLocus(
+        filter_pole=p_f,
+        plant_pole=p_h,
+        filter_departure_deg=pick(angles, poles, p_f),
+        plant_departure_deg=pick(angles, poles, p_h),
+        filter_k_crit=pick(k_crit, starts, p_f),
+        plant_k_crit=pick(k_crit, starts, p_h),
+    )

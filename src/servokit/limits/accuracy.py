@@ -1,0 +1,215 @@
+"""Limits on positioning accuracy (book §6.1.1 and §6.3.1.4, eqs. 6.13-6.16).
+
+Output variance (6.13): with the disturbances lumped into a shaping filter ``D`` driven by
+unit white noise, ``var(y) = (1/pi) int_0^W |S D|^2 dw`` with ``W = inf`` for a continuous
+loop, and ``W = pi/T`` in ``phi = w T`` units for a discrete one (the same derivation holds
+on ``[0, pi]`` because the discrete Bode integral of a strictly proper loop is 0, 6.19).
+
+Lower bound (6.16), derived here because the printed form is ambiguous and, as printed,
+not a bound.  With ``|L| <= delta (Omega/w)^(k+1)`` for ``w >= Omega`` (6.14) and ``delta < 1``:
+
+* ``[Omega, W]``: (6.15) gives ``|S| >= 1/(1 + delta (Omega/w)^(k+1))``, so
+  ``(1/pi) int_Omega^W |D|^2 / (1 + delta (Omega/w)^(k+1))^2 dw``.  The book's exponent
+  ``ke`` (k or k+1 by parity) only weakens this, since ``(Omega/w)^k >= (Omega/w)^(k+1)``;
+  servokit uses ``k + 1`` directly from (6.15).
+* ``[0, Omega]``: Jensen's inequality gives ``(1/Omega) int |SD|^2 >= exp((1/Omega) int
+  ln|SD|^2) = exp(beta + (2/Omega) int_0^Omega ln|S|)``, and the Bode integral (= 0)
+  with (6.15) gives ``int_0^Omega ln|S| = -int_Omega^W ln|S| >= -Omega gamma`` where
+  ``gamma = (1/Omega) int_Omega^W -ln(1 - delta (Omega/w)^(k+1)) dw``.  Hence
+  **(Omega/pi) e^(beta - 2 gamma)**: the printed ``e^beta`` drops the factor
+  ``e^(-2 gamma)`` (for delta = 0.5, k = 1, ``e^(-2 gamma) = 0.55``) and can exceed the
+  true variance.  ``beta = (1/Omega) int_0^Omega ln|D|^2 dw`` as printed.
+
+Dynamic range (§6.1.1): positioning accuracy divided by actuator stroke (about 1e-7 for a
+recent HDD, Fig. 6.1).
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable
+from dataclasses import dataclass
+
+import control
+import numpy as np
+from scipy import integrate
+
+from servokit.errors import ServokitTypeError, ServokitValueError, check_count, check_positive
+
+__all__ = [
+    "VarianceBound",
+    "dynamic_range",
+    "output_variance",
+    "rolloff_bandwidth",
+    "variance_lower_bound",
+]
+
+Response = Callable[[np.ndarray], np.ndarray]
+
+
+@dataclass(frozen=True)
+class VarianceBound:
+    """Lower bound of ``var(y)`` (6.16) and its parts.
+
+    Attributes
+    ----------
+    bound : float
+        ``low + high`` (the corrected bound).
+    low, high : float
+        Contributions of ``[0, Omega]`` and ``[Omega, W]``.
+    beta, gamma : float
+        ``beta`` of (6.16) and the waterbed term ``gamma`` derived in the module docstring.
+    printed : float
+        The book's expression as printed: ``(Omega/pi) e^beta`` plus the ``ke`` tail.
+    """
+
+    bound: float
+    low: float
+    high: float
+    beta: float
+    gamma: float
+    printed: float
+
+
+def _response(system: object, dt: float | None) -> Response:
+    """``w [rad/s] -> complex response`` of an LTI object or a ``freq_hz`` callable."""
+    if isinstance(system, control.TransferFunction | control.StateSpace):
+        if system.isdtime() != (dt is not None):
+            raise ServokitValueError(
+                "disturbance and loop must both be continuous or both discrete (same dt)"
+            )
+        if dt is None:
+            return lambda w: np.asarray(system(1j * np.asarray(w)), dtype=complex)
+        return lambda w: np.asarray(system(np.exp(1j * np.asarray(w) * dt)), dtype=complex)
+    if callable(system):
+        return lambda w: np.asarray(system(np.asarray(w) / (2 * np.pi)), dtype=complex)
+    raise ServokitTypeError(
+        "expected a python-control LTI object or a callable of freq_hz, "
+        f"got {type(system).__name__}"
+    )
+
+
+def _upper(dt: float | None) -> float:
+    return np.inf if dt is None else np.pi / dt
+
+
+def _quad(f: Callable[[float], float], a: float, b: float, points: list[float]) -> float:
+    inner = [p for p in sorted(points) if a < p < b] if np.isfinite(b) else None
+    val, _ = integrate.quad(f, a, b, limit=1000, points=inner or None)
+    return float(val)
+
+
+def _gamma(delta: float, k: int, omega: float, w_max: float) -> float:
+    x_max = w_max / omega
+    val, _ = integrate.quad(lambda x: -np.log1p(-delta * x ** (-(k + 1))), 1.0, x_max, limit=500)
+    return float(val)
+
+
+def variance_lower_bound(
+    disturbance: object,
+    bandwidth_hz: float,
+    *,
+    delta: float = 0.5,
+    k: int = 1,
+    dt: float | None = None,
+    breakpoints_hz: tuple[float, ...] = (),
+) -> VarianceBound:
+    """Lower bound (6.16), corrected, of the output variance for a loop meeting (6.14).
+
+    Parameters
+    ----------
+    disturbance : LTI or callable
+        Shaping filter ``D`` of unit-intensity white noise (continuous, or discrete with
+        ``dt`` and unit-variance white input), or a callable ``freq_hz -> D``.
+    bandwidth_hz : float
+        ``Omega / (2 pi)`` of (6.14) [Hz].
+    delta, k : float, int
+        Roll-off constants of (6.14): ``0 < delta < 1``, ``k >= 1``.
+    dt : float, optional
+        Sampling period [s] of a discrete loop; integrals then stop at Nyquist.
+    breakpoints_hz : tuple of float
+        Frequencies of sharp disturbance peaks, to guide the quadrature [Hz].
+    """
+    f_b = check_positive("bandwidth_hz", bandwidth_hz, "Hz")
+    d = check_positive("delta", delta)
+    if d >= 1:
+        raise ServokitValueError(f"delta must be < 1 (got {d}); the book uses delta < 0.5")
+    kk = check_count("k", k, lo=1, hi=50)
+    resp = _response(disturbance, dt)
+    omega, w_max = 2 * np.pi * f_b, _upper(dt)
+    if omega >= w_max:
+        raise ServokitValueError(f"bandwidth_hz ({f_b:g}) must be below the Nyquist frequency")
+    pts = [2 * np.pi * f for f in breakpoints_hz]
+    scale = 1.0 if dt is None else dt  # phi = w T for a discrete loop
+
+    def mag2(w: float) -> float:
+        return float(np.abs(resp(np.array([w]))[0]) ** 2)
+
+    beta = _quad(lambda w: np.log(mag2(w)), 0.0, omega, pts) / omega
+    gamma = _gamma(d, kk, omega, w_max)
+    low = scale * omega / np.pi * np.exp(beta - 2.0 * gamma)
+
+    def tail(power: int) -> float:
+        return (scale / np.pi) * _quad(
+            lambda w: mag2(w) / (1.0 + d * (omega / w) ** power) ** 2, omega, w_max, pts
+        )
+
+    high = tail(kk + 1)
+    ke = kk + 1 if kk % 2 else kk
+    printed = scale * omega / np.pi * np.exp(beta) + tail(ke)
+    return VarianceBound(low + high, low, high, beta, gamma, printed)
+
+
+def output_variance(
+    loop: control.TransferFunction | control.StateSpace,
+    disturbance: object,
+    *,
+    breakpoints_hz: tuple[float, ...] = (),
+) -> float:
+    """``var(y) = (1/pi) int_0^W |S D|^2 dw`` (6.13) by quadrature.
+
+    ``loop`` and ``disturbance`` are both continuous, or both discrete with the loop's
+    ``dt`` (unit-variance white input; the integral then runs over ``phi`` in ``[0, pi]``).
+    """
+    dt = float(loop.dt) if loop.isdtime() else None
+    d_resp, l_resp = _response(disturbance, dt), _response(loop, dt)
+    scale = 1.0 if dt is None else dt
+    pts = [2 * np.pi * f for f in breakpoints_hz]
+
+    def integrand(w: float) -> float:
+        x = np.array([w])
+        return float(np.abs(d_resp(x)[0] / (1.0 + l_resp(x)[0])) ** 2)
+
+    return scale / np.pi * _quad(integrand, 0.0, _upper(dt), pts)
+
+
+def rolloff_bandwidth(
+    loop: control.TransferFunction | control.StateSpace,
+    *,
+    delta: float = 0.5,
+    k: int = 1,
+    n_freq: int = 20_000,
+) -> float:
+    """Smallest ``Omega`` [Hz] with ``|L(jw)| <= delta (Omega/w)^(k+1)`` for all ``w >= Omega``.
+
+    On a logarithmic grid: with ``g(w) = w (|L|/delta)^(1/(k+1))`` the condition reads
+    ``sup_{w >= Omega} g <= Omega``, so ``Omega = min_i max(w_i, max_{j >= i} g_j)``.
+    """
+    d = check_positive("delta", delta)
+    kk = check_count("k", k, lo=1, hi=50)
+    n = check_count("n_freq", n_freq, lo=100, hi=10_000_000)
+    dt = float(loop.dt) if loop.isdtime() else None
+    resp = _response(loop, dt)
+    top = np.pi / dt if dt else 1e3 * max(1.0, float(np.max(np.abs(loop.poles()))))
+    w = np.geomspace(top * 1e-8, top * (1 - 1e-9), n)
+    g = w * (np.abs(resp(w)) / d) ** (1.0 / (kk + 1))
+    tail_max = np.maximum.accumulate(g[::-1])[::-1]
+    return float(np.min(np.maximum(w, tail_max)) / (2 * np.pi))
+
+
+def dynamic_range(stroke_m: float, accuracy_m: float) -> float:
+    """Dynamic range of §6.1.1: ``accuracy / stroke`` (Fig. 6.1; about 1e-7 for an HDD)."""
+    s = check_positive("stroke_m", stroke_m, "m")
+    a = check_positive("accuracy_m", accuracy_m, "m")
+    if a > s:
+        raise ServokitValueError(f"accuracy_m ({a:g}) must not exceed stroke_m ({s:g})")
+    return a / s

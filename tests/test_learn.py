@@ -1,0 +1,141 @@
+"""servokit.learn: seek data (6.7), labels, SVM judge, conventional rule, skops I/O."""
+
+from __future__ import annotations
+
+import control
+import numpy as np
+import pytest
+from hypothesis import given, settings
+from hypothesis import strategies as st
+
+from servokit.errors import ServokitError
+from servokit.learn import (
+    SVM_TS,
+    SeekResponse,
+    SettlingJudge,
+    conventional_judgement,
+    evaluate_judgements,
+    settled_index,
+    simulate_seeks,
+    training_seeks,
+    training_set,
+    validation_seeks,
+)
+from servokit.models import svm_head_plant
+
+
+def test_seek_matches_python_control_and_ends_on_target():
+    from servokit.feedforward import fsc_input
+
+    (r,) = simulate_seeks([(50.0, 40)], horizon=200)
+    u = fsc_input(svm_head_plant(), SVM_TS, 40, 50.0, model="rigid-body").u
+    sd = svm_head_plant().discretize(SVM_TS)
+    x0 = np.zeros(6)
+    x0[0] = -50.0
+    resp = control.forced_response(sd, U=np.r_[u, np.zeros(200)], X0=x0)
+    np.testing.assert_allclose(r.output[:240], resp.outputs[:240], atol=1e-9)
+    # FSC on the rigid body: position and velocity of the rigid body exactly on target
+    assert abs(r.states[40, 0]) < 1e-9 and abs(r.states[40, 1]) < 1e-6
+
+
+@settings(max_examples=10, deadline=None)
+@given(st.floats(1.0, 1000.0), st.integers(20, 80))
+def test_seek_is_linear_in_distance(distance, n):
+    (a,), (b,) = simulate_seeks([(distance, n)], horizon=50), simulate_seeks([(1.0, n)], horizon=50)
+    np.testing.assert_allclose(a.states, distance * b.states, rtol=1e-9, atol=1e-9 * distance)
+
+
+def test_settled_index_and_labels():
+    y = np.array([1.0, 0.01, 0.05, 0.0, 0.02, -0.01, 0.0])
+    assert settled_index(y, 0.03) == 3
+    with pytest.raises(ServokitError, match="horizon"):
+        settled_index(np.array([0.0, 1.0]), 0.03)
+    r = SeekResponse(1.0, 0, np.arange(7.0)[:, None] * np.ones((1, 2)), y)
+    ts = training_set([r], bound=0.03, n_after=2)
+    np.testing.assert_array_equal(ts.X[:, 0], [1, 3, 4, 5])  # in-bound samples up to N0 + 2
+    np.testing.assert_array_equal(ts.labels, [1, 2, 2, 2])
+
+
+@settings(max_examples=60, deadline=None)
+@given(st.lists(st.floats(-0.1, 0.1), min_size=1, max_size=40), st.integers(1, 6))
+def test_conventional_rule_matches_brute_force(y, n):
+    y = np.array(y)
+    expect = -1
+    for k in range(n - 1, len(y)):
+        if np.all(np.abs(y[k - n + 1 : k + 1]) <= 0.03):
+            expect = k
+            break
+    assert conventional_judgement(y, 0.03, n) == expect
+
+
+def _toy_judge():
+    rng = np.random.default_rng(0)
+    X = rng.uniform(-1, 1, (400, 2))
+    labels = np.where(np.hypot(X[:, 0], X[:, 1]) < 0.6, 2, 1)  # inside the circle: settled
+    return SettlingJudge(C=100.0, coef0=1.0).fit(X, labels), X, labels
+
+
+def test_judge_sign_convention_and_decision():
+    judge, X, labels = _toy_judge()
+    f = judge.decision_function(np.array([[0.0, 0.0], [0.95, 0.95]]))
+    assert f[0] < 0 < f[1]  # settled (class 2) negative, as the book's -0.8 level implies
+    assert np.mean((judge.decision_function(X) < 0) == (labels == 2)) > 0.97
+    states = np.array([[0.9, 0.9], [0.5, 0.3], [0.1, 0.0], [0.0, 0.0]])
+    output = np.array([0.0, 0.5, 0.0, 0.0])  # sample 1 outside the bound
+    assert judge.judge(states, output) == 2
+    assert judge.judge(states, output, start=3) == 3
+    assert judge.judge(states, np.ones(4)) == -1
+
+
+def test_judge_save_load_roundtrip_and_refusal(tmp_path):
+    from fractions import Fraction
+
+    import skops.io as sio
+    from sklearn.linear_model import LogisticRegression
+
+    judge, X, _ = _toy_judge()
+    path = judge.save(tmp_path / "judge.skops")
+    back = SettlingJudge.load(path)
+    np.testing.assert_array_equal(back.decision_function(X), judge.decision_function(X))
+    assert (back.C, back.coef0, back.bound) == (judge.C, judge.coef0, judge.bound)
+    bad = tmp_path / "bad.skops"
+    sio.dump({"pipeline": LogisticRegression(), "settings": {}}, bad)
+    with pytest.raises(ServokitError, match="not a servokit settling-judge"):
+        SettlingJudge.load(bad)
+    sio.dump({"pipeline": Fraction(1, 3)}, bad)
+    with pytest.raises(ServokitError, match="untrusted"):
+        SettlingJudge.load(bad)
+    with pytest.raises(ServokitError, match="does not exist"):
+        SettlingJudge.load(tmp_path / "none.skops")
+    with pytest.raises(ServokitError, match="not fitted"):
+        SettlingJudge().decision_function(X)
+
+
+def test_evaluate_counts_failures():
+    judge, _, _ = _toy_judge()
+    y = np.array([0.5, 0.0, 0.5, 0.5, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0])  # N0 = 4
+    far, near = np.array([0.9, 0.9]), np.zeros(2)
+    states = np.array([far, near, far, far, far, near, near, near, near, near])
+    r = SeekResponse(1.0, 0, states, y)
+    conv, svm = evaluate_judgements([r], judge, levels=(0.0,), n_in_row=2)
+    assert conv.delays.tolist() == [5 - 4]  # inside at 4 and 5
+    assert svm.delays.tolist() == [1 - 4] and svm.failures == 1  # near state at sample 1
+
+
+def test_grids():
+    assert len(training_seeks()) == 180
+    seeks = validation_seeks()
+    d = np.array([s[0] for s in seeks])
+    n = np.array([s[1] for s in seeks])
+    assert len(seeks) == 100 and d.min() >= 5 and d.max() <= 1000
+    assert n.min() >= 20 and n.max() <= 135
+    assert validation_seeks(seed=3) == validation_seeks(seed=3)
+
+
+@pytest.mark.slow
+def test_svm_beats_conventional_rule():
+    data = training_set(simulate_seeks(training_seeks()))
+    judge = SettlingJudge(C=10.0, coef0=0.5).fit(data.X, data.labels)
+    conv, svm0, svm8 = evaluate_judgements(simulate_seeks(validation_seeks()), judge)
+    assert svm0.failures <= conv.failures and svm0.mean_delay < conv.mean_delay
+    assert svm8.failures < svm0.failures
