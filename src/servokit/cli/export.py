@@ -147,6 +147,36 @@ def controller_cmd(
 
 
 @export_app.command(
+    "ivc",
+    epilog=example("servokit export ivc --method pole-zero --precision q15 --format c"),
+)
+def ivc_cmd(
+    method: str = typer.Option(
+        "pole-zero", "--method", help="pole-zero (§3.3.2 loop) or jmin (§3.3.1 loop)"
+    ),
+    velocity_weight: float = typer.Option(
+        1.55e-7, "--velocity-weight", help="J-min weight q_v on the velocity [s^2] (jmin)"
+    ),
+    fmt: FormatOpt = "c",
+    precision: PrecisionOpt = "float",
+    out: OutOpt = Path("firmware"),
+    name: NameOpt = "ivc",
+    json_out: JsonOpt = False,
+) -> None:
+    """IVC gain matrix K of a chapter 3 book loop: load xc[0] = K xp[0] at the switch.
+
+    JSON keys: files, precision, tables (table, shape, scale, error_bound, max_error).
+    """
+    from servokit.export import FirmwareTable
+    from servokit.export.designs import book_ivc_gain
+
+    out = _check_common(out, name, fmt, precision)
+    K, desc = book_ivc_gain(method, velocity_weight)
+    tables = [FirmwareTable("K", K, f"xc[0] = K xp[0]: {desc}")]
+    _finish(tables, out, name, fmt, precision, None, desc, json_out)
+
+
+@export_app.command(
     "table",
     epilog=example("servokit export table --input gains.json --precision q15 --format c"),
 )
