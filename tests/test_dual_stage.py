@@ -160,3 +160,21 @@ def test_bad_input() -> None:
         loop_margins(FREQ, np.full(FREQ.size, 0.1 + 0j))
     with pytest.raises(ServokitValueError, match="NaN"):
         loop_margins(FREQ, np.full(FREQ.size, np.nan + 0j))
+
+
+@settings(max_examples=40, deadline=None)
+@given(st.floats(50.0, 5e3), st.floats(1e-6, 1e-4))
+def test_loop_margins_integrator_with_delay_closed_form(fc: float, tau: float) -> None:
+    # L = wc/s e^{-s tau}: crossover fc, PM = 90 deg - wc tau, phase crossover where
+    # w tau = pi/2, GM = 20 log10(w180 / wc)
+    wc = 2 * np.pi * fc
+    w180 = np.pi / (2 * tau)
+    if w180 < 3 * wc or w180 > 2 * np.pi * 5e5:
+        return
+    f = np.geomspace(1.0, 1e6, 60000)
+    s = 2j * np.pi * f
+    m = loop_margins(f, wc / s * np.exp(-s * tau))
+    assert m.gain_crossover_hz == pytest.approx(fc, rel=1e-6)
+    assert m.phase_margin_deg == pytest.approx(90 - np.degrees(wc * tau), abs=1e-3)
+    assert m.phase_crossover_hz == pytest.approx(w180 / (2 * np.pi), rel=1e-4)
+    assert m.gain_margin_db == pytest.approx(20 * np.log10(w180 / wc), abs=1e-3)

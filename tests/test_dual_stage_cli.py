@@ -23,9 +23,11 @@ def test_json_row_equals_library(tmp_path) -> None:
     res = runner.invoke(app, ["dual-stage", "--method", "inverse", "--json", "--plot", str(png)])
     assert res.exit_code == 0, res.output
     data = json.loads(res.stdout)
-    row = evaluate_design("inverse", fitted_unknowns("inverse")).as_dict()
-    assert math.isnan(row.pop("second_phase_margin_deg"))  # no second crossover
-    assert data["row"].pop("second_phase_margin_deg") is None  # JSON null, never NaN
+    row = evaluate_design("inverse", fitted_unknowns("inverse"), refine=True).as_dict()
+    # no second crossover, no peak filter: NaN in Python, null in JSON (never NaN)
+    for key in ("second_phase_margin_deg", "phi_vcm_deg", "phi_pzt_deg"):
+        assert math.isnan(row.pop(key))
+        assert data["row"].pop(key) is None
     assert data["row"] == pytest.approx(row)
     assert data["book"]["handoff_hz"] == 371.0
     assert png.stat().st_size > 10_000
@@ -88,3 +90,17 @@ def test_case_rows_and_figures(tmp_path) -> None:
     assert by_name["order of CM (phase stabilisation)"].ok
     inverse = [c for c in res.comparisons if "inverse" in c.quantity]
     assert all(c.ok for c in inverse), [c for c in inverse if not c.ok]
+
+
+@pytest.mark.slow
+def test_fit_flag_runs_a_short_search() -> None:
+    from servokit.cases.dual_stage import FITTED
+
+    res = runner.invoke(
+        app, ["dual-stage", "--method", "gain", "--fit", "--maxiter", "2", "--json"]
+    )
+    assert res.exit_code == 0, res.output
+    unknowns = json.loads(res.stdout)["unknowns"]
+    # delays held at the inverse column's values, notch unknowns searched within bounds
+    assert unknowns["delay_vcm_s"] == FITTED["gain"]["delay_vcm_s"]
+    assert 0.1 <= unknowns["notch_damping"] <= 1.5 and 1.0 <= unknowns["notch_freq_ratio"] <= 1.5

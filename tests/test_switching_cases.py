@@ -127,3 +127,13 @@ def test_pmr_case_ivc_lowers_peak_and_jump(tmp_path):
     res = switching_pmr_case(tmp_path)
     assert all(c.ok for c in res.comparisons)
     assert res.extra["stats"]["without IVC"]["max_jerk"] == pytest.approx(20.0)  # u drops to 0
+
+
+@pytest.mark.slow
+def test_acoustic_case_sets(tmp_path):
+    from servokit.cases.switching_acoustic import switching_acoustic_case
+
+    res = switching_acoustic_case(tmp_path)
+    assert all(c.ok for c in res.comparisons)
+    areas = res.extra["area_settling_track_mm_s"]
+    assert max(areas.values()) < min(res.extra["area_current_track_mm_s"].values())

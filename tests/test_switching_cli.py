@@ -56,6 +56,24 @@ def test_admissible_set_json_classifies():
     assert len(out["polygon_ivc"]) >= 3
 
 
+def test_cost_map_json_optimum_beats_the_grid():
+    out = run_json("cost-map", "--n-points", "21", "--vel-range", "0:60000")
+    from servokit.switching import switching_cost_matrix
+
+    ctrl_loop = _admissible_loop()
+    K = ivc_jmin(ctrl_loop, None, output_weight=ctrl_loop.Cu)
+    M = switching_cost_matrix(ctrl_loop, K, ctrl_loop.Cu)
+    best = np.array(out["optimal_state"])
+    assert best[0] == -60.0
+    assert best @ M @ best <= min(out["ju"][0]) * (1 + 1e-9)
+
+
+def _admissible_loop():
+    from servokit.cases.switching_admissible import admissible_loop
+
+    return admissible_loop()
+
+
 @pytest.mark.parametrize(
     ("args", "flag"),
     [
@@ -64,6 +82,10 @@ def test_admissible_set_json_classifies():
         (["ivc", "--method", "pole-zero"], "--poles"),
         (["admissible-set", "--condition", "3"], "--condition"),
         (["ivc", "--plot", "/tmp"], "--plot"),
+        (["cost-map", "--vel-range", "3"], "--vel-range"),
+        (["cost-map", "--ivc", "foo"], "--ivc"),
+        (["ivc", "--method", "input", "--order", "40"], "--order"),
+        (["ivc", "--method", "input", "--pole", "1.5"], "--pole"),
     ],
 )
 def test_bad_input_one_line_exit_2(args, flag, monkeypatch, capsys):

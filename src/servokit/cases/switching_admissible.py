@@ -46,7 +46,13 @@ CROSSOVER_HZ = 500.0  # assumed
 
 
 def admissible_loop() -> SwitchedLoop:
-    """HDD benchmark plant with a 500 Hz lead-lag (assumed design)."""
+    """HDD benchmark plant with a 500 Hz lead-lag (assumed design).
+
+    Returns
+    -------
+    SwitchedLoop
+        The closed loop of (3.17) (plant and controller matrices).
+    """
     plant = hdd_benchmark().discretize(HDD_BENCHMARK_TS)
     return switched_loop(plant, lead_lag(plant, CROSSOVER_HZ))
 
@@ -78,7 +84,18 @@ def _scaled(s: AdmissibleSet, bound: float) -> AdmissibleSet:
 
 @register("switching-admissible", order=110)
 def switching_admissible_case(outdir: Path) -> CaseResult:
-    """Table 3.1's switching conditions against O_inf with IVC and with zero reset."""
+    """Table 3.1's switching conditions against O_inf with IVC and with zero reset.
+
+    Parameters
+    ----------
+    outdir : Path
+        Directory the figures are written to.
+
+    Returns
+    -------
+    CaseResult
+        Book-vs-servokit rows, figure paths and extra numbers (runtime included).
+    """
     start = time.perf_counter()
     loop = admissible_loop()
     K = ivc_jmin(loop, None, output_weight=loop.Cu)
@@ -138,6 +155,7 @@ def switching_admissible_case(outdir: Path) -> CaseResult:
             limits=((-80.0, 20.0), (-20.0, 60.0)),
         ),
         *_transients(loop, K, gain, outdir),
+        _seek_figure(loop, K, gain, outdir),
     ]
     extra = {
         "t_star": t_star,
@@ -180,3 +198,37 @@ def _transients(loop: SwitchedLoop, K: np.ndarray, gain: float, outdir: Path) ->
             )
         )
     return paths
+
+
+def _seek_figure(loop: SwitchedLoop, K: np.ndarray, gain: float, outdir: Path) -> Path:
+    """Fig. 3.19 (simulated): bang-bang seek at |u| = 0.02 A (fitted gain) handing over at
+    condition 2 (16 tracks before the target, 10 mm/s), with IVC and with zero reset."""
+    from servokit.switching import mode_switching_response
+
+    accel = U_MAX * gain * hdd_benchmark().gain  # track/s^2 at the fitted plant gain
+    v_sw = TABLE_3_1[1][1] * 1e-3 / TRACK_PITCH  # track/s
+    d_sw = -TABLE_3_1[1][0]  # tracks before the target at the switch
+    d_total = 1000.0  # tracks (assumed seek length)
+    # rigid-body kinematics: accelerate, then decelerate down to v_sw at d_sw
+    v_peak = np.sqrt(accel * (d_total - d_sw) + 0.5 * v_sw**2)
+    n_acc = int(round(v_peak / accel / loop.dt))
+    n_dec = int(round((v_peak - v_sw) / accel / loop.dt))
+    seek = np.concatenate([np.full(n_acc, U_MAX * gain), np.full(n_dec + 200, -U_MAX * gain)])
+    n = n_acc + n_dec + 300
+    t = None
+    curves_y, curves_u = {}, {}
+    for label, gainK in (("IVC", K), ("zero reset", None)):
+        res = mode_switching_response(
+            loop, seek, d_total, lambda xp, k: float(loop.Cp[0] @ xp) >= d_total - d_sw, gainK, n
+        )
+        t = res.t * 1e3
+        curves_y[label] = res.y - d_total
+        curves_u[label] = res.u / gain
+    return transient_plot(
+        t,
+        [("position error", curves_y), (f"current (plant gain x {gain:.3g})", curves_u)],
+        xlabel="Time [ms]",
+        ylabel=("Position error [track]", "Current [A]"),
+        title="Fig. 3.19 (simulated): seek, then switch at condition 2",
+        path=outdir / "fig3_19_seek_and_settle.png",
+    )

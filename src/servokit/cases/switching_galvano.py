@@ -48,7 +48,13 @@ SETTLE_S = 0.9e-3  # scatter read after the book's settling time
 
 
 def galvano_loop() -> SwitchedLoop:
-    """Galvano plant at 20 us with an I-PD of 600 Hz bandwidth and notches at both modes."""
+    """Galvano plant at 20 us with an I-PD of 600 Hz bandwidth and notches at both modes.
+
+    Returns
+    -------
+    SwitchedLoop
+        The closed loop of (3.17) (plant and controller matrices).
+    """
     plant = galvano_scanner().replace(gain=3000.0).discretize(DT)
     notches = notch(DT, 3020.0, 0.02, 0.3) * notch(DT, 6240.0, 0.02, 0.3)
     fb, Bcr, Dcr = ipd_controller(
@@ -72,7 +78,18 @@ def _scatter(loop: SwitchedLoop, n_int: int, design, states) -> tuple[float, np.
 
 @register("switching-galvano", order=130)
 def switching_galvano_case(outdir: Path) -> CaseResult:
-    """Repetitive 1.5 mm positioning with and without r' IVC at each reference switch."""
+    """Repetitive 1.5 mm positioning with and without r' IVC at each reference switch.
+
+    Parameters
+    ----------
+    outdir : Path
+        Directory the figures are written to.
+
+    Returns
+    -------
+    CaseResult
+        Book-vs-servokit rows, figure paths and extra numbers (runtime included).
+    """
     start = time.perf_counter()
     loop = galvano_loop()
     g = loop.n + loop.m - 1

@@ -47,7 +47,13 @@ DT = 10e-6  # s, assumed
 
 
 def focus_loop() -> SwitchedLoop:
-    """The designed focus loop in the controller coordinates where alpha is the IVC gain."""
+    """The designed focus loop in the controller coordinates where alpha is the IVC gain.
+
+    Returns
+    -------
+    SwitchedLoop
+        The closed loop of (3.17) (plant and controller matrices).
+    """
     w0, zeta, g = 2 * np.pi * 40.0, 0.1, 1.0
     a = np.array([[0.0, 1.0], [-(w0**2), -2 * zeta * w0]])
     plant = control.c2d(control.ss(a, [[0.0], [g]], [[1.0, 0.0]], 0), DT, "zoh")
@@ -62,7 +68,18 @@ def focus_loop() -> SwitchedLoop:
 
 @register("switching-optical", order=120)
 def switching_optical_case(outdir: Path) -> CaseResult:
-    """alpha of (3.104) on a focus loop designed for it: zeros at the assigned poles."""
+    """alpha of (3.104) on a focus loop designed for it: zeros at the assigned poles.
+
+    Parameters
+    ----------
+    outdir : Path
+        Directory the figures are written to.
+
+    Returns
+    -------
+    CaseResult
+        Book-vs-servokit rows, figure paths and extra numbers (runtime included).
+    """
     start = time.perf_counter()
     loop = focus_loop()
     K = ivc_pole_zero(loop, None, [float(p) for p in POLES_TEXT])

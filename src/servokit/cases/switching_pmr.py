@@ -46,7 +46,13 @@ def _plant() -> control.StateSpace:
 
 
 def pmr_loop() -> SwitchedLoop:
-    """Observer-based LQ controller with integral action on theta' - eta' (assumed)."""
+    """Observer-based LQ controller with integral action on theta' - eta' (assumed).
+
+    Returns
+    -------
+    SwitchedLoop
+        The closed loop of (3.17) (plant and controller matrices).
+    """
     P = _plant()
     A, B, C = (np.asarray(M, dtype=float) for M in (P.A, P.B, P.C))
     e3 = np.array([[0.0, 0.0, 1.0]])
@@ -75,7 +81,18 @@ def _run(loop: SwitchedLoop, xc0: np.ndarray, xp0: np.ndarray, r: np.ndarray, n:
 
 @register("switching-pmr", order=125)
 def switching_pmr_case(outdir: Path) -> CaseResult:
-    """Transients after the mode switch with and without IVC (cf. Fig. 3.30)."""
+    """Transients after the mode switch with and without IVC (cf. Fig. 3.30).
+
+    Parameters
+    ----------
+    outdir : Path
+        Directory the figures are written to.
+
+    Returns
+    -------
+    CaseResult
+        Book-vs-servokit rows, figure paths and extra numbers (runtime included).
+    """
     start = time.perf_counter()
     loop = pmr_loop()
     r = np.array([0.0, 0.0, V_TARGET / RW])

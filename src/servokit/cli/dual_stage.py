@@ -58,10 +58,15 @@ def _unknowns(method: str, overrides: dict[str, float | None]):
 
 
 def _fit(method: str, start, maxiter: int):
+    """Search the unknowns the reproduce case searched (FIT_FREE), the others held."""
+    from servokit.cases.dual_stage import FIT_FREE
     from servokit.feedback.dual_stage_design import fit_unknowns
 
-    with progress(1, f"searching the unknowns of the {method} design"):
-        return fit_unknowns(method, start=start, maxiter=maxiter).unknowns
+    with progress(maxiter, f"searching the unknowns of the {method} design") as advance:
+        res = fit_unknowns(
+            method, free=FIT_FREE[method], start=start, maxiter=maxiter, on_generation=advance
+        )
+    return res.unknowns
 
 
 def _print_row(row, book: dict[str, str], u, structure: str) -> None:
@@ -137,7 +142,11 @@ def dual_stage_cmd(
     ] = None,
     fit: Annotated[
         bool,
-        typer.Option("--fit", help="search the unknowns again (differential evolution, ~1 min)"),
+        typer.Option(
+            "--fit",
+            help="search the unknowns again (differential evolution, ~1 min); the plant "
+            "delays are searched with --method inverse and held otherwise",
+        ),
     ] = False,
     maxiter: Annotated[
         int, typer.Option("--maxiter", help="generations of the --fit search [count]")
@@ -178,7 +187,7 @@ def dual_stage_cmd(
     )
     if fit:
         u = _fit(method, u, maxiter)
-    row = evaluate_design(method, u, DEFAULT_GRID_HZ, structure)
+    row = evaluate_design(method, u, DEFAULT_GRID_HZ, structure, refine=True)
     if target is not None:
         from servokit.cases.dual_stage import bode_figure
 

@@ -114,6 +114,15 @@ def ivc_cmd(
         str, typer.Option("--poles", help="pole-zero: closed-loop poles to cancel, comma list")
     ] = "",
     pole: Annotated[float, typer.Option("--pole", help="input: assigned pole of d[z] [1]")] = 0.6,
+    order: Annotated[
+        int | None, typer.Option("--order", help="input: degree g of n_k (default n + m - 1)")
+    ] = None,
+    input_weight: Annotated[
+        float, typer.Option("--input-weight", help="input, g > n+m-1: weight q1 of |u|^2 (3.61)")
+    ] = 0.0,
+    jerk_weight: Annotated[
+        float, typer.Option("--jerk-weight", help="input, g > n+m-1: weight q2 of |du|^2 (3.61)")
+    ] = 0.0,
     n_samples: Annotated[
         int, typer.Option("--n-samples", help="samples of the plotted transient", min=2)
     ] = 200,
@@ -142,7 +151,16 @@ def ivc_cmd(
         "closed_loop_poles": _poles_json(loop.poles()),
     }
     if method == "input":
-        design = ivc_additional_input(loop, pole)
+        if not abs(pole) < 1:
+            raise ServokitValueError(f"--pole must lie inside the unit circle (got {pole})")
+        unweighted = input_weight <= 0 and jerk_weight <= 0
+        if order is not None and order > loop.n + loop.m - 1 and unweighted:
+            raise ServokitValueError(
+                "--order above n + m - 1 needs --input-weight or --jerk-weight"
+            )
+        design = ivc_additional_input(
+            loop, pole, order=order, input_weight=input_weight, jerk_weight=jerk_weight
+        )
         out |= {"numerators": design.num, "denominator": design.den}
         K = None
     else:
@@ -297,3 +315,82 @@ def _parse_condition(text: str) -> np.ndarray:
     if not (np.isfinite(pos) and np.isfinite(vel)):
         raise ServokitValueError(f"--condition must be finite (got {text!r})")
     return np.array([pos, vel])
+
+
+@switching_app.command(
+    "cost-map",
+    epilog=example(
+        "servokit switching cost-map --plant hdd-benchmark --controller lead-lag --freq 500 "
+        "--dt 3.7879e-5 --position -60 --vel-range -1e5:1e5 --acc-range -1e9:1e9 --json"
+    ),
+)
+def cost_map_cmd(
+    plant: PlantOpt = "hdd-benchmark",
+    controller: ControllerOpt = "lead-lag",
+    freq: FreqOpt = 500.0,
+    dt: DtOpt = 60.0 / 7200.0 / 220.0,
+    position: Annotated[
+        float, typer.Option("--position", help="plant state 1 at the switch [output unit]")
+    ] = -60.0,
+    vel_range: Annotated[
+        str, typer.Option("--vel-range", help="LOW:HIGH of plant state 2 [output unit/s]")
+    ] = "-1e5:1e5",
+    acc_range: Annotated[
+        str, typer.Option("--acc-range", help="LOW:HIGH of plant state 3 (0:0 for none)")
+    ] = "0:0",
+    n_points: Annotated[int, typer.Option("--n-points", help="grid points per axis", min=2)] = 41,
+    ivc: Annotated[str, typer.Option("--ivc", help="jmin (J = sum u^2) or none")] = "jmin",
+    max_memory_mb: MaxMemoryOpt = 2000.0,
+    json_out: JsonOpt = False,
+) -> None:
+    """Squared H2 norms of the input and output after the switch over initial states
+    (book §3.3.3, (3.65)-(3.81), Fig. 3.13) and the best free states for --position (3.81).
+
+    JSON keys: velocity, acceleration (grid), ju, jy (maps, rows over acceleration),
+    optimal_state (plant states minimising Ju with state 1 fixed).
+    """
+    from servokit.switching import (
+        ivc_jmin,
+        optimal_condition,
+        switching_cost_map,
+        switching_cost_matrix,
+    )
+
+    if ivc not in ("jmin", "none"):
+        raise ServokitValueError(f"--ivc must be jmin or none (got {ivc!r})")
+    vel = _parse_range("--vel-range", vel_range)
+    acc = _parse_range("--acc-range", acc_range)
+    check_memory(8.0 * 4 * n_points**2, what=f"--n-points {n_points}", max_memory_mb=max_memory_mb)
+    loop = _build_loop(plant, controller, freq, dt)
+    K = ivc_jmin(loop, None, output_weight=loop.Cu) if ivc == "jmin" else None
+    base = np.zeros(loop.n)
+    base[0] = position
+    with_acc = acc[0] != acc[1]
+    if with_acc and loop.n < 3:
+        raise ServokitValueError("--acc-range needs a plant with a third state; use 0:0")
+    v = np.linspace(*vel, n_points)
+    # without acceleration the second axis is state 1 held at --position (one map row)
+    a = np.linspace(*acc, n_points) if with_acc else np.zeros(1)
+    axes, second = ((1, 2), a) if with_acc else ((1, 0), np.array([position]))
+    cmap = switching_cost_map(loop, K, base, axes, v, second)
+    M = switching_cost_matrix(loop, K, loop.Cu)
+    free = [1, 2] if with_acc else [1]
+    best = optimal_condition(M, base, free)
+    out = {"velocity": v, "acceleration": a, "ju": cmap.ju, "jy": cmap.jy, "optimal_state": best}
+    if json_out:
+        emit_json(out)
+        return
+    console.print(
+        f"min Ju on the grid {np.min(cmap.ju):.4g}; best free states for "
+        f"position {position:g}: {np.array2string(best[free], precision=5)}"
+    )
+
+
+def _parse_range(flag: str, text: str) -> tuple[float, float]:
+    try:
+        lo, hi = (float(v) for v in text.split(":"))
+    except ValueError:
+        raise ServokitValueError(f"{flag} must be LOW:HIGH, e.g. -1e5:1e5 (got {text!r})") from None
+    if not (np.isfinite(lo) and np.isfinite(hi)) or lo > hi:
+        raise ServokitValueError(f"{flag} needs finite LOW <= HIGH (got {text!r})")
+    return lo, hi

@@ -150,6 +150,11 @@ def ivc_additional_input(
         q1, q2 of (3.61) for the optimised form (g >= n + m).
     n_samples : int
         Horizon N of the optimised form.
+
+    Returns
+    -------
+    AdditionalInputIvc
+        Numerators n_k (one row per closed-loop state) and the common d[z].
     """
     pole = float(check_finite("pole", pole))
     if not abs(pole) < 1:
@@ -209,6 +214,22 @@ def additional_input_response(
     """Brute-force simulation of the free loop with ``xc[0] = 0`` and ``r'`` applied.
 
     Returns ``(y, u, r')`` over ``n_samples`` samples.
+
+    Parameters
+    ----------
+    loop : SwitchedLoop
+        The closed loop of (3.17).
+    design : AdditionalInputIvc
+        The compensators n_k/d.
+    xp0 : ndarray, shape (n,)
+        Plant state at the switch (the controller state is zero).
+    n_samples : int
+        Number of samples simulated.
+
+    Returns
+    -------
+    y, u, r_add : ndarray, shape (n_samples,)
+        Output, control input and the additional input r'.
     """
     xp0 = np.asarray(xp0, dtype=float)
     rp = sum(xp0[k] * design.impulse(k, n_samples) for k in range(loop.n))

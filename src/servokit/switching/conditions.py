@@ -33,6 +33,20 @@ def switching_cost_matrix(loop: SwitchedLoop, K: np.ndarray | None, Cz: np.ndarr
     """``M`` with ``sum_k |Cz A^k [I; K] xp|^2 = xp^T M xp`` ((3.77)-(3.80)).
 
     ``K = None`` is the zero reset (``xc[0] = 0``).
+
+    Parameters
+    ----------
+    loop : SwitchedLoop
+        The closed loop of (3.17).
+    K : ndarray or None
+        IVC gain (m x n); None for the zero reset.
+    Cz : ndarray, shape (q, n + m)
+        Signal whose squared H2 norm is taken (``loop.Cu`` or ``loop.C``).
+
+    Returns
+    -------
+    ndarray, shape (n, n)
+        Symmetric ``M`` of the quadratic form in xp[0].
     """
     A = loop.A
     if np.max(np.abs(np.linalg.eigvals(A))) >= 1:
@@ -78,6 +92,11 @@ def switching_cost_map(
         Plant-state indices on the x and y axes (e.g. velocity, acceleration).
     x_values, y_values : sequence of float
         Grid values of those states.
+
+    Returns
+    -------
+    SwitchingCostMap
+        The grid values and the maps of Ju and Jy.
     """
     base = check_finite("base", base).ravel()
     if base.size != loop.n:
@@ -95,7 +114,22 @@ def switching_cost_map(
 
 
 def optimal_condition(M: np.ndarray, base: Sequence[float], free: Sequence[int]) -> np.ndarray:
-    """Plant state minimising ``xp^T M xp`` over the states ``free``, the others fixed (3.81)."""
+    """Plant state minimising ``xp^T M xp`` over the states ``free``, the others fixed (3.81).
+
+    Parameters
+    ----------
+    M : ndarray, shape (n, n)
+        Quadratic form of the cost, e.g. from :func:`switching_cost_matrix`.
+    base : sequence of float
+        Plant state; the entries not in ``free`` stay fixed.
+    free : sequence of int
+        Indices of the states to optimise (e.g. velocity and acceleration).
+
+    Returns
+    -------
+    ndarray, shape (n,)
+        ``base`` with the free states replaced by the minimiser.
+    """
     x = check_finite("base", base).ravel().copy()
     free = list(free)
     fixed = [k for k in range(len(x)) if k not in free]

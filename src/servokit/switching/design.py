@@ -41,6 +41,11 @@ def pade_double_integrator(dt: float, delay: float, gain: float = 1.0) -> contro
         Delay Td approximated by Padé [s] (> 0).
     gain : float
         Acceleration per unit input (e.g. [m/s^2/A]).
+
+    Returns
+    -------
+    control.StateSpace
+        Discrete plant with states [position, velocity, Padé state].
     """
     dt = check_positive("dt", dt, "s")
     td = check_positive("delay", delay, "s")
@@ -55,6 +60,16 @@ def fit_delay_ratio(zeros: Sequence[float]) -> float:
 
     Fits in the bilinear coordinate ``(z - 1) / (z + 1)`` so a large zero (e.g. -56.79)
     and a small one weigh alike.
+
+    Parameters
+    ----------
+    zeros : sequence of float
+        The two discrete zeros of the plant (e.g. -56.79, -0.235).
+
+    Returns
+    -------
+    float
+        The fitted Td/dt.
     """
     target = np.sort(np.asarray(zeros, dtype=float))
     if target.size != 2:
@@ -80,6 +95,22 @@ def place_controller(
     ``Dp Dc + Np Nc`` (monic). ``Dc = F Dc'`` with the ``fixed_poles`` in F (e.g. an
     integrator at z = 1). Needs ``len(poles) == n + order`` and a unique solution
     (``order = n - 1 + len(fixed_poles)`` for coprime Np, Dp).
+
+    Parameters
+    ----------
+    plant_d : control.StateSpace
+        Discrete SISO plant.
+    poles : sequence of complex
+        The n + order closed-loop poles (conjugate pairs complete).
+    order : int
+        Controller order.
+    fixed_poles : sequence of complex
+        Controller poles imposed (e.g. an integrator at 1).
+
+    Returns
+    -------
+    control.TransferFunction
+        The controller Nc/Dc.
     """
     tf = control.ss2tf(plant_d)
     dp = np.asarray(tf.den[0][0], dtype=float)
@@ -119,6 +150,22 @@ def lead_lag(
     r = 3); lag: zero at fc/5, pole at fc/50 (integral-like gain at low frequency).
     Discretised by Tustin at the plant's dt; the gain puts ``|P C| = 1`` at fc with the
     exact discrete ``P``.
+
+    Parameters
+    ----------
+    plant_d : control.StateSpace
+        Discrete plant (sets dt and the gain normalisation).
+    crossover_hz : float
+        Gain crossover [Hz].
+    lead_ratio : float
+        Ratio r of the lead pole and zero to the crossover.
+    lag : bool
+        Include the lag pair (fc/5, fc/50).
+
+    Returns
+    -------
+    control.TransferFunction
+        The discrete controller.
     """
     fc = check_positive("crossover_hz", crossover_hz, "Hz")
     dt = float(plant_d.dt)
@@ -141,7 +188,22 @@ def lead_lag(
 def notch(
     dt: float, freq_hz: float, zeta_zero: float, zeta_pole: float
 ) -> control.TransferFunction:
-    """Discrete notch ``(s^2 + 2 zz w s + w^2)/(s^2 + 2 zp w s + w^2)`` (Tustin, prewarped)."""
+    """Discrete notch ``(s^2 + 2 zz w s + w^2)/(s^2 + 2 zp w s + w^2)`` (Tustin, prewarped).
+
+    Parameters
+    ----------
+    dt : float
+        Sampling period [s].
+    freq_hz : float
+        Notch frequency [Hz].
+    zeta_zero, zeta_pole : float
+        Damping of the zeros (depth) and of the poles (width).
+
+    Returns
+    -------
+    control.TransferFunction
+        The discrete notch (unit gain away from freq_hz).
+    """
     w = 2 * np.pi * check_positive("freq_hz", freq_hz, "Hz")
     s = control.tf("s")
     cont = (s**2 + 2 * zeta_zero * w * s + w**2) / (s**2 + 2 * zeta_pole * w * s + w**2)

@@ -93,7 +93,20 @@ def _weight(loop: SwitchedLoop, Q: object | None, output_weight: object | None) 
 
 
 def lyapunov_cost(loop: SwitchedLoop, Qm: np.ndarray) -> np.ndarray:
-    """P of (3.19)-(3.20): ``sum_k x[k]^T Q x[k] = x[0]^T P x[0]`` for the free loop."""
+    """P of (3.19)-(3.20): ``sum_k x[k]^T Q x[k] = x[0]^T P x[0]`` for the free loop.
+
+    Parameters
+    ----------
+    loop : SwitchedLoop
+        The closed loop of (3.17).
+    Qm : ndarray, shape (n + m, n + m)
+        Symmetric semidefinite weight.
+
+    Returns
+    -------
+    ndarray
+        ``P`` of (3.20).
+    """
     _require_schur(loop.A)
     return weighted_gramian(loop.A, Qm)
 
@@ -129,7 +142,22 @@ def ivc_jmin(
 
 
 def jmin_cost(loop: SwitchedLoop, Q: object, xp0: np.ndarray, xc0: np.ndarray) -> float:
-    """The cost (3.19) ``x[0]^T P x[0]`` of one initial state (for checks and reports)."""
+    """The cost (3.19) ``x[0]^T P x[0]`` of one initial state (for checks and reports).
+
+    Parameters
+    ----------
+    loop : SwitchedLoop
+        The closed loop of (3.17).
+    Q : array_like
+        State weight on [xp; xc].
+    xp0, xc0 : ndarray
+        Plant and controller states at the switch.
+
+    Returns
+    -------
+    float
+        ``J = x[0]^T P x[0]``.
+    """
     P = lyapunov_cost(loop, _weight(loop, Q, None))
     x0 = np.concatenate([np.ravel(xp0), np.ravel(xc0)])
     return float(x0 @ P @ x0)
@@ -140,6 +168,20 @@ def match_poles(poles: Sequence[complex], eig: np.ndarray, *, rel_tol: float = 0
 
     One index per conjugate pair (its upper member); a pole farther than ``rel_tol``
     (relative to ``max(1, |pole|)``) from every eigenvalue is refused.
+
+    Parameters
+    ----------
+    poles : sequence of complex
+        Requested poles.
+    eig : ndarray
+        Closed-loop eigenvalues.
+    rel_tol : float
+        Largest distance accepted, relative to ``max(1, |pole|)``.
+
+    Returns
+    -------
+    list of int
+        Indices into ``eig``, without repeats.
     """
     chosen: list[int] = []
     for p in np.atleast_1d(np.asarray(poles, dtype=complex)):
@@ -204,14 +246,44 @@ def ivc_pole_zero(
 
 def ivc_transfer(loop: SwitchedLoop, K: np.ndarray | None, state: int) -> control.StateSpace:
     """``C (zI - A)^{-1} [I; K] e_state``: the initial-state-to-output transfer (3.27)
-    without its factor z (K None: zero reset of the controller)."""
+    without its factor z (K None: zero reset of the controller).
+
+    Parameters
+    ----------
+    loop : SwitchedLoop
+        The closed loop of (3.17).
+    K : ndarray or None
+        IVC gain (m x n); None for the zero reset.
+    state : int
+        Index of the plant state whose initial value drives the output.
+
+    Returns
+    -------
+    control.StateSpace
+        The initial-value-to-output system.
+    """
     x0 = loop.stack(np.zeros((loop.m, loop.n)) if K is None else K)[:, [state]]
     return control.ss(loop.A, x0, loop.C, 0, loop.dt)
 
 
 def ivc_zeros(loop: SwitchedLoop, K: np.ndarray | None, state: int) -> np.ndarray:
     """Zeros of :func:`ivc_transfer` (the book lists them without the zero at z = 0 that
-    the factor z of (3.26) adds)."""
+    the factor z of (3.26) adds).
+
+    Parameters
+    ----------
+    loop : SwitchedLoop
+        The closed loop of (3.17).
+    K : ndarray or None
+        IVC gain (m x n); None for the zero reset.
+    state : int
+        Index of the plant state.
+
+    Returns
+    -------
+    ndarray of complex
+        The finite zeros.
+    """
     x0 = loop.stack(np.zeros((loop.m, loop.n)) if K is None else K)[:, state]
     return siso_zeros(loop.A, x0, loop.C)
 
@@ -255,6 +327,11 @@ def ivc_jmin_jerk(
         ``Qs`` on ``[xp; xc]`` (matrix or diagonal), semidefinite.
     input_weight, jerk_weight : float
         ``qu`` and ``qj`` >= 0.
+
+    Returns
+    -------
+    IvcGains
+        ``Ka``, ``Kb``, ``Kc`` of (3.100).
     """
     Qs = _weight(loop, state_weight, None)
     n, N = loop.n, loop.n + loop.m

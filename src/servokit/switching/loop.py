@@ -168,6 +168,22 @@ def free_response(A: np.ndarray, C: np.ndarray, x0: np.ndarray, n_samples: int) 
     """Output ``C A^k x0`` for k = 0..n_samples-1 (columns of x0 give columns of the result).
 
     Brute-force iteration, used as the independent reference for the closed forms.
+
+    Parameters
+    ----------
+    A : ndarray, shape (N, N)
+        State matrix.
+    C : ndarray, shape (q, N)
+        Output matrix.
+    x0 : ndarray, shape (N,) or (N, c)
+        Initial state(s).
+    n_samples : int
+        Number of samples.
+
+    Returns
+    -------
+    ndarray
+        ``(n_samples, c)`` for one output row, else ``(n_samples, q, c)``.
     """
     x = np.asarray(x0, dtype=float)
     x = x.reshape(-1, 1) if x.ndim == 1 else x
@@ -184,6 +200,20 @@ def siso_zeros(A: np.ndarray, b: np.ndarray, c: np.ndarray) -> np.ndarray:
     The state is balanced first (zeros are invariant under diagonal state scaling), which
     keeps the zeros accurate when the states have very different scales (position vs
     velocity in SI), where an unbalanced pencil or the numerator polynomial loses digits.
+
+    Parameters
+    ----------
+    A : ndarray, shape (N, N)
+        State matrix.
+    b : ndarray, shape (N,)
+        Input vector.
+    c : ndarray, shape (N,)
+        Output vector.
+
+    Returns
+    -------
+    ndarray of complex
+        The finite zeros.
     """
     _, (scale, _) = scipy.linalg.matrix_balance(A, permute=False, separate=True)
     Ab = A * (scale[None, :] / scale[:, None])
@@ -203,6 +233,18 @@ def left_eig(A: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
 
     Computed on the balanced matrix ``D^{-1} A D`` and mapped back (``w = D^{-1} w_b``), so
     states of very different scales (position, velocity in SI) keep their accuracy.
+
+    Parameters
+    ----------
+    A : ndarray, shape (N, N)
+        Square matrix.
+
+    Returns
+    -------
+    lam : ndarray, shape (N,)
+        Eigenvalues.
+    w : ndarray, shape (N, N)
+        Left eigenvectors in the columns.
     """
     _, (scale, _) = scipy.linalg.matrix_balance(A, permute=False, separate=True)
     Ab = A * (scale[None, :] / scale[:, None])
@@ -215,6 +257,18 @@ def weighted_gramian(A: np.ndarray, Q: np.ndarray) -> np.ndarray:
 
     Solved on the balanced ``D^{-1} A D`` (``P = D^{-1} P_b D^{-1}``) so that states of
     very different scales do not make the Lyapunov solve ill-conditioned.
+
+    Parameters
+    ----------
+    A : ndarray, shape (N, N)
+        Schur-stable state matrix.
+    Q : ndarray, shape (N, N)
+        Symmetric weight.
+
+    Returns
+    -------
+    ndarray, shape (N, N)
+        Symmetric ``P``.
     """
     _, (scale, _) = scipy.linalg.matrix_balance(A, permute=False, separate=True)
     Ab = A * (scale[None, :] / scale[:, None])

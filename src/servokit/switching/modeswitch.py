@@ -46,7 +46,20 @@ class SwitchedResponse:
 
 
 def equilibrium(loop: SwitchedLoop, r: float) -> np.ndarray:
-    """Closed-loop equilibrium ``x_ss = (I - A)^{-1} B r`` for a constant reference."""
+    """Closed-loop equilibrium ``x_ss = (I - A)^{-1} B r`` for a constant reference.
+
+    Parameters
+    ----------
+    loop : SwitchedLoop
+        The closed loop of (3.17).
+    r : float
+        Constant reference (scalar, or the vector of a multi-output loop).
+
+    Returns
+    -------
+    ndarray, shape (n + m,)
+        The equilibrium state.
+    """
     N = loop.n + loop.m
     M = np.eye(N) - loop.A
     if np.min(np.abs(1.0 - np.linalg.eigvals(loop.A))) < 1e-10:
@@ -79,6 +92,11 @@ def mode_switching_response(
         IVC gain (m x n); None resets the controller to its equilibrium state.
     n_samples : int
         Total number of samples simulated.
+
+    Returns
+    -------
+    SwitchedResponse
+        Time, output, input and the switching sample.
     """
     n_samples = check_count("n_samples", n_samples, lo=2)
     seek = check_finite("seek_input", seek_input).ravel()
@@ -113,6 +131,22 @@ def reference_switching_response(
     motion) and ``design``'s compensators
     ``n_k/d`` are started with them (3.106); earlier compensations keep running, so
     each one still cancels its own initial values (superposition).
+
+    Parameters
+    ----------
+    loop : SwitchedLoop
+        The closed loop of (3.17).
+    reference : sequence of float
+        Reference per sample (the loop starts at rest at the first value).
+    design : AdditionalInputIvc, optional
+        r' compensators; None simulates without IVC.
+    states : sequence of int
+        Closed-loop states whose residual is compensated.
+
+    Returns
+    -------
+    SwitchedResponse
+        Time, output, input and the samples where the reference switched.
     """
     r = check_finite("reference", reference).ravel()
     n = r.size

@@ -26,6 +26,28 @@ def transient_plot(
     """One subplot per panel ``(panel title, {curve label: samples})`` sharing ``t``.
 
     ``ylabel`` is one label for all panels or one per panel.
+
+    Parameters
+    ----------
+    t : ndarray
+        Time axis shared by the panels.
+    panels : sequence of (str, mapping of str to ndarray)
+        Panel title and its curves.
+    xlabel : str
+        Time label with unit.
+    ylabel : str or sequence of str
+        One label for all panels or one per panel.
+    title : str
+        Figure title (book figure number).
+    path : str or Path
+        Output file (.png or .svg).
+    band : float, optional
+        Draw +-band lines.
+
+    Returns
+    -------
+    Path
+        The written file.
     """
     import matplotlib.pyplot as plt
 
@@ -59,6 +81,24 @@ def admissible_plot(
     """Outlines of 2-D admissible sets with labelled points (switching conditions).
 
     ``limits`` = ((xmin, xmax), (ymin, ymax)) zooms in (e.g. on the conditions).
+
+    Parameters
+    ----------
+    sets : mapping of str to AdmissibleSet
+        2-D sets by legend label.
+    points : mapping of str to ndarray, optional
+        Labelled points (switching conditions).
+    xlabel, ylabel, title : str
+        Axis labels with units and the title (book figure number).
+    path : str or Path
+        Output file (.png or .svg).
+    limits : ((float, float), (float, float)), optional
+        Axis limits.
+
+    Returns
+    -------
+    Path
+        The written file.
     """
     import matplotlib.pyplot as plt
 
