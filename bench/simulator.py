@@ -88,7 +88,7 @@ def many_variants(n_variants: int, reference_ns: float) -> dict:
     def metric(res):  # peak excursion and final position of each variant
         return np.c_[np.abs(res.yc).max(axis=1), res.yc[:, -1]]
 
-    t = best_time(lambda: simulate_metrics(plants, metric, **kw), 1)
+    t = best_time(lambda: simulate_metrics(plants, metric, **kw), 2)
     out, peak = peak_memory(lambda: simulate_metrics(plants, metric, **kw))
     ns = t / (n_variants * steps) * 1e9
     return {
