@@ -52,10 +52,17 @@ def _windows(ubuf: np.ndarray, S: int, lo: int, hi: int) -> np.ndarray:
     return np.concatenate([w_new, w_old], axis=2)
 
 
-def _active(W: np.ndarray) -> slice:
-    """The periods from the first to the last whose input window (Vu, n, 2S) is non-zero."""
-    nz = np.flatnonzero(np.any(W != 0.0, axis=(0, 2)))
-    return slice(0, 0) if nz.size == 0 else slice(int(nz[0]), int(nz[-1]) + 1)
+def _active(ubuf: np.ndarray, S: int, K: int) -> slice:
+    """Periods from the first to the last whose input window is not all zero.
+
+    Period ``k`` reads ``ubuf[:, kS : kS + S + 1]`` (see :func:`_windows`).
+    """
+    nz = np.flatnonzero(np.any(ubuf[:, : K * S + 1] != 0.0, axis=0))
+    if nz.size == 0:
+        return slice(0, 0)
+    first = max(0, -(-int(nz[0]) // S) - 1)
+    last = min(K - 1, int(nz[-1]) // S)
+    return slice(first, last + 1)
 
 
 def _forced_output(H2: np.ndarray, W: np.ndarray, S: int) -> np.ndarray:
@@ -106,7 +113,7 @@ def run_chunk(
     ubuf[:, dd + 1 :] = u_open
     x0_ = (np.zeros((V, M)), np.zeros((V, M))) if x0 is None else (x0[..., 0], x0[..., 1])
     W = _windows(ubuf, S, 0, K)
-    act = _active(W)
+    act = _active(ubuf, S, K)
     if states is None:
         drive = np.zeros((K, V, M, 2))
         if Vu == 1:  # one GEMM for all variants
