@@ -293,3 +293,18 @@ def test_matrix_scan_doubling_equals_serial(V, N, K, seed):
         ref = np.einsum("vij,vj->vi", A, ref) + d[k]
     doubling = matrix_scan(A, d, "doubling")
     assert np.max(np.abs(doubling - serial)) <= 1e-12 * max(np.max(np.abs(serial)), 1.0)
+
+
+def test_sample_rate_closed_loop_matches_python_control():
+    nominal = sk.models.hdd_sampled_data()
+    plants = [nominal.replace(gain=g * nominal.gain) for g in (0.9, 1.0, 1.15)] * 4  # > 8
+    C = sk.models.controller_eq_4_69()
+    K = 200
+    for subset in (plants[:1], plants):  # doubling scan, serial scan
+        res = simulate(subset, dt=HDD_SAMPLED_DATA_TS, n_samples=K, substeps=1, controller=C,
+                       reference=np.ones(K), output_disturbance=np.full(K, 0.01))  # fmt: skip
+        assert np.array_equal(res.yc - 0.01, res.yd - 0.01)
+        for p, yd in zip(subset, res.yd, strict=True):
+            cl = control.feedback(p.discretize(HDD_SAMPLED_DATA_TS) * C, 1)
+            ref = control.forced_response(cl, U=np.full(K, 0.99)).outputs + 0.01
+            assert np.max(np.abs(yd - ref)) < 1e-12
