@@ -41,7 +41,7 @@ def _rel(a, b):
     return float(np.max(np.abs(a - b)) / np.max(np.abs(b)))
 
 
-@settings(max_examples=4, deadline=None)
+@settings(max_examples=3, deadline=None)
 @given(N=st.integers(100, 130), umax=st.floats(0.8, 1.5), vmax=st.floats(0.5, 0.8))
 def test_banded_equals_dense_rigid_body(N, umax, vmax):
     with pytest.MonkeyPatch.context() as mp:

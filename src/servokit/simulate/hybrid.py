@@ -318,9 +318,22 @@ def iter_simulate(
 ) -> Iterator[tuple[slice, SimulationResult]]:
     """Simulate plant variants chunk by chunk; yields ``(variants, result)`` per chunk.
 
-    Same arguments as :func:`simulate`; ``variants`` is the slice of ``plants`` the
-    chunk holds.  Only one chunk's trajectories live at a time, so the memory stays
-    within ``max_memory_mb`` (default 256 MB) for any number of variants.
+    Only one chunk's trajectories live at a time, so the memory stays within
+    ``max_memory_mb`` (default 256 MB: half for the working set, half for the chunk's
+    result) for any number of variants.
+
+    Parameters
+    ----------
+    plants : ModalPlant or sequence of ModalPlant
+    check_stability, max_memory_mb
+        As in :func:`simulate`.
+    **kwargs
+        The other arguments of :func:`simulate`.
+
+    Yields
+    ------
+    (slice, SimulationResult)
+        The slice of ``plants`` the chunk holds and its result.
     """
     job = _prepare(plants, kwargs)
     budget = CHUNK_MEMORY_MB if max_memory_mb is None else float(max_memory_mb)
@@ -335,9 +348,20 @@ def simulate_metrics(
 ) -> np.ndarray:
     """Per-variant metrics of a simulation too large to keep: ``metric`` runs on each chunk.
 
-    ``metric(result)`` must return an array whose first axis has one entry per variant
-    of the chunk (a seek time, a peak error...); the chunks' arrays are concatenated.
-    Other arguments as :func:`iter_simulate`.
+    Parameters
+    ----------
+    plants : ModalPlant or sequence of ModalPlant
+        Variants (any number; they must share one delay).
+    metric : callable
+        ``metric(result)`` returns an array whose first axis has one entry per variant
+        of the chunk ``result`` (a seek time, a peak error...).
+    **kwargs
+        Arguments of :func:`simulate`, and ``max_memory_mb`` (default 256 MB).
+
+    Returns
+    -------
+    ndarray
+        The chunks' metric arrays concatenated along the first axis (one row per plant).
     """
     parts = []
     for sl, res in iter_simulate(plants, **kwargs):  # type: ignore[arg-type]
@@ -405,11 +429,13 @@ def simulate(
         Initial modal state, shape (2M,) or (V, 2M) in ``ModalPlant.to_statespace`` order.
     check_stability : bool
         With a controller, refuse a loop that is unstable for any variant (closed-loop
-        poles of the exact discrete loop, lifted over ``dt`` with a multirate path; one
-        batched eigenvalue call per chunk).  ``False`` skips the check.
+        poles of the exact discrete loop, lifted over ``dt`` with a multirate path;
+        certified for all variants at once by repeated squaring, eigenvalues only for
+        the uncertified ones, see :mod:`servokit.simulate.stability`).  ``False``
+        skips the check.
     max_memory_mb : float, optional
-        Memory budget [MB]; variants are simulated in chunks whose working set fits in
-        it (at most 256 MB per chunk).
+        Memory budget [MB] (default 2000): the result must fit in it, and variants are
+        simulated in chunks whose working set fits in what remains (at most 256 MB).
 
     Returns
     -------
