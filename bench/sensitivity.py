@@ -10,6 +10,7 @@ from _timing import best_time, interleaved_best
 
 from servokit.models import HDD_SAMPLED_DATA_TS as TS
 from servokit.models import controller_eq_4_69, hdd_sampled_data
+from servokit.sampled import _alias
 from servokit.sampled import sensitivity as sens
 
 
@@ -24,7 +25,7 @@ def sensitivity(n_freq: int) -> dict:
 
     def run_old():
         fast, cells = sens._path_terms, sens._MAX_CELLS
-        sens._path_terms, sens._MAX_CELLS = sens._per_cell_path_terms, 2_000_000  # pre-issue 8
+        sens._path_terms, sens._MAX_CELLS = _alias._per_cell_path_terms, 2_000_000  # pre-issue 8
         try:
             return run()
         finally:
