@@ -147,6 +147,11 @@ class _Job:
         S, K, Nt = self.S, self.K, self.K * self.S
         per = n_modes * (S + 1) * 4 + 8 * S * n_modes + 6 * K * n_modes + 3 * Nt
         per += 2 * Nt if self.loop is not None or self.u_open.shape[0] > 1 else 0
+        if self.loop is not None:
+            # closed-loop states (K x N) and a few stacked N x N matrices; N is the modal
+            # order plus the delay line, the filter and the controller (about 2M + 8)
+            n = 2 * n_modes + 8 + self.loop.controller[0].shape[0]
+            per += 3 * K * n + 4 * n * n
         return 8.0 * per
 
     def rows(self, arr: np.ndarray | None, lo: int, hi: int) -> np.ndarray | None:
