@@ -37,7 +37,11 @@ def _hold_filter(mr: Multirate, dt: float, f: np.ndarray, orders: np.ndarray) ->
     r = np.mod(orders, mr.m)
     small = np.abs(x) < 0.25
     with np.errstate(divide="ignore", invalid="ignore"):
-        out = (num if mr.m == 1 else num[:, r]) / x
+        inv = 1.0 / x
+    num_l = num if mr.m == 1 else num[:, r]
+    out = np.empty(x.shape, dtype=complex)  # complex / real without a complex division
+    np.multiply(num_l.real, inv, out=out.real)
+    np.multiply(num_l.imag, inv, out=out.imag)
     if np.any(small):
         fi, li = np.nonzero(small)
         fl = f[fi] + orders[li] / dt
