@@ -46,7 +46,26 @@ class ServokitTypeError(ServokitError, TypeError):
 
 
 def check_finite(name: str, value: object) -> np.ndarray:
-    """Return ``value`` as a float array, or raise naming ``name`` if it holds NaN/inf."""
+    """Return ``value`` as a float array, or raise naming ``name`` if it holds NaN/inf.
+
+    Parameters
+    ----------
+    name : str
+        The argument's name as the user knows it (a flag such as ``"--ts"``), used in the
+        error message.
+    value : array_like
+        Scalar or array convertible to float.
+
+    Returns
+    -------
+    numpy.ndarray
+        ``value`` as a float array (0-d for a scalar).
+
+    Raises
+    ------
+    ServokitValueError
+        If any element is NaN or infinite.
+    """
     arr = np.asarray(value, dtype=float)
     if not np.all(np.isfinite(arr)):
         raise ServokitValueError(f"{name} must be finite (got NaN or inf); pass finite numbers")
@@ -54,7 +73,28 @@ def check_finite(name: str, value: object) -> np.ndarray:
 
 
 def check_positive(name: str, value: object, unit: str = "") -> float:
-    """Return ``value`` as a float, or raise naming ``name`` unless it is finite and > 0."""
+    """Return ``value`` as a float, or raise naming ``name`` unless it is finite and > 0.
+
+    Parameters
+    ----------
+    name : str
+        The argument's name (flag), used in the error message.
+    value : float
+        Scalar to check.
+    unit : str
+        Unit appended to the "> 0" requirement in the message (``"s"``, ``"Hz"``); empty
+        for none.
+
+    Returns
+    -------
+    float
+        ``value`` as a float.
+
+    Raises
+    ------
+    ServokitValueError
+        If ``value`` is NaN, infinite or not > 0.
+    """
     v = float(check_finite(name, value))
     if v <= 0:
         raise ServokitValueError(f"{name} must be > 0{' ' + unit if unit else ''} (got {v})")
@@ -62,7 +102,31 @@ def check_positive(name: str, value: object, unit: str = "") -> float:
 
 
 def check_count(name: str, value: object, *, lo: int = 1, hi: int | None = None) -> int:
-    """Return ``value`` as an int in ``[lo, hi]``, or raise naming ``name`` and the range."""
+    """Return ``value`` as an int in ``[lo, hi]``, or raise naming ``name`` and the range.
+
+    Parameters
+    ----------
+    name : str
+        The argument's name (flag), used in the error message.
+    value : int or float
+        A number with an integral value (``3`` or ``3.0``; not ``3.5``, NaN or inf).
+    lo : int
+        Smallest accepted value (inclusive).
+    hi : int, optional
+        Largest accepted value (inclusive); no upper bound if omitted.
+
+    Returns
+    -------
+    int
+        ``value`` as an int.
+
+    Raises
+    ------
+    ServokitTypeError
+        If ``value`` cannot be converted to a number.
+    ServokitValueError
+        If it is not finite, not integral or outside ``[lo, hi]``.
+    """
     try:
         v = float(value)  # type: ignore[arg-type]
     except (TypeError, ValueError):
@@ -153,7 +217,26 @@ def check_work(n_ops: float, *, what: str, limit: float, about: str) -> None:
 
 
 def check_plot_path(path: str | Path, flag: str = "--plot") -> Path:
-    """Return ``path`` if it names a new or existing .png/.svg file in an existing directory."""
+    """Return ``path`` if it names a new or existing .png/.svg file in an existing directory.
+
+    Parameters
+    ----------
+    path : str or Path
+        The image file as typed.
+    flag : str
+        The flag that set it (named in the error).
+
+    Returns
+    -------
+    Path
+        ``path`` as a :class:`~pathlib.Path`.
+
+    Raises
+    ------
+    ServokitValueError
+        If ``path`` is a directory, does not end ``.png``/``.svg`` (case-insensitive), lies
+        in a missing directory, or the file (or its directory) is not writable.
+    """
     p = Path(path)
     if str(path).endswith(("/", "\\")) or p.is_dir():
         raise ServokitValueError(

@@ -24,6 +24,19 @@ def register(name: str, order: int = 100) -> Callable[[CaseFn], CaseFn]:
 
     Cases run by ascending ``order``, then name (the HDD benchmark seek, the main job,
     comes first).
+
+    Parameters
+    ----------
+    name : str
+        Case name, as given to ``servokit reproduce --case``; a later registration under
+        the same name replaces the earlier one.
+    order : int
+        Run-order key; its range also gives the book chapter (see :func:`case_chapter`).
+
+    Returns
+    -------
+    callable
+        Decorator that records ``fn`` and returns it unchanged.
     """
 
     def deco(fn: CaseFn) -> CaseFn:
@@ -34,7 +47,14 @@ def register(name: str, order: int = 100) -> Callable[[CaseFn], CaseFn]:
 
 
 def registry() -> dict[str, CaseFn]:
-    """All registered cases in run order, importing every case module first."""
+    """All registered cases in run order, importing every case module first.
+
+    Returns
+    -------
+    dict of str to callable
+        Case name to ``fn(outdir) -> CaseResult``, ordered by ascending ``order``, then
+        name.
+    """
     for info in pkgutil.iter_modules(__path__):
         if not info.name.startswith("_"):
             importlib.import_module(f"{__name__}.{info.name}")
@@ -43,7 +63,26 @@ def registry() -> dict[str, CaseFn]:
 
 
 def run_all(outdir: Path, only: list[str] | None = None) -> list[CaseResult]:
-    """Run the registered cases (all, or those named in ``only``) writing figures to ``outdir``."""
+    """Run the registered cases (all, or those named in ``only``) writing figures to ``outdir``.
+
+    Parameters
+    ----------
+    outdir : pathlib.Path
+        Directory for the figures; created (with parents) if missing.
+    only : list of str, optional
+        Names of the cases to run, in that order; every registered case in run order if
+        omitted or empty.
+
+    Returns
+    -------
+    list of CaseResult
+        One result per case run, in run order.
+
+    Raises
+    ------
+    ServokitValueError
+        If a name in ``only`` is not registered (checked before any case runs).
+    """
     outdir.mkdir(parents=True, exist_ok=True)
     cases = registry()
     names = only or list(cases)

@@ -107,6 +107,19 @@ def normalised_plant(plant: ModalPlant, time_unit: float) -> ModalPlant:
 
     Frequencies become Hz/unit (``f * time_unit``) and the delay ``delay / time_unit``.
     The gain is set to 1 (the book's [A/unit] when the target is 1).
+
+    Parameters
+    ----------
+    plant : ModalPlant
+        Plant in SI time (frequencies [Hz], delay [s]).
+    time_unit : float
+        Length of the new time unit [s]; Galvano I uses the final time ``N dt``.
+
+    Returns
+    -------
+    ModalPlant
+        Same dampings and residues, gain 1, frequencies [Hz/unit] and delay [unit];
+        named ``"<name> (normalised)"``.
     """
     modes = tuple(Mode(m.freq_hz * time_unit, m.damping, m.residue) for m in plant.modes)
     return plant.replace(
@@ -115,7 +128,21 @@ def normalised_plant(plant: ModalPlant, time_unit: float) -> ModalPlant:
 
 
 def primary_mode_variants(plant: ModalPlant, percents: np.ndarray) -> list[ModalPlant]:
-    """Copies of ``plant`` with the first vibration mode's frequency moved by ``percents``."""
+    """Copies of ``plant`` with the first vibration mode's frequency moved by ``percents``.
+
+    Parameters
+    ----------
+    plant : ModalPlant
+        Plant with at least one vibration mode (``freq_hz > 0``).
+    percents : ndarray
+        Frequency changes [%] of the first vibration mode (-6 .. +6 in Galvano I).
+
+    Returns
+    -------
+    list of ModalPlant
+        One plant per entry of ``percents``, in order, with that mode's frequency
+        ``f1 (1 + p / 100)`` and everything else unchanged; named ``"<name> f1 +p%"``.
+    """
     idx = next(i for i, m in enumerate(plant.modes) if m.freq_hz > 0)
     out = []
     for p in percents:
@@ -133,6 +160,22 @@ def ffsc_bands(plant: ModalPlant, time_unit: float = 1.0) -> list[tuple[float, f
     For a ``plant`` whose time unit is ``time_unit`` seconds (see :func:`normalised_plant`)
     they become ``q * time_unit**2``: ``|Uc|^2`` of (2.43) carries time squared, while
     the jerk term of (2.44) does not, so the designed input is the same.
+
+    Parameters
+    ----------
+    plant : ModalPlant
+        Plant with exactly two vibration modes (``freq_hz > 0``), as the galvano model;
+        its frequencies may be in Hz or Hz/unit.
+    time_unit : float
+        Time unit of ``plant`` [s] (1 for SI time).
+
+    Returns
+    -------
+    list of (float, float, float, int)
+        ``(f_low, f_high, weight, n_points)`` for the first and the second mode:
+        ``0.94 f`` to ``1.06 f`` (in ``plant``'s frequency unit), weight
+        ``1e9 time_unit**2`` resp. ``5e7 time_unit**2``, 50 points; the
+        ``band_weights`` of :func:`~servokit.feedforward.ffsc.fsc_input`.
     """
     f1, f2 = (m.freq_hz for m in plant.modes if m.freq_hz > 0)
     s = time_unit**2
@@ -159,7 +202,26 @@ class GalvanoIResult:
 
 
 def galvano_i(dt: float = GALVANO_TS, N: int = _N_GALVANO_I) -> GalvanoIResult:
-    """§2.5: FSC vs FFSC on the normalised galvano model, primary mode -6 % .. +6 %."""
+    """§2.5: FSC vs FFSC on the normalised galvano model, primary mode -6 % .. +6 %.
+
+    Both inputs minimise (2.44) with jerk weight 1 (the FSC one without band terms) on
+    the galvano model normalised to the time unit ``N dt`` (final time 1, target 1).
+
+    Parameters
+    ----------
+    dt : float
+        Sampling period [s] (20 us, the galvano servo of §3.5.1).
+    N : int
+        Number of steps (79 in §2.5).
+
+    Returns
+    -------
+    GalvanoIResult
+        The FSC and FFSC (:func:`ffsc_bands`) inputs; the open-loop outputs of the 13
+        plants with the primary mode moved by -6 .. +6 % in 1 % steps over 3 time units;
+        per plant the settling time into the +-0.08 % band [time units] and the largest
+        ``|y - 1|`` after the final time plus the delay.
+    """
     plant = normalised_plant(galvano_scanner(), N * dt)
     dtn = 1.0 / N
     fsc = fsc_input(plant, dtn, N, 1.0, input_weight=1.0)
@@ -264,6 +326,30 @@ def galvano_ii(
     The supply of an unconstrained design is the reference (1 mm) step's unconstrained
     peak voltage plus the amplifier drop (the book's 162 V rule), raised to the design's
     own peak if that is higher (the amplifier would saturate otherwise).
+
+    Parameters
+    ----------
+    dt : float
+        Sampling period [s] (illustrative 8 us, see the module docstring).
+    motor : MotorModel
+        Motor of the voltage constraint (2.84) and of the voltage waveforms.
+    gain : float
+        Plant gain [m/s^2/A], replacing the catalogue's normalised gain, so that positions
+        are at the work surface [m].
+
+    Returns
+    -------
+    list of ConstrainedDesign
+        Nine designs, for the 0.1 mm, 1 mm and 10 mm steps (book N = 37, 73, 351) in
+        turn, each with no voltage limit, 72 V and 36 V; all FFSC (:func:`ffsc_bands`)
+        with the 12 A current and 5 m/s velocity limits.  A step whose limits are not all
+        feasible at the book's N is designed at the first feasible larger N (all three of
+        its designs).  ``supply`` [V] and ``pamp`` (2.89) [W] as above.
+
+    Raises
+    ------
+    InfeasibleConstraintsError
+        If a step has no N up to 60 above the book's at which every limit is feasible.
     """
     plant = galvano_scanner().replace(gain=gain, name="galvano-scanner (illustrative)")
     steps = [(t, N, *_design_step(plant, dt, t, N, motor)) for t, N in _STEPS]
@@ -445,7 +531,23 @@ def _findings(designs: list[ConstrainedDesign]) -> dict[str, object]:
 
 @register("galvano", order=10)
 def run(outdir: Path) -> CaseResult:
-    """Galvano scanner I and II (§2.5, §2.6) with the illustrative model; figures in ``outdir``."""
+    """Galvano scanner I and II (§2.5, §2.6) with the illustrative model; figures in ``outdir``.
+
+    Parameters
+    ----------
+    outdir : pathlib.Path
+        Directory for the figures (created if missing).
+
+    Returns
+    -------
+    CaseResult
+        No comparison rows (the book's numbers are experimental); Figs. 2.25-2.26, 2.28,
+        2.36 and 2.39; extras ``assumptions`` and ``illustrative`` (the model values),
+        ``galvano_I`` (settling times and residuals of :func:`galvano_i`, with the book's
+        experimental settling times for reference), ``galvano_II`` (one row per design
+        of :func:`galvano_ii`: N used, peaks, coasting time, supply, Pamp) and
+        ``galvano_II_findings`` (the qualitative statements of §2.6.3 checked).
+    """
     outdir.mkdir(parents=True, exist_ok=True)
     g1 = galvano_i()
     g2 = galvano_ii()

@@ -68,7 +68,24 @@ SETTLE_BAND = 0.1  # [track] band of the reported settling time (as in the §2.4
 
 
 def crossover_gain(plant: ModalPlant, controller: control.LTI, freq_hz: float) -> float:
-    """Plant gain that puts the 0 dB crossing of ``P_d(z) C(z)`` at ``freq_hz``."""
+    """Plant gain that puts the 0 dB crossing of ``P_d(z) C(z)`` at ``freq_hz``.
+
+    Parameters
+    ----------
+    plant : ModalPlant
+        Plant whose gain is rescaled; it is discretised exactly (ZOH, delay included) at
+        the controller's sampling period.
+    controller : control.LTI
+        Discrete controller ``C(z)`` (its ``dt`` is the sampling period).
+    freq_hz : float
+        Wanted crossover frequency [Hz] (1 kHz in §4.5.4.1).
+
+    Returns
+    -------
+    float
+        ``plant.gain / |P_d(z) C(z)|`` at ``z = exp(j 2 pi freq_hz dt)``: the gain (in
+        ``plant.gain``'s units) with which ``|P_d C| = 1`` there.
+    """
     dt = float(controller.dt)
     z = np.exp(2j * np.pi * freq_hz * dt)
     loop = plant.discretize(dt)(z) * controller(z)
@@ -86,7 +103,23 @@ def reference_plant(gain: float, delay: float) -> ModalPlant:
 
 
 def reference_model(gain: float, dt: float, delay: float) -> control.StateSpace:
-    """``Mf(z)``: exact ZOH discretisation of ``Pf(s) e^{-s delay}``, eqs. (4.74)-(4.75)."""
+    """``Mf(z)``: exact ZOH discretisation of ``Pf(s) e^{-s delay}``, eqs. (4.74)-(4.75).
+
+    Parameters
+    ----------
+    gain : float
+        Gain of ``Pf`` (the loop's normalised plant gain in :func:`tdof_setup`).
+    dt : float
+        Sampling period of ``Mf`` [s] (``tau_fb``).
+    delay : float
+        Input delay of ``Pf`` [s] (20 us, ``MF_DELAY``, in the case).
+
+    Returns
+    -------
+    control.StateSpace
+        Discrete ``Mf(z)`` with period ``dt``: the rigid body plus the 3950 Hz,
+        damping 0.3, residue -1.3 mode of (4.74), modal states first, delay states last.
+    """
     return reference_plant(gain, delay).discretize(dt)
 
 
@@ -102,7 +135,16 @@ class TdofSetup:
 
 
 def tdof_setup() -> TdofSetup:
-    """Build the §4.5.4 loop (``tau_fb = Ts / 4``, gain normalised at 1 kHz crossover)."""
+    """Build the §4.5.4 loop (``tau_fb = Ts / 4``, gain normalised at 1 kHz crossover).
+
+    Returns
+    -------
+    TdofSetup
+        The Table 4.1 plant with its gain set by :func:`crossover_gain` for a 1 kHz
+        crossover, ``tau_fb`` = 38.375 us, ``C = Cp Cn`` of Fig. 4.57 at ``tau_fb``,
+        ``Mf`` of :func:`reference_model` with that gain and a 20 us delay, and the gain
+        ratio to Table 4.1's ``Kp``.
+    """
     tau_fb = HDD_SAMPLED_DATA_TS / 4
     ctrl = controller_fig_4_57(tau_fb)
     base = hdd_sampled_data()
@@ -136,6 +178,26 @@ def residual_amplitude(
 
     Least-squares fit of ``e^{-zeta w s}(a cos w s + b sin w s)`` plus a cubic baseline
     (the slow settling of the loop), ``s = t - t_end``; returns ``hypot(a, b)``.
+
+    Parameters
+    ----------
+    t : ndarray (Nt,)
+        Time [s].
+    y : ndarray (Nt,)
+        Signal sampled at ``t`` (the position error ``yc - target`` [track] in the case).
+    t_end : float
+        Start of the fit window [s] (the end of the feedforward input).
+    freq_hz : float
+        Frequency of the vibration [Hz].
+    damping : float
+        Its damping ratio ``zeta``.
+    window : float
+        Length of the fit window [s] (2 ms in the case).
+
+    Returns
+    -------
+    float
+        Amplitude ``hypot(a, b)`` of the vibration at ``t_end``, in the units of ``y``.
     """
     m = (t >= t_end) & (t <= t_end + window)
     s = t[m] - t_end
@@ -147,7 +209,29 @@ def residual_amplitude(
 
 
 def tdof_seeks(setup: TdofSetup, n_samples: int = 320, substeps: int = 8) -> list[SeekRun]:
-    """The three 500-track seeks of §4.5.4.2 simulated with the hybrid simulator."""
+    """The three 500-track seeks of §4.5.4.2 simulated with the hybrid simulator.
+
+    ``Fa`` is the sixth-order sampled-data polynomial (4.60) held for
+    ``tau_ff = 3, 6, 8 tau_fb`` with N = 40, 20, 15, applied in the TDOF structure of
+    Fig. 4.57 with ``Fp`` the exact output of ``Pf e^{-s 20 us}``.
+
+    Parameters
+    ----------
+    setup : TdofSetup
+        The loop of :func:`tdof_setup`.
+    n_samples : int
+        Number of feedback periods ``tau_fb`` simulated (320, about 12.3 ms).
+    substeps : int
+        Fine steps per feedback period of the continuous output ``yc``.
+
+    Returns
+    -------
+    list of SeekRun
+        One run per ``tau_ff`` (115, 230, 307 us), with the residual SRS of ``Fa`` at the
+        4.1 kHz mode (damping 0.01), the 4.1 kHz residual amplitude of
+        :func:`residual_amplitude` over 2 ms after the input ends [track], the largest
+        error after it [track] and the settling time into +-0.1 track [s].
+    """
     plant, tau = setup.plant, setup.tau_fb
     mode = plant.modes[1]
     runs = []
@@ -354,7 +438,21 @@ def _seek_plot(runs: list[SeekRun], path: Path) -> None:
 
 @register("hdd-residual", order=40)
 def hdd_residual_case(outdir: Path) -> CaseResult:
-    """§4.5.4: SRS and simulated residual vibrations of the three 500-track seeks."""
+    """§4.5.4: SRS and simulated residual vibrations of the three 500-track seeks.
+
+    Parameters
+    ----------
+    outdir : pathlib.Path
+        Directory for the figures (created if missing).
+
+    Returns
+    -------
+    CaseResult
+        Rows: zeros, pole pair and gain of ``Mf`` vs (4.75) (fitted), the ranks of the SRS
+        at 4.1 kHz and of the simulated residual per ``tau_ff`` vs the book's, and the
+        phase (at 1 kHz) and gain margins vs the stated minima (spec); Figs. 4.60-4.63;
+        extras with ``tau_fb``, the gain scale, the margins and per-seek numbers.
+    """
     outdir = Path(outdir)
     outdir.mkdir(parents=True, exist_ok=True)
     rows, figures, extra = _section_4_5_4(outdir)

@@ -58,14 +58,38 @@ _TABLE_2_4 = (
 
 def table_2_4_weights(tracks: float) -> list[tuple[float, float, float, int]]:
     """Band weights of Table 2.4 for ``fsc_input``: the 1-track column for seeks up to
-    3 tracks, the 10-track column beyond (the book gives only those two distances)."""
+    3 tracks, the 10-track column beyond (the book gives only those two distances).
+
+    Parameters
+    ----------
+    tracks : float
+        Seek distance [track] (sign ignored).
+
+    Returns
+    -------
+    list of (float, float, float, int)
+        ``(f_low [Hz], f_high [Hz], q_i, 60)`` for modes 3-7 of Table 2.4, the
+        ``band_weights`` of :func:`~servokit.feedforward.fsc_input`; a zero ``q_i`` (mode 7,
+        1-track column) leaves that band out of the cost.
+    """
     col = 3 if abs(tracks) <= 3 else 4
     return [(row[1], row[2], row[col], POINTS_PER_BAND) for row in _TABLE_2_4]
 
 
 def search_range(tracks: float) -> range:
     """Candidate step numbers for the N search: a window set by the seek distance only
-    (about 0.23-0.68 ms for short seeks, 0.45-1.25 ms for 10 tracks), not by the book's N."""
+    (about 0.23-0.68 ms for short seeks, 0.45-1.25 ms for 10 tracks), not by the book's N.
+
+    Parameters
+    ----------
+    tracks : float
+        Seek distance [track] (sign ignored).
+
+    Returns
+    -------
+    range
+        ``N = 6..18`` for seeks up to 3 tracks, ``N = 12..33`` beyond.
+    """
     return range(6, 19) if abs(tracks) <= 3 else range(12, 34)
 
 
@@ -127,7 +151,29 @@ def simulate_seek(
     band: float = BAND,
     horizon: float | None = None,
 ) -> SeekOutcome:
-    """Open-loop seek of every plant on the dt/10 grid; seek time per plant (§2.4.1)."""
+    """Open-loop seek of every plant on the dt/10 grid; seek time per plant (§2.4.1).
+
+    Parameters
+    ----------
+    plants : sequence of ModalPlant
+        Plants simulated together (their input delays are simulated as given).
+    ff : FeedforwardInput
+        Held input, applied without feedback.
+    target : float
+        Seek distance [track].
+    band : float
+        Half-width of the settling band [track] (0.1 in the benchmark).
+    horizon : float, optional
+        Simulated record length [s]; default that of
+        :func:`~servokit.simulate.seek_response` (``max(3 T, T + 2 ms)``, ``T = N dt``).
+
+    Returns
+    -------
+    SeekOutcome
+        ``ff``, the time grid ``t`` (step ``ff.dt / 10``) [s], the positions ``y``
+        (plants x times) [track] and the seek time of each plant [s] (``inf`` if not
+        settled within the record).
+    """
     res = seek_response(plants, ff, grid=ff.dt / SUBSTEPS, horizon=horizon)
     return SeekOutcome(ff, res.t, res.yc, settling_time(res.t, res.yc, target, band))
 
@@ -143,7 +189,33 @@ def seek_plot(
     band: float = BAND,
     unit: str = "track",
 ) -> Path:
-    """Input, its spectrum (2.51) and all plants' outputs near the target (Figs. 2.14-2.21)."""
+    """Input, its spectrum (2.51) and all plants' outputs near the target (Figs. 2.14-2.21).
+
+    Parameters
+    ----------
+    outcome : SeekOutcome
+        Simulated seek (:func:`simulate_seek`).
+    target : float
+        Seek distance, in ``unit``.
+    title : str
+        Figure title.
+    path : pathlib.Path
+        Image file to write (its directory must exist).
+    resonances_hz : sequence of float
+        Mode frequencies [Hz] marked by dotted lines on the spectrum.
+    bands : sequence of (float, float, float, int)
+        Band weights (as :func:`table_2_4_weights`); the bands with ``q > 0`` are shaded.
+    band : float
+        Half-width of the settling band drawn around the target, in ``unit``.
+    unit : str
+        Position unit of the axis labels.
+
+    Returns
+    -------
+    pathlib.Path
+        ``path``.  Four panels: held input against time [ms], ``|Uc(f)|`` to 20 kHz, all
+        outputs, and the outputs within 3 bands of the target with the worst seek time.
+    """
     import matplotlib.pyplot as plt
 
     ff = outcome.ff
@@ -233,7 +305,23 @@ def _search_plot(searches: dict[str, NSearchResult], path: Path) -> Path:
 
 @register("hdd-seek", order=0)
 def hdd_seek_case(outdir: Path) -> CaseResult:
-    """Reproduce §2.4.2: seek times of Designs 1-2, the improvement and Fig. 2.15's peak."""
+    """Reproduce §2.4.2: seek times of Designs 1-2, the improvement and Fig. 2.15's peak.
+
+    Parameters
+    ----------
+    outdir : pathlib.Path
+        Directory for the figures (created if missing).
+
+    Returns
+    -------
+    CaseResult
+        Rows: the worst seek times over the 18 plants of Designs 1-2 for 1 and 10 tracks
+        at the book's N (10 us delay not simulated, the book's convention), the FFSC
+        improvements [%] (consistency), Fig. 2.15's Max(y), the seek times with the delay
+        simulated (consistency) and the N minimising each worst seek time vs the book's;
+        one figure per design (Figs. 2.14-2.21) and the N search; extras with the seek
+        times, worst plants, searched N and peaks.
+    """
     outdir = Path(outdir)
     outdir.mkdir(parents=True, exist_ok=True)
     plants = hdd_benchmark_variants()

@@ -295,7 +295,21 @@ def _section_4_5_3(outdir: Path) -> tuple[list[Comparison], list[Path]]:
 
 @register("sampled-oscillations", order=30)
 def oscillations_case(outdir: Path) -> CaseResult:
-    """§4.3, §4.4, §4.5.3: unobservable magnitudes and shock response spectra."""
+    """§4.3, §4.4, §4.5.3: unobservable magnitudes and shock response spectra.
+
+    Parameters
+    ----------
+    outdir : pathlib.Path
+        Directory for the figures (created if missing).
+
+    Returns
+    -------
+    CaseResult
+        Rows: min/max of ``yu`` at the sampling, Nyquist and one-third frequencies, the
+        unacceptable sampling frequencies and measurement times of Figs. 4.24-4.25 and
+        4.54-4.55, and the SRS peak frequencies of the half-sine and polynomial waves
+        (Figs. 4.28, 4.32, 4.36); Figs. 4.3, 4.21, 4.23, 4.24, 4.28, 4.37, 4.54 and 4.55.
+    """
     outdir = Path(outdir)
     outdir.mkdir(parents=True, exist_ok=True)
     rows: list[Comparison] = []
