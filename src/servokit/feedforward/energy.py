@@ -22,7 +22,26 @@ __all__ = ["amplifier_power", "supply_voltage"]
 
 
 def supply_voltage(voltage_limit: float, drop: float) -> float:
-    """Supply ``Vp`` delivering ``voltage_limit`` through an internal ``drop`` [V] (§2.6.3)."""
+    """Supply ``Vp`` delivering ``voltage_limit`` through an internal ``drop`` [V] (§2.6.3).
+
+    Parameters
+    ----------
+    voltage_limit : float
+        Largest motor voltage ``|VM|`` the amplifier must deliver [V], > 0 (the design's
+        voltage constraint, or the peak of an unconstrained design).
+    drop : float
+        Internal voltage drop of the amplifier's output stage [V], >= 0 (16 V in §2.6.3).
+
+    Returns
+    -------
+    float
+        ``Vp = voltage_limit + drop`` [V] (e.g. 36 V + 16 V = 52 V).
+
+    Raises
+    ------
+    ServokitValueError
+        If an argument is not finite, ``voltage_limit <= 0`` or ``drop < 0``.
+    """
     v = float(check_finite("voltage_limit", voltage_limit))
     d = float(check_finite("drop", drop))
     if v <= 0 or d < 0:

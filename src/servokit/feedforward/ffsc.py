@@ -57,6 +57,22 @@ def held_spectrum_matrix(freq_hz: np.ndarray, dt: float, N: int) -> np.ndarray:
     """Matrix E (F, N) with ``Uc(2 pi f) = E @ u_c`` for a held sequence, eqs. (2.51)-(2.52).
 
     ``2 sin(w dt/2)/w`` is evaluated as ``dt * sinc(f dt)`` so that ``f = 0`` gives ``dt``.
+
+    Parameters
+    ----------
+    freq_hz : array_like
+        Frequencies ``f`` [Hz]; flattened to F values.
+    dt : float
+        Hold period ``tau`` [s].
+    N : int
+        Number of held samples ``u_c[0..N-1]``.
+
+    Returns
+    -------
+    ndarray of complex (F, N)
+        ``E[i, k] = dt sinc(f_i dt) exp(-j w_i dt / 2) exp(-j w_i k dt)`` with
+        ``w_i = 2 pi f_i``: the Fourier transform of the unit pulse held on
+        ``[k dt, (k+1) dt)``.
     """
     f = np.asarray(freq_hz, dtype=float).reshape(-1)
     w = 2.0 * np.pi * f
@@ -70,6 +86,18 @@ def band_frequencies(f_low_hz: float, f_high_hz: float, n_points: int) -> np.nda
 
     The book prints ``f_ij = f_li + (f_ui - f_li) j / (l_i - 1)`` with ``j = 1..l_i``, which
     would step past ``f_ui``; the spacing ``/(l_i - 1)`` shows ``j = 0..l_i-1`` is meant.
+
+    Parameters
+    ----------
+    f_low_hz, f_high_hz : float
+        Lower and upper band edges ``f_li``, ``f_ui`` [Hz].
+    n_points : int
+        Number of frequencies ``l_i`` in the band.
+
+    Returns
+    -------
+    ndarray (n_points,)
+        Evenly spaced frequencies [Hz] from ``f_low_hz`` to ``f_high_hz``, both included.
     """
     return np.linspace(f_low_hz, f_high_hz, n_points)
 
@@ -156,8 +184,26 @@ class FeedforwardInput:
 def augmented_design_model(plant: ModalPlant, dt: float) -> tuple[np.ndarray, np.ndarray, int]:
     """Exact ZOH of ``plant`` (delay ignored) augmented with ``1/(z-1)``, eqs. (2.38)-(2.41).
 
-    Returns ``(A, B, n_modal)``; the state is ``[x_d, u_c]`` with ``x_d`` in the modal order
-    of :meth:`ModalPlant.to_statespace` (``[q_i, dq_i/dt]`` per mode).
+    The state is ``[x_d, u_c]`` with ``x_d`` in the modal order of
+    :meth:`ModalPlant.to_statespace` (``[q_i, dq_i/dt]`` per mode).
+
+    Parameters
+    ----------
+    plant : ModalPlant
+        Design model; its input delay is ignored.
+    dt : float
+        Sampling (hold) period ``tau`` [s].
+
+    Returns
+    -------
+    A : ndarray (n + 1, n + 1)
+        ``[[Ad, Bd], [0, 1]]``: the ZOH plant driven by the held input ``u_c``, which the
+        integrator state accumulates.
+    B : ndarray (n + 1,)
+        Input column ``[0, ..., 0, 1]``: the decision input ``u[k]`` (the jerk) enters
+        ``u_c[k+1] = u_c[k] + u[k]``.
+    n_modal : int
+        Number ``n`` of modal states (twice the number of modes); ``u_c`` is state ``n``.
     """
     Ac, Bc, _ = modal_matrices(*plant.arrays())
     Ad, Bd = zoh_pair(Ac, Bc, dt)

@@ -347,8 +347,14 @@ def lifted_model(
 
     Parameters
     ----------
-    A, B, N, x0
-        Discrete model, horizon and initial state.
+    A : ndarray (n, n)
+        Discrete state matrix.
+    B : ndarray (n,) or (n, 1)
+        Single input column.
+    N : int
+        Horizon (number of steps, the length of ``U``).
+    x0 : ndarray (n,)
+        Initial state.
     dt : float
         Sampling period [s].
     position, velocity : ndarray (n,)
@@ -356,6 +362,14 @@ def lifted_model(
     input_row : ndarray (n,), optional
         When given, the plant input is the state component ``input_row @ x[k]`` (the
         augmented integrator of eq. 2.41); otherwise the plant input is ``U`` itself.
+
+    Returns
+    -------
+    LiftedModel
+        ``x_offset[k] = A^k x0`` and ``x_gain = Gamma`` of :func:`lifted_state_map`
+        (eqs. 2.67-2.71) for ``k = 0..N``; ``u_offset``, ``u_gain`` the plant input's
+        affine map (zero and the identity without ``input_row``); ``position`` and
+        ``velocity`` as given.
     """
     Phi, Gamma = lifted_state_map(A, B, N)
     x0 = np.asarray(x0, dtype=float)

@@ -63,7 +63,20 @@ class RigidBodyTrajectory:
 
 
 def bang_bang_time(target: float, u_max: float) -> float:
-    """Minimum time ``Topt = 2 sqrt(|r| / umax)`` of the bang-bang input (2.10) [s]."""
+    """Minimum time ``Topt = 2 sqrt(|r| / umax)`` of the bang-bang input (2.10) [s].
+
+    Parameters
+    ----------
+    target : float
+        Target position ``r`` (either sign; only ``|r|`` matters).
+    u_max : float
+        Input (acceleration) limit ``umax`` > 0 [target units/s^2].
+
+    Returns
+    -------
+    float
+        ``Topt`` [s]; 0 for ``r = 0``.
+    """
     r = float(check_finite("target", target))
     return 2.0 * np.sqrt(abs(r) / check_positive("u_max", u_max))
 
@@ -93,7 +106,24 @@ def bang_bang_input(t: float | np.ndarray, target: float, u_max: float) -> np.nd
 
 
 def bang_bang_trajectory(t: float | np.ndarray, target: float, u_max: float) -> RigidBodyTrajectory:
-    """Closed-form position and velocity of ``1/s^2`` under the bang-bang input (2.10)."""
+    """Closed-form position and velocity of ``1/s^2`` under the bang-bang input (2.10).
+
+    Parameters
+    ----------
+    t : array_like
+        Times [s].
+    target : float
+        Target position ``r``.
+    u_max : float
+        Input (acceleration) limit ``umax`` > 0.
+
+    Returns
+    -------
+    RigidBodyTrajectory
+        On ``t`` (as a 1-D array): position and velocity from rest, parabolic arcs meeting
+        at ``Topt / 2``; at rest (0) before ``t = 0`` and at ``r`` after ``Topt``; the
+        acceleration is :func:`bang_bang_input`.
+    """
     t = np.atleast_1d(check_finite("t", t))
     t_opt = bang_bang_time(target, u_max)
     a = bang_bang_input(t, target, u_max)
@@ -117,6 +147,12 @@ def minimum_jerk_input(t: float | np.ndarray, T: float, target: float) -> np.nda
         Final (move) time [s].
     target : float
         Target position ``r``.
+
+    Returns
+    -------
+    ndarray, shape of ``t``
+        ``umjc(t) = 60 r / T^2 tn (2 tn - 1)(tn - 1)`` with ``tn = t / T`` [target
+        units/s^2].
     """
     t = check_finite("t", t)
     T = check_positive("T", T)
@@ -126,7 +162,24 @@ def minimum_jerk_input(t: float | np.ndarray, T: float, target: float) -> np.nda
 
 
 def minimum_jerk_trajectory(t: float | np.ndarray, T: float, target: float) -> RigidBodyTrajectory:
-    """Minimum-jerk position, velocity and acceleration of §2.2.2 (Fig. 2.8), at rest after T."""
+    """Minimum-jerk position, velocity and acceleration of §2.2.2 (Fig. 2.8), at rest after T.
+
+    Parameters
+    ----------
+    t : array_like
+        Times [s].
+    T : float
+        Final (move) time [s], > 0.
+    target : float
+        Target position ``r``.
+
+    Returns
+    -------
+    RigidBodyTrajectory
+        On ``t`` (as a 1-D array): ``p(t)`` and ``v(t)`` of (2.14)-(2.15) (0 before
+        ``t = 0``, ``r`` and 0 after ``T``) and the acceleration
+        :func:`minimum_jerk_input`.
+    """
     t = np.atleast_1d(check_finite("t", t))
     T = check_positive("T", T)
     r = float(target)
@@ -247,7 +300,18 @@ def minimum_jerk_zoh_response(
 def minimum_jerk_zoh_plot(responses: Sequence[MinimumJerkZOHResponse]) -> Figure:
     """Fig. 2.10: continuous minimum-jerk trajectory vs the outputs of its sampled versions.
 
-    Returns the matplotlib figure (the caller saves and closes it).
+    Parameters
+    ----------
+    responses : sequence of MinimumJerkZOHResponse
+        At least one response of :func:`minimum_jerk_zoh_response`; the first one's
+        ``T``, target and time grid set the continuous reference curve.
+
+    Returns
+    -------
+    matplotlib.figure.Figure
+        Two panels: position (continuous and each sampled version, with its error at
+        ``T``) and input (``umjc(t)`` and each held input) against time [s].  The caller
+        saves and closes it.
     """
     import matplotlib.pyplot as plt
 

@@ -49,6 +49,12 @@ def hdd_benchmark() -> ModalPlant:
     benchmark's definition Kp = kf / (m Tp) = 1 / (1e-3 * 2.54e-7) = 3.937e9 track/A/s^2,
     not the rounded 3.93e9 printed with (2.73) (0.18 % low); the rounding changes none of
     the book's seek-time rows (checked by the hdd-seek case).
+
+    Returns
+    -------
+    ModalPlant
+        Rigid body plus six modes (3, 4.1, 5, 7, 12.3 and 16.4 kHz) of Table 2.2, gain
+        ``Kp`` [track/A/s^2], delay 10 us; named ``"hdd-benchmark"``.
     """
     table_2_2 = [
         (0.0, 0.0, 1.0),
@@ -75,6 +81,12 @@ def hdd_benchmark_variation_set() -> VariationSet:
     3 A2,4 -200/+0 %, 4 A3 -0/+20 %, 5 zeta5..7 -50/+100 %.  Gain range +-10 %
     (§2.4.1 "the change in loop gain of +-10 % is also assumed"; §2.4.1 also mentions
     +-5 % for the benchmark; feedforward-only studies ignore the gain).
+
+    Returns
+    -------
+    VariationSet
+        The nominal :func:`hdd_benchmark` with the six relative ranges above (mode indices
+        counted from the rigid body, 0) and the loop-gain range ``(-0.1, 0.1)``.
     """
     ranges = (
         Perturbation("freq", (2,), -0.02, 0.01),
@@ -93,6 +105,12 @@ def hdd_benchmark_variants() -> list[ModalPlant]:
     Every combination of 3 frequency rows (nominal; all up; all down), 3 damping rows
     (nominal; -50 %; +100 % on zeta5..7) and 2 residue rows (nominal; A2 -200 %,
     A3 +20 %, A4 -200 %).
+
+    Returns
+    -------
+    list of ModalPlant
+        18 plants (gain nominal), the nominal benchmark first, named
+        ``"hdd-benchmark #0"`` .. ``"#17"``.
     """
     vs = hdd_benchmark_variation_set()
     freq_row = [((0, "high"), (1, "high"), (2, "high")), ((0, "low"), (1, "low"), (2, "low"))]
@@ -106,6 +124,12 @@ def hdd_sampled_data() -> ModalPlant:
     """Chapter-4 HDD mechanical model with its equivalent delay (eqs. 4.64-4.65, Table 4.1).
 
     Kp = 4.3e7, delay 10 us; sampled at ``HDD_SAMPLED_DATA_TS`` = 153.5 us in §4.5.2.
+
+    Returns
+    -------
+    ModalPlant
+        Rigid body plus six modes (4.1 to 9.8 kHz) of Table 4.1, gain 4.3e7, delay 10 us;
+        named ``"hdd-sampled-data"``.
     """
     table_4_1 = [
         (0.0, 0.0, 1.00),
@@ -126,7 +150,14 @@ def hdd_sampled_data() -> ModalPlant:
 
 
 def vcm_dual_stage() -> ModalPlant:
-    """VCM (primary actuator) of the dual-stage HDD (book eq. 5.1, Table 5.1), KV = 1.9e4."""
+    """VCM (primary actuator) of the dual-stage HDD (book eq. 5.1, Table 5.1), KV = 1.9e4.
+
+    Returns
+    -------
+    ModalPlant
+        The 14 modes of Table 5.1 (a 19.5 Hz, damping 0.2 low-frequency mode, then 4.4 to
+        47.6 kHz) with their residues, gain 1.9e4, no delay; named ``"vcm-dual-stage"``.
+    """
     table_5_1 = [
         (19.5, 7500, 0.2),
         (4449, -6500, 0.09),
@@ -155,6 +186,12 @@ def pzt_active_suspension() -> ModalPlant:
     """PZT active suspension (secondary actuator) (book eq. 5.12, Table 5.3), KM = 0.3616.
 
     Table 5.3 lists the residues in units of 1e8.
+
+    Returns
+    -------
+    ModalPlant
+        The 15 modes of Table 5.3 (2.5 to 49 kHz, residues scaled by 1e8), gain 0.3616, no
+        delay; named ``"pzt-active-suspension"``.
     """
     table_5_3 = [
         (2484, 0.521, 0.02),
@@ -185,6 +222,13 @@ def svm_head_plant() -> ModalPlant:
     """Head plant of the SVM settling study (book §6.2.3.2, eq. 6.7).
 
     Rigid body plus modes at 4.1 kHz and 7 kHz; gain kf / (m Tp).
+
+    Returns
+    -------
+    ModalPlant
+        Rigid body (residue 1), 4.1 kHz (damping 0.03, residue -1) and 7 kHz (0.01, -1)
+        modes, gain ``kf / (m Tp)`` = 3.937e9 track/A/s^2, no delay; named
+        ``"svm-head-plant"``.
     """
     return ModalPlant(
         gain=_KF / (_MASS * _TRACK_PITCH),
@@ -201,6 +245,12 @@ def galvano_scanner() -> ModalPlant:
     residues, damping ratios or gain: those values here are *illustrative* (normalised
     gain 1, residues -0.5 and +0.2, damping 0.02 and 0.01), chosen so that the
     Bode plot has the shape of Fig. 2.23 / 3.37 (two large resonances).
+
+    Returns
+    -------
+    ModalPlant
+        Gain 1, rigid body (residue 1), 3020 Hz (damping 0.02, residue -0.5) and 6240 Hz
+        (0.01, +0.2) modes, delay 15.5 us; named ``"galvano-scanner"``.
     """
     return ModalPlant(
         gain=1.0,
@@ -230,6 +280,35 @@ def personal_mobility_robot(
     States ``[eta, theta, eta', theta']`` (upper-body inclination, wheel angle), input
     ``u = n tau`` [N m], outputs ``[eta, eta', theta' - eta']`` as in Fig. 3.29.  The book
     gives no numbers: the defaults are *illustrative* (a rider plus vehicle of 80 kg).
+
+    Parameters
+    ----------
+    Mb : float
+        Mass of the upper body (rider and vehicle body) [kg].
+    Jb : float
+        Inertia of the upper body about its centre of mass [kg m^2].
+    l : float
+        Distance from the wheel axle to the upper body's centre of mass [m].
+    Mw : float
+        Mass of the wheels [kg].
+    Jw : float
+        Inertia of the wheels about the axle [kg m^2].
+    rw : float
+        Wheel radius [m].
+    Jm : float
+        Motor rotor inertia [kg m^2] (reflected through the gear as ``n^2 Jm``).
+    n : float
+        Gear ratio.
+    fr : float
+        Viscous friction between body and wheel [N m s/rad] (acts on ``theta' - eta'``).
+    g : float
+        Gravitational acceleration [m/s^2].
+
+    Returns
+    -------
+    control.StateSpace
+        Continuous model with 4 states, 1 input and 3 outputs (``D = 0``); unstable
+        (the inverted pendulum).
     """
     c = Mb * rw * l - n**2 * Jm
     M = np.array([[Mb * l**2 + Jb + n**2 * Jm, c], [c, (Mb + Mw) * rw**2 + Jw + n**2 * Jm]])
@@ -254,7 +333,27 @@ CATALOGUE: dict[str, Callable[[], ModalPlant]] = {
 
 
 def get_plant(name_or_file: str | Path) -> ModalPlant:
-    """A catalogue plant by name (``hdd-benchmark``, ...) or a plant TOML file by path."""
+    """A catalogue plant by name (``hdd-benchmark``, ...) or a plant TOML file by path.
+
+    Parameters
+    ----------
+    name_or_file : str or Path
+        A key of :data:`CATALOGUE` (``"hdd-benchmark"``, ``"hdd-sampled-data"``,
+        ``"vcm-dual-stage"``, ``"pzt-active-suspension"``, ``"svm-head-plant"``,
+        ``"galvano-scanner"``), or the path of a plant file (a ``.toml`` name or an existing
+        file; :func:`~servokit.models.files.load_plant`).
+
+    Returns
+    -------
+    ModalPlant
+        A new copy of the catalogue plant, or the plant loaded from the file.
+
+    Raises
+    ------
+    ServokitValueError
+        If the name is neither a catalogue key nor a plant file; a file's own errors as
+        :class:`~servokit.models.files.PlantFileError`.
+    """
     key = str(name_or_file)
     if key in CATALOGUE:
         return CATALOGUE[key]()

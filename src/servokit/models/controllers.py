@@ -36,7 +36,28 @@ VCM_PES_TS = 1.0 / 30000.0
 def zpk(
     zeros: Sequence[complex], poles: Sequence[complex], gain: float, dt: float | None = None
 ) -> control.TransferFunction:
-    """Transfer function ``gain * prod(x - z) / prod(x - p)`` (x = s or z), real coefficients."""
+    """Transfer function ``gain * prod(x - z) / prod(x - p)`` (x = s or z), real coefficients.
+
+    Parameters
+    ----------
+    zeros, poles : sequence of complex
+        Zeros and poles; complex ones in conjugate pairs.  Empty for none.
+    gain : float
+        Leading coefficient of the numerator (not the DC gain).
+    dt : float, optional
+        Sampling period [s] for a discrete transfer function (``x = z``); continuous
+        (``x = s``) if omitted.
+
+    Returns
+    -------
+    control.TransferFunction
+        SISO transfer function with real polynomial coefficients.
+
+    Raises
+    ------
+    ServokitValueError
+        If the zeros or poles are not closed under conjugation (complex coefficients).
+    """
     num = gain * np.real_if_close(np.poly(np.asarray(zeros, dtype=complex)), tol=1e6)
     den = np.real_if_close(np.poly(np.asarray(poles, dtype=complex)), tol=1e6)
     if np.iscomplexobj(num) or np.iscomplexobj(den):
@@ -52,29 +73,73 @@ def controller_eq_4_69() -> control.TransferFunction:
     """C(z) = 0.872 (z-0.490)(z-0.865)(z-0.908) / ((z-0.0182)(z-0.409)(z-1)), eq. (4.69).
 
     Its z-domain coefficients hold for the sampling period of §4.5.2 only (153.5 us).
+
+    Returns
+    -------
+    control.TransferFunction
+        Discrete ``C(z)`` with ``dt = HDD_SAMPLED_DATA_TS`` (153.5 us).
     """
     return zpk([0.490, 0.865, 0.908], [0.0182, 0.409, 1.0], 0.872, HDD_SAMPLED_DATA_TS)
 
 
 def cpc_eq_4_72() -> control.TransferFunction:
-    """Cpc(s) = 1318 (s+628.3)(s+1257) / (s (s+25130)), eq. (4.72)."""
+    """Cpc(s) = 1318 (s+628.3)(s+1257) / (s (s+25130)), eq. (4.72).
+
+    Returns
+    -------
+    control.TransferFunction
+        Continuous PI-lead ``Cpc(s)``: integrator, zeros at 100 Hz and 200 Hz, pole at
+        4 kHz.
+    """
     return zpk([-628.3, -1257.0], [0.0, -25130.0], 1318.0)
 
 
 def cnc_eq_4_73() -> control.TransferFunction:
-    """Cnc(s) = (s^2 + 515.2 s + 663.6e6) / (s^2 + 7728 s + 663.6e6), eq. (4.73)."""
+    """Cnc(s) = (s^2 + 515.2 s + 663.6e6) / (s^2 + 7728 s + 663.6e6), eq. (4.73).
+
+    Returns
+    -------
+    control.TransferFunction
+        Continuous notch ``Cnc(s)`` at ``sqrt(663.6e6) / 2 pi`` = 4.1 kHz (the primary
+        mode of Table 4.1), zero damping 0.01, pole damping 0.15; unity gain away from it.
+    """
     return control.tf([1.0, 515.2, 663.6e6], [1.0, 7728.0, 663.6e6])
 
 
 def controller_fig_4_57(dt: float = HDD_SAMPLED_DATA_TS) -> control.TransferFunction:
-    """C(z) = Cp(z) Cn(z) of §4.5.4.1: Cp = Tustin(Cpc), Cn = matched pole-zero(Cnc)."""
+    """C(z) = Cp(z) Cn(z) of §4.5.4.1: Cp = Tustin(Cpc), Cn = matched pole-zero(Cnc).
+
+    Parameters
+    ----------
+    dt : float
+        Sampling period [s] of the discretisation (the §4.5.4 case uses ``Ts / 4`` =
+        38.375 us).
+
+    Returns
+    -------
+    control.TransferFunction
+        Discrete ``C(z)`` with period ``dt``: :func:`cpc_eq_4_72` by the bilinear
+        transform (no prewarping) times :func:`cnc_eq_4_73` by pole-zero matching.
+    """
     cp = control.sample_system(cpc_eq_4_72(), dt, method="tustin")
     cn = control.sample_system(cnc_eq_4_73(), dt, method="matched")
     return cp * cn
 
 
 def vcm_controller_table_5_2(dt: float = VCM_PES_TS) -> control.TransferFunction:
-    """VCM controller C(z) of Table 5.2: gain 0.1365 with the listed zeros and poles."""
+    """VCM controller C(z) of Table 5.2: gain 0.1365 with the listed zeros and poles.
+
+    Parameters
+    ----------
+    dt : float
+        Sampling period [s] attached to the transfer function; the table's z-domain
+        zeros and poles hold for the 30 kHz PES rate (``VCM_PES_TS``) only.
+
+    Returns
+    -------
+    control.TransferFunction
+        Discrete 10th-order ``C(z)`` (an integrator at ``z = 1``) with period ``dt``.
+    """
     zeros = [
         -0.2199 + 0.9392j,
         -0.2199 - 0.9392j,
@@ -114,6 +179,26 @@ def get_discrete_controller(name_or_file: str, dt: float | None = None) -> contr
     """A book controller by name (``eq-4.69``, ...) or a controller TOML file, checked discrete.
 
     With ``dt`` given, the controller's sampling period must equal it.
+
+    Parameters
+    ----------
+    name_or_file : str
+        A key of ``CONTROLLERS`` (``"eq-4.69"``, ``"fig-4.57"``, ``"table-5.2"``; each at
+        its book sampling period) or the path of a controller TOML file
+        (:func:`~servokit.models.files.load_controller`).
+    dt : float, optional
+        Required sampling period [s] (matched to a relative 1e-9); not checked if omitted.
+
+    Returns
+    -------
+    control.TransferFunction
+        The discrete controller.
+
+    Raises
+    ------
+    ServokitValueError
+        If the controller is continuous or its period differs from ``dt``; a file's own
+        errors as :class:`~servokit.models.files.PlantFileError`.
     """
     if name_or_file in CONTROLLERS:
         ctrl = CONTROLLERS[name_or_file]()
@@ -135,7 +220,21 @@ def get_discrete_controller(name_or_file: str, dt: float | None = None) -> contr
 
 
 def require_proper(name: str, sys: control.LTI) -> None:
-    """Raise unless the SISO transfer function ``sys`` is proper (realisable, causal)."""
+    """Raise unless the SISO transfer function ``sys`` is proper (realisable, causal).
+
+    Parameters
+    ----------
+    name : str
+        The system's name in the error message.
+    sys : control.LTI
+        SISO system; a ``TransferFunction`` is checked (numerator degree, after leading
+        zeros are trimmed, at most the denominator's), a ``StateSpace`` is always proper.
+
+    Raises
+    ------
+    ServokitValueError
+        If ``sys`` has more zeros than poles.
+    """
     if isinstance(sys, control.TransferFunction):
         num = np.trim_zeros(np.atleast_1d(np.asarray(sys.num[0][0], dtype=float)), "f")
         den = np.trim_zeros(np.atleast_1d(np.asarray(sys.den[0][0], dtype=float)), "f")

@@ -78,7 +78,25 @@ def _unknown(path: Path, where: str, keys: set[str], allowed: set[str]) -> None:
 
 
 def load_plant(path: str | Path) -> ModalPlant:
-    """Load a :class:`ModalPlant` from a TOML file, validating every field."""
+    """Load a :class:`ModalPlant` from a TOML file, validating every field.
+
+    Parameters
+    ----------
+    path : str or Path
+        A plant file (format in the module docstring).
+
+    Returns
+    -------
+    ModalPlant
+        Gain, modes and delay [s] (default 0) of the file; ``name`` defaults to the file
+        stem and ``source`` to the path.
+
+    Raises
+    ------
+    PlantFileError
+        If the file is missing or not TOML, has an unknown key, a missing or non-numeric
+        field, no modes, or a negative delay, damping or frequency.
+    """
     path = Path(path)
     data = _read(path)
     _unknown(path, "", set(data), _PLANT_KEYS)
@@ -125,7 +143,16 @@ def load_plant(path: str | Path) -> ModalPlant:
 
 
 def save_plant(plant: ModalPlant, path: str | Path) -> None:
-    """Write ``plant`` as a TOML plant file (round-trips through :func:`load_plant`)."""
+    """Write ``plant`` as a TOML plant file (round-trips through :func:`load_plant`).
+
+    Parameters
+    ----------
+    plant : ModalPlant
+        Plant to write (kind, name, gain, delay, source and one ``[[modes]]`` table per
+        mode).
+    path : str or Path
+        File to write; overwritten if it exists.
+    """
     doc = {
         "kind": "plant",
         "name": plant.name,
@@ -156,7 +183,26 @@ def _roots(path: Path, field: str, raw: Any) -> list[complex]:
 
 
 def load_controller(path: str | Path) -> control.TransferFunction:
-    """Load a controller TOML file (zeros/poles/gain or num/den; ``dt`` for discrete)."""
+    """Load a controller TOML file (zeros/poles/gain or num/den; ``dt`` for discrete).
+
+    Parameters
+    ----------
+    path : str or Path
+        A controller file (format in the module docstring).
+
+    Returns
+    -------
+    control.TransferFunction
+        SISO transfer function, discrete with the file's ``dt`` [s] or continuous
+        without one; from ``num``/``den`` (descending powers) when given, else from
+        ``gain``, ``zeros`` and ``poles`` (:func:`~servokit.models.controllers.zpk`).
+
+    Raises
+    ------
+    PlantFileError
+        If the file is missing or not TOML, has an unknown or malformed field, a
+        ``dt <= 0``, only one of ``num``/``den``, or neither those nor ``gain``.
+    """
     path = Path(path)
     data = _read(path)
     _unknown(path, "", set(data), _CTRL_KEYS)
@@ -185,7 +231,16 @@ def load_controller(path: str | Path) -> control.TransferFunction:
 
 
 def save_controller(ctrl: control.TransferFunction, path: str | Path) -> None:
-    """Write a SISO transfer function as a controller TOML file (num/den form)."""
+    """Write a SISO transfer function as a controller TOML file (num/den form).
+
+    Parameters
+    ----------
+    ctrl : control.TransferFunction
+        SISO controller; its sampling period is written as ``dt`` unless it is
+        continuous (``dt`` None or 0).
+    path : str or Path
+        File to write; overwritten if it exists.  :func:`load_controller` reads it back.
+    """
     num = np.atleast_1d(np.squeeze(ctrl.num[0][0])).astype(float).tolist()
     den = np.atleast_1d(np.squeeze(ctrl.den[0][0])).astype(float).tolist()
     doc: dict[str, Any] = {"kind": "controller", "num": num, "den": den}

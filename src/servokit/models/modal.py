@@ -295,7 +295,27 @@ class ModalPlant:
 def modal_matrices(
     w: np.ndarray, z: np.ndarray, r: np.ndarray
 ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """Block-diagonal real modal (A, B, C) for frequencies ``w`` [rad/s], dampings, gains ``r``."""
+    """Block-diagonal real modal (A, B, C) for frequencies ``w`` [rad/s], dampings, gains ``r``.
+
+    Parameters
+    ----------
+    w : ndarray (n,)
+        Natural frequencies ``omega_i`` [rad/s]; 0 for a rigid-body mode.
+    z : ndarray (n,)
+        Damping ratios ``zeta_i``.
+    r : ndarray (n,)
+        Input gains ``K A_i`` (plant gain times residue), as :meth:`ModalPlant.arrays`
+        returns them.
+
+    Returns
+    -------
+    A : ndarray (2n, 2n)
+        Block diagonal, ``[[0, 1], [-w_i^2, -2 zeta_i w_i]]`` per mode.
+    B : ndarray (2n, 1)
+        ``r_i`` in the velocity row of each mode.
+    C : ndarray (1, 2n)
+        1 in the position row of each mode: ``y = sum_i q_i``.
+    """
     n = len(w)
     A = np.zeros((2 * n, 2 * n))
     B = np.zeros((2 * n, 1))

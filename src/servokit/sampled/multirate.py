@@ -76,6 +76,20 @@ def _lti(name: str, sys: object) -> control.LTI:
 def check_discrete(name: str, sys: object, dt: float) -> control.LTI:
     """Return ``sys`` if it is a SISO discrete python-control LTI with sampling period ``dt``.
 
+    Parameters
+    ----------
+    name : str
+        The system's name in the error messages (``"controller"``, ``"filter"``).
+    sys : control.TransferFunction or control.StateSpace
+        System to check; it must also be proper.
+    dt : float
+        Required sampling period [s] (matched to a relative 1e-9).
+
+    Returns
+    -------
+    control.TransferFunction or control.StateSpace
+        ``sys`` itself.
+
     Raises
     ------
     ServokitTypeError
@@ -98,6 +112,19 @@ def eval_discrete(sys: control.LTI, z: np.ndarray) -> np.ndarray:
     State-space models are evaluated as ``C (zI - A)^-1 B + D`` by batched linear solves
     (no inverse, no conversion to a polynomial ratio, which is ill-conditioned for
     the high-order lifted models); a point on a pole gives ``inf``.
+
+    Parameters
+    ----------
+    sys : control.TransferFunction or control.StateSpace
+        SISO discrete system (not checked; see :func:`check_discrete`).
+    z : array_like of complex
+        Points of the z-plane, any shape (``exp(j 2 pi f dt)`` for a frequency response).
+
+    Returns
+    -------
+    ndarray of complex, same shape as ``z``
+        ``sys(z)``: ``num(z) / den(z)`` for a transfer function, ``C (zI - A)^-1 B + D``
+        for a state-space model.
     """
     z = np.asarray(z, dtype=complex)
     if isinstance(sys, control.TransferFunction):

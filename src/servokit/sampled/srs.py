@@ -94,7 +94,21 @@ class ShockResponseSpectrum:
 
 
 def half_sine(duration: float, amplitude: float = 1.0) -> Callable[[np.ndarray], np.ndarray]:
-    """Half-sine acceleration ``uc(t) = amplitude sin(pi t / Tsrs)``, ``0 <= t <= Tsrs`` (4.58)."""
+    """Half-sine acceleration ``uc(t) = amplitude sin(pi t / Tsrs)``, ``0 <= t <= Tsrs`` (4.58).
+
+    Parameters
+    ----------
+    duration : float
+        Pulse length ``Tsrs`` [s], > 0.
+    amplitude : float
+        Peak acceleration (any acceleration unit).
+
+    Returns
+    -------
+    callable
+        ``uc(t)`` of a time array [s]: the half-sine on ``[0, Tsrs]``, zero elsewhere; pass
+        it to :func:`shock_response_spectrum` with ``duration=Tsrs``.
+    """
     T = float(check_finite("duration", duration))
     if T <= 0:
         raise ServokitValueError(f"duration must be > 0 s, got {duration}")
@@ -108,7 +122,27 @@ def half_sine(duration: float, amplitude: float = 1.0) -> Callable[[np.ndarray],
 
 
 def held_samples(accel: Callable[[np.ndarray], np.ndarray], duration: float, dt_hold: float):
-    """Samples ``uc(n Tzoh)``, ``n = 0..round(Tsrs / Tzoh) - 1``, of a ZOH input (4.59)."""
+    """Samples ``uc(n Tzoh)``, ``n = 0..round(Tsrs / Tzoh) - 1``, of a ZOH input (4.59).
+
+    Parameters
+    ----------
+    accel : callable
+        Continuous acceleration ``uc(t)`` of a time array [s] (e.g. :func:`half_sine`).
+    duration : float
+        Input length ``Tsrs`` [s], > 0; a whole number of ``dt_hold``.
+    dt_hold : float
+        Hold period ``Tzoh`` [s], > 0.
+
+    Returns
+    -------
+    ndarray (round(Tsrs / Tzoh),)
+        ``uc(n Tzoh)`` as floats, each to be held for ``Tzoh``.
+
+    Raises
+    ------
+    ServokitValueError
+        If ``duration`` is not a whole number (>= 1) of ``dt_hold``.
+    """
     check_positive("dt_hold", dt_hold, "seconds")
     check_positive("duration", duration, "seconds")
     n = int(round(float(duration) / float(dt_hold)))
@@ -125,6 +159,20 @@ def polynomial_wave(N: int, dt_hold: float, target: float = 1.0) -> np.ndarray:
     (4.60) is the sixth-order entry of Table 2.1, computed by
     :func:`servokit.feedforward.sampled_polynomial`; ``Fpoly(N) = 0`` is dropped because
     the input ends at ``Tsrs = N dt_hold``.
+
+    Parameters
+    ----------
+    N : int
+        Number of held samples (steps of the move), >= 3.
+    dt_hold : float
+        Hold period [s].
+    target : float
+        Distance the rigid body ``1/s^2`` travels, from rest to rest, under the wave.
+
+    Returns
+    -------
+    ndarray (N,)
+        Acceleration samples ``Fpoly(0..N-1)`` [target units / s^2], ``Fpoly(0) = 0``.
     """
     from servokit.feedforward import sampled_polynomial
 
@@ -353,6 +401,15 @@ def amplitude_spectrum(
     ``U(j w) = (1 - e^{-j w h}) / (j w) * sum_k u_k e^{-j w k h}``: the hold's low-pass
     factor times the periodic spectrum of the samples.
 
+    Parameters
+    ----------
+    accel : array_like
+        Held samples ``u_k``, each held for ``dt_hold``, zero afterwards.
+    dt_hold : float
+        Hold period ``h`` [s].
+    freq_hz : ndarray
+        Frequencies [Hz] (``f = 0`` gives ``|h sum_k u_k|``).
+
     Returns
     -------
     ndarray
@@ -370,7 +427,24 @@ def amplitude_spectrum(
 def spectrum_peaks(
     freq_hz: np.ndarray, magnitude: np.ndarray, *, rel_height: float = 0.5
 ) -> np.ndarray:
-    """Frequencies of the local maxima at least ``rel_height`` times the global maximum."""
+    """Frequencies of the local maxima at least ``rel_height`` times the global maximum.
+
+    Parameters
+    ----------
+    freq_hz : ndarray (F,)
+        Frequency grid [Hz].
+    magnitude : ndarray (F,)
+        Spectrum on that grid (e.g. ``ShockResponseSpectrum.magnitude``).
+    rel_height : float
+        Smallest peak kept, as a fraction of ``magnitude.max()``.
+
+    Returns
+    -------
+    ndarray
+        Ascending frequencies [Hz] of the interior grid points larger than the point
+        before and not smaller than the point after (the first point of a flat top), with
+        at least ``rel_height`` times the maximum; the two ends are never peaks.
+    """
     m = np.asarray(magnitude, dtype=float)
     inner = (m[1:-1] > m[:-2]) & (m[1:-1] >= m[2:]) & (m[1:-1] >= rel_height * m.max())
     return np.asarray(freq_hz, dtype=float)[1:-1][inner]
