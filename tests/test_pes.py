@@ -96,3 +96,32 @@ def test_bad_inputs():
         track_following_pes(
             hdd_benchmark(), benchmark_controller() * 50, rec, discard_revolutions=0
         )
+
+
+def test_cli_pes_json_plot_and_errors(tmp_path):
+    import json
+
+    from typer.testing import CliRunner
+
+    from servokit.cli import _discover
+    from servokit.cli._app import app
+
+    _discover()
+    runner = CliRunner()
+    png = tmp_path / "p.png"
+    out = runner.invoke(app, ["pes", "--n-revolutions", "20", "--json", "--plot", str(png)])
+    assert out.exit_code == 0, out.output
+    data = json.loads(out.stdout)
+    ref = track_following_pes(
+        hdd_benchmark(), benchmark_controller(), BenchmarkDisturbances().generate(20, seed=0)
+    )
+    assert data["nrpe_3sigma_percent"] == pytest.approx(ref.nrpe_3sigma_percent, rel=1e-9)
+    assert len(data["freq_hz"]) == len(data["pes_psd_db"]) and png.stat().st_size > 5000
+    for args, flag in (
+        (["--peak-filter", "960:0.08"], "--peak-filter"),
+        (["--controller", "nope.toml"], "nope"),
+        (["--n-revolutions", "100000000"], "--max-memory-mb"),
+    ):
+        bad = runner.invoke(app, ["pes", *args])
+        assert isinstance(bad.exception, ServokitError), bad.output
+        assert flag in str(bad.exception)
