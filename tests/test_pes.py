@@ -125,3 +125,17 @@ def test_cli_pes_json_plot_and_errors(tmp_path):
         bad = runner.invoke(app, ["pes", *args])
         assert isinstance(bad.exception, ServokitError), bad.output
         assert flag in str(bad.exception)
+
+
+@pytest.mark.slow
+def test_frequency_domain_variance_matches_simulated_nrpe():
+    """(6.13) on the lumped disturbance model vs the time-domain NRPE (independent paths)."""
+    from servokit.cases.hdd_pes import disturbance_magnitude
+    from servokit.limits import output_variance
+
+    bd = BenchmarkDisturbances(rro_amplitude_track=(0.0, 0.0, 0.0))
+    pd = hdd_benchmark().discretize(TS)
+    loop = control.ss(benchmark_controller()) * pd
+    var = output_variance(loop, disturbance_magnitude(bd, pd), breakpoints_hz=bd.flutter_freq_hz)
+    sim = track_following_pes(hdd_benchmark(), benchmark_controller(), bd.generate(400, seed=3))
+    assert np.var(sim.pes) == pytest.approx(var, rel=0.05)

@@ -23,7 +23,14 @@ from servokit.cases import register
 from servokit.errors import check_positive
 from servokit.report import CaseResult, Comparison
 
-__all__ = ["PeakFilterSpec", "peak_filtered_controller", "run"]
+__all__ = [
+    "CASE_FILTER",
+    "PeakFilterSpec",
+    "disturbance_magnitude",
+    "loop_report",
+    "peak_filtered_controller",
+    "run",
+]
 
 
 @dataclass(frozen=True)
@@ -56,6 +63,26 @@ def peak_filtered_controller(
     gain = 2.0 * zeta * (10 ** (depth / 20) - 1.0) / abs(sh)
     filt = peak_filter(f1, zeta, gain, peak_filter_phase(sh, "stable"))
     return controller * (1 + discretize_filter(filt, dt, f1))
+
+
+def disturbance_magnitude(disturbances, plant_d: control.LTI):
+    """``freq_hz -> |D|`` of the lumped output disturbance for the variance (6.13).
+
+    ``|D|^2 = (flutter + sensor + force-through-plant PSDs) / (2 Ts)``: a discrete shaping
+    filter of unit-variance white noise.  The force noise is taken through the Ts-rate
+    plant ``plant_d`` (its aliasing at the plant-input rate is neglected).
+    """
+    dt = disturbances.dt
+
+    def mag(freq_hz):
+        f = np.asarray(freq_hz, dtype=float)
+        z = np.exp(2j * np.pi * f * dt)
+        p2 = np.abs(np.asarray(plant_d(z)).reshape(f.shape)) ** 2
+        force = 2 * dt * disturbances.force_sigma_a**2 * p2
+        psd = disturbances.flutter_psd(f) + disturbances.sensor_psd(f) + force
+        return np.sqrt(psd / (2 * dt))
+
+    return mag
 
 
 #: The peak filter of the case: centre between the 900 and 1020 Hz flutter modes (the two
