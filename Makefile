@@ -30,9 +30,20 @@ test-all: $(STAMP)
 
 bench: $(STAMP)
 	MPLBACKEND=Agg $(BIN)/python bench/run.py
+	MPLBACKEND=Agg $(BIN)/python bench/robust_seek.py
 
 lint: $(STAMP)
 	$(BIN)/ruff check src tests bench
 
 clean:
 	rm -rf $(VENV) $(OUT) .pytest_cache
+
+# API reference from the numpydoc docstrings (Sphinx); opens at docs/_build/html/index.html
+.PHONY: docs
+$(VENV)/.installed-docs: $(BIN)/python pyproject.toml
+	$(BIN)/pip install --quiet -e ".[docs]"
+	touch $@
+
+docs: $(VENV)/.installed-docs
+	$(BIN)/sphinx-build -q -b html docs docs/_build/html
+	@echo "API docs: docs/_build/html/index.html"

@@ -1,98 +1,105 @@
-"""Benchmark suite (``make bench``): servokit's batched simulator vs a python-control loop.
+"""Benchmark suite (``make bench``): issue 8's targets measured side by side.
 
-1000 Monte-Carlo variants of the HDD benchmark plant (Table 2.3 ranges, seeded), a
-2 ms feedforward seek held at Ts = 37.879 us, output on a Ts/40 grid.  The baseline
-discretises every variant on the fine grid with servokit (exact ZOH with the delay)
-and runs python-control's ``forced_response`` on it, one variant at a time.  Both run
-in this process; the ratio of the two times is the result (absolute times vary on a
-shared machine, ratios in one run hold).  Peak memory of the batched run is measured
-with tracemalloc.
+Single thread (BLAS threads pinned before numpy loads), best of several runs, every
+ratio from two timings in this process (absolute times vary on a shared machine).
+Writes ``bench/results.json`` and prints a summary with the targets.
+
+Sections: open-loop simulation of 1000 HDD Monte-Carlo variants (vs python-control's
+``forced_response`` and scipy's ``dlsim`` loops, and vs the arithmetic bound: flops of
+the modal recursion / measured DGEMM peak), 10^5 variants through ``simulate_metrics``
+(peak memory), closed loops (vs python-control ``feedback`` + ``forced_response``), the
+constrained FSC QP, and ``sampled_data_sensitivity`` over 10^4 frequencies.
 """
 
 from __future__ import annotations
 
-import argparse
-import json
-import time
-import tracemalloc
+import os
 
-import control
-import numpy as np
+for _var in ("OMP_NUM_THREADS", "OPENBLAS_NUM_THREADS", "MKL_NUM_THREADS"):
+    os.environ.setdefault(_var, "1")
 
-import servokit as sk
-from servokit.models import HDD_BENCHMARK_TS
-from servokit.simulate import simulate
+import argparse  # noqa: E402
+import json  # noqa: E402
+import platform  # noqa: E402
+import sys  # noqa: E402
+from pathlib import Path  # noqa: E402
+
+sys.path.insert(0, str(Path(__file__).parent))
+
+import numpy as np  # noqa: E402
+import qp  # noqa: E402
+import sensitivity  # noqa: E402
+import simulator  # noqa: E402
+
+TARGETS = {
+    "open_loop.speedup_vs_python_control": (">=", 300.0),
+    "open_loop.ratio_to_bound": ("<=", 10.0),
+    "many_variants.peak_memory_mb": ("<", 1000.0),
+    "many_variants.ratio_to_1000_variant_figure": ("<=", 1.5),
+    "closed_loop.speedup": (">=", 30.0),
+    "closed_loop.single_plant_speedup": (">=", 1.0),
+    "qp.sparse_s": ("<", 0.4),
+    "qp.max_relative_difference": ("<=", 1e-6),
+    "sensitivity.speedup_vs_per_cell": (">=", 5.0),
+    "sensitivity.max_relative_difference": ("<=", 1e-10),
+}
 
 
-def seek_input(n: int) -> np.ndarray:
-    """A smooth acceleration pulse pair: moves the rigid body and stops (integral zero)."""
-    k = np.arange(n)
-    return 2e-6 * np.sin(2 * np.pi * k / n) * np.sin(np.pi * k / n) ** 2
+def _check(results: dict) -> list[tuple[str, float, str, float, bool]]:
+    rows = []
+    for key, (op, target) in TARGETS.items():
+        section, name = key.split(".")
+        if section not in results or name not in results[section]:
+            continue
+        v = float(results[section][name])
+        ok = {"<=": v <= target, ">=": v >= target, "<": v < target}[op]
+        rows.append((key, v, op, target, ok))
+    return rows
 
 
 def main() -> None:
-    ap = argparse.ArgumentParser()
-    ap.add_argument("--variants", type=int, default=1000)
-    ap.add_argument(
-        "--baseline-variants",
-        type=int,
-        default=None,
-        help="variants run by the python-control loop (default: all); its time is "
-        "scaled to --variants",
-    )
-    ap.add_argument("--json", action="store_true")
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("--quick", action="store_true", help="smaller sets (a smoke run)")
+    ap.add_argument("--only", nargs="*", help="sections to run (default: all)")
+    ap.add_argument("--out", default=str(Path(__file__).with_name("results.json")))
     args = ap.parse_args()
-
-    Ts, S = HDD_BENCHMARK_TS, 40
-    n_samples = int(round(2e-3 / Ts))  # 2 ms record
-    u = seek_input(26)
-    plants = sk.models.hdd_benchmark_variation_set().monte_carlo(args.variants, seed=2026)
-
-    def run():
-        return simulate(plants, dt=Ts, n_samples=n_samples, substeps=S, feedforward=u)
-
-    t_sk = []
-    for _ in range(3):  # best of three: the machine is shared
-        t0 = time.perf_counter()
-        res = run()
-        t_sk.append(time.perf_counter() - t0)
-    t_sk = min(t_sk)
-    tracemalloc.start()  # separate run: tracing slows allocation down
-    run()
-    _, peak = tracemalloc.get_traced_memory()
-    tracemalloc.stop()
-
-    nb = args.baseline_variants or args.variants
-    ufine = np.zeros(n_samples * S)
-    ufine[: u.size * S] = np.repeat(u, S)
-    t0 = time.perf_counter()
-    worst = 0.0
-    for i, p in enumerate(plants[:nb]):
-        y = control.forced_response(p.discretize(Ts / S), U=ufine).outputs
-        worst = max(worst, float(np.max(np.abs(y - res.yc[i]))))
-    t_pc = (time.perf_counter() - t0) * args.variants / nb
-
-    out = {
-        "variants": args.variants,
-        "fine_steps": n_samples * S,
-        "servokit_s": t_sk,
-        "python_control_s": t_pc,
-        "python_control_variants_run": nb,
-        "speedup": t_pc / t_sk,
-        "servokit_peak_memory_mb": peak / 2**20,
-        "max_abs_difference_track": worst,
+    q = args.quick
+    sections = {
+        "open_loop": lambda: simulator.open_loop(200 if q else 1000, 5 if q else 20),
+        "many_variants": lambda: simulator.many_variants(
+            10_000 if q else 100_000, results["open_loop"]["ns_per_variant_step"]
+        ),
+        "closed_loop": lambda: simulator.closed_loop(200 if q else 1000, 10 if q else 40),
+        "qp": lambda: qp.constrained_fsc(300 if q else 1000),
+        "sensitivity": lambda: sensitivity.sensitivity(2000 if q else 10_000),
     }
-    if args.json:
-        print(json.dumps(out, indent=2))
-        return
-    print(
-        f"HDD benchmark, {args.variants} Monte-Carlo variants, 2 ms seek, grid Ts/40 "
-        f"({n_samples * S} fine steps)"
-    )
-    print(f"  servokit batched simulate : {t_sk:8.3f} s  (peak memory {peak / 2**20:.0f} MB)")
-    print(f"  python-control loop       : {t_pc:8.3f} s  ({nb} variants run)")
-    print(f"  speed-up                  : {t_pc / t_sk:8.1f} x")
-    print(f"  max |difference|          : {worst:.2e} track")
+    wanted = args.only or list(sections)
+    if "many_variants" in wanted and "open_loop" not in wanted:
+        wanted.insert(0, "open_loop")
+    results: dict = {
+        "machine": {
+            "python": platform.python_version(),
+            "numpy": np.__version__,
+            "processor": platform.processor() or platform.machine(),
+            "threads": os.environ["OPENBLAS_NUM_THREADS"],
+        }
+    }
+    for name in wanted:
+        print(f"running {name} ...", file=sys.stderr, flush=True)
+        results[name] = sections[name]()
+    rows = _check(results)
+    results["targets"] = {
+        k: {"value": v, "op": op, "target": t, "met": ok} for k, v, op, t, ok in rows
+    }
+    Path(args.out).write_text(json.dumps(results, indent=2) + "\n")
+    for name in wanted:
+        print(f"[{name}]")
+        for k, v in results[name].items():
+            print(f"  {k:40s} {v:.4g}" if isinstance(v, float) else f"  {k:40s} {v}")
+    print("[targets of issue 8]")
+    for key, v, op, t, ok in rows:
+        print(f"  {'met ' if ok else 'MISS'}  {key:48s} {v:10.4g} {op} {t:g}")
+    print(f"wrote {args.out}")
 
 
 if __name__ == "__main__":

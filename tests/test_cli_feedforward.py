@@ -20,8 +20,21 @@ def test_polynomial_json_matches_library(tmp_path: Path) -> None:
     png = tmp_path / "u.png"
     res = runner.invoke(
         app,
-        ["feedforward", "polynomial", "--order", "5", "--N", "20", "--dt", "1e-3",
-         "--target", "2", "--json", "--plot", str(png)],
+        [
+            "feedforward",
+            "polynomial",
+            "--order",
+            "5",
+            "--N",
+            "20",
+            "--dt",
+            "1e-3",
+            "--target",
+            "2",
+            "--json",
+            "--plot",
+            str(png),
+        ],
     )
     assert res.exit_code == 0, res.output
     data = json.loads(res.output)
@@ -46,7 +59,9 @@ def test_bad_order_is_one_line_exit_2() -> None:
     exe = Path(sys.executable).with_name("servokit")
     out = subprocess.run(
         [str(exe), "feedforward", "polynomial", "--order", "9", "--N", "10", "--dt", "0.1"],
-        capture_output=True, text=True, check=False,
+        capture_output=True,
+        text=True,
+        check=False,
     )
     assert out.returncode == 2
     assert out.stderr.strip().count("\n") == 0 and "order" in out.stderr

@@ -84,75 +84,32 @@ def test_margins_with_a_filter_changes_the_loop():
         run("margins", "--plant", "vcm-dual-stage", "--controller", "table-5.2", "--json").stdout
     )
     out = run(
-        "margins",
-        "--plant",
-        "vcm-dual-stage",
-        "--controller",
-        "table-5.2",
+        *"margins --plant vcm-dual-stage --controller table-5.2 --json".split(),
         "--filter",
         "notch:2179:0.05:2179:0.7",
-        "--json",
     )
     assert out.exit_code == 0, out.output
     assert json.loads(out.stdout)["gain_margin_db"] != pytest.approx(base["gain_margin_db"])
 
 
 @pytest.mark.parametrize(
-    "args, flag",
+    "command, flag",
     [
-        (["filter", "lag", "--freq", "6900", "--damping", "0.1", "--phase", "2"], "--phase"),
-        (["filter", "notch", "--freq", "-5", "--damping", "0.1"], "--freq"),
-        (
-            [
-                "filter",
-                "peak",
-                "--freq",
-                "1000",
-                "--damping",
-                "0.01",
-                "--gain",
-                "1",
-                "--phi",
-                "0",
-                "--dt",
-                "1e-3",
-            ],
-            "--freq",
-        ),
-        (["filter", "notch", "--freq", "100", "--damping", "0.1", "--plot", "x.pdf"], "--plot"),
-        (
-            [
-                "margins",
-                "--plant",
-                "vcm-dual-stage",
-                "--controller",
-                "table-5.2",
-                "--filter",
-                "peak:1:2",
-            ],
-            "--filter",
-        ),
-        (
-            [
-                "margins",
-                "--plant",
-                "vcm-dual-stage",
-                "--controller",
-                "table-5.2",
-                "--filter",
-                "wobble:1:2",
-            ],
-            "--filter",
-        ),
-        (["margins", "--plant", "nope", "--controller", "table-5.2"], "plant"),
+        ("filter lag --freq 6900 --damping 0.1 --phase 2", "--phase"),
+        ("filter notch --freq -5 --damping 0.1", "--freq"),
+        ("filter peak --freq 1000 --damping 0.01 --gain 1 --phi 0 --dt 1e-3", "--freq"),
+        ("filter notch --freq 100 --damping 0.1 --plot x.pdf", "--plot"),
+        ("margins --plant vcm-dual-stage --controller table-5.2 --filter peak:1:2", "--filter"),
+        ("margins --plant vcm-dual-stage --controller table-5.2 --filter wobble:1", "--filter"),
+        ("margins --plant nope --controller table-5.2", "plant"),
     ],
 )
-def test_bad_input_is_one_line_exit_2(args, flag, monkeypatch, capsys):
+def test_bad_input_is_one_line_exit_2(command, flag, monkeypatch, capsys):
     import sys
 
     from servokit.cli import main
 
-    monkeypatch.setattr(sys, "argv", ["servokit", *args])
+    monkeypatch.setattr(sys, "argv", ["servokit", *command.split()])
     with pytest.raises(SystemExit) as exc:
         main()
     assert exc.value.code == 2

@@ -53,8 +53,9 @@ def test_book_convention_without_delay_reproduces_design_1() -> None:
 
 def test_plot_and_human_output(tmp_path: Path) -> None:
     out = tmp_path / "seek.png"
-    res = runner.invoke(app, ["seek", "--tracks", "10", "--method", "fsc", "--N", "26",
-                              "--plot", str(out)])
+    res = runner.invoke(
+        app, ["seek", "--tracks", "10", "--method", "fsc", "--N", "26", "--plot", str(out)]
+    )
     assert res.exit_code == 0, res.output
     assert "N = 26" in res.stdout and "ms" in res.stdout
     assert out.stat().st_size > 10_000
@@ -63,9 +64,24 @@ def test_plot_and_human_output(tmp_path: Path) -> None:
 def test_plant_file_with_explicit_bands(tmp_path: Path) -> None:
     path = tmp_path / "stage.toml"
     save_plant(ModalPlant(1.0e6, (Mode(0, 0, 1.0), Mode(900.0, 0.02, -0.3)), name="stage"), path)
-    data = _json("--plant", str(path), "--dt", "1e-4", "--tracks", "2e-3", "--method", "ffsc",
-                 "--band", "800:1000:1e12:20", "--model", "plant", "--N", "30",
-                 "--settle-band", "1e-5")
+    data = _json(
+        "--plant",
+        str(path),
+        "--dt",
+        "1e-4",
+        "--tracks",
+        "2e-3",
+        "--method",
+        "ffsc",
+        "--band",
+        "800:1000:1e12:20",
+        "--model",
+        "plant",
+        "--N",
+        "30",
+        "--settle-band",
+        "1e-5",
+    )
     assert data["n_plants"] == 1 and data["N"] == 30
     # designed on the full model: at rest on target after N steps, so it settles by N dt
     assert 0 < data["seek_time_s"] <= 30 * 1e-4 + 1e-12
@@ -91,9 +107,19 @@ def test_user_errors_name_the_option(args: list[str], message: str) -> None:
 
 def test_user_error_is_one_line_on_stderr_with_exit_2() -> None:
     r = subprocess.run(
-        [sys.executable, "-c", "from servokit.cli import main; main()", "seek", "--N", "2",
-         "--method", "fsc"],
-        capture_output=True, text=True, timeout=120,
+        [
+            sys.executable,
+            "-c",
+            "from servokit.cli import main; main()",
+            "seek",
+            "--N",
+            "2",
+            "--method",
+            "fsc",
+        ],
+        capture_output=True,
+        text=True,
+        timeout=120,
     )
     assert r.returncode == 2
     assert "below the order" in r.stderr and len(r.stderr.strip().splitlines()) == 1

@@ -22,12 +22,15 @@ runner = CliRunner()
 
 
 def test_json_matches_library():
-    out = runner.invoke(app, ["sensitivity", "--no-multirate", "--fmin", "100", "--fmax",
-                              "3000", "--n", "4", "--json"])
+    out = runner.invoke(
+        app,
+        ["sensitivity", "--no-multirate", "--fmin", "100", "--fmax", "3000", "--n", "4", "--json"],
+    )
     assert out.exit_code == 0, out.output
     data = json.loads(out.stdout)
-    ref = sampled_data_sensitivity(hdd_sampled_data(), controller_eq_4_69(),
-                                   HDD_SAMPLED_DATA_TS, np.linspace(100, 3000, 4))
+    ref = sampled_data_sensitivity(
+        hdd_sampled_data(), controller_eq_4_69(), HDD_SAMPLED_DATA_TS, np.linspace(100, 3000, 4)
+    )
     np.testing.assert_allclose(data["Ssd"], ref.Ssd, rtol=1e-12)
     np.testing.assert_allclose(data["Sd_mag"], np.abs(ref.Sd), rtol=1e-12)
     assert data["m"] == 1 and data["dt"] == pytest.approx(HDD_SAMPLED_DATA_TS)
@@ -58,8 +61,9 @@ def test_user_errors_raise_servokit_errors(args, msg):
 
 def test_entry_point_prints_one_line_and_exits_2():
     exe = Path(sys.executable).with_name("servokit")
-    proc = subprocess.run([str(exe), "sensitivity", "--controller", "missing.toml"],
-                          capture_output=True, text=True)
+    proc = subprocess.run(
+        [str(exe), "sensitivity", "--controller", "missing.toml"], capture_output=True, text=True
+    )
     assert proc.returncode == 2
     assert "missing.toml" in proc.stderr and "Traceback" not in proc.stderr
     assert len(proc.stderr.strip().splitlines()) == 1

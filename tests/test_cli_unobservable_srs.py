@@ -31,39 +31,84 @@ def test_unobservable_magnitude_json_matches_library():
 
 
 def test_unobservable_sampling_json_book_frequencies():
-    out = run_json("unobservable", "sampling", "--freq", "40000", "--damping", "0.01",
-                   "--ns", "10", "--level", "0.2", "--fs-min", "5000", "--fs-max", "200000")
+    out = run_json(
+        "unobservable",
+        "sampling",
+        "--freq",
+        "40000",
+        "--damping",
+        "0.01",
+        "--ns",
+        "10",
+        "--level",
+        "0.2",
+        "--fs-min",
+        "5000",
+        "--fs-max",
+        "200000",
+    )
     peaks = [iv["peak_hz"] for iv in out["intervals"]]
     np.testing.assert_allclose(peaks, [13.3e3, 20e3, 40e3, 80e3], rtol=0.01)  # Fig. 4.24
 
 
 def test_unobservable_time_json_and_plot(tmp_path):
     png = tmp_path / "t.png"
-    out = run_json("unobservable", "time", "--freq", "4100", "--dt", "233e-6",
-                   "--level", "0.1", "--max-ns", "30", "--plot", str(png))
+    out = run_json(
+        "unobservable",
+        "time",
+        "--freq",
+        "4100",
+        "--dt",
+        "233e-6",
+        "--level",
+        "0.1",
+        "--max-ns",
+        "30",
+        "--plot",
+        str(png),
+    )
     assert out["crossing_time_s"] == pytest.approx(3e-3, rel=0.1)  # Fig. 4.55
     assert png.stat().st_size > 5000
 
 
 def test_srs_polynomial_json_and_plot(tmp_path):
     png = tmp_path / "srs.png"
-    out = run_json("srs", "--input", "polynomial", "--hold", "25e-6", "--n", "40",
-                   "--fmin", "30000", "--fmax", "50000", "--n-freq", "201", "--damping",
-                   "0.005", "--at", "38700", "--plot", str(png))
+    out = run_json(
+        "srs",
+        "--input",
+        "polynomial",
+        "--hold",
+        "25e-6",
+        "--n",
+        "40",
+        "--fmin",
+        "30000",
+        "--fmax",
+        "50000",
+        "--n-freq",
+        "201",
+        "--damping",
+        "0.005",
+        "--at",
+        "38700",
+        "--plot",
+        str(png),
+    )
     ref = shock_response_spectrum(polynomial_wave(40, 25e-6, 1.0), 25e-6, [38700.0], 0.005)
     assert out["at"]["38700"] == pytest.approx(ref.magnitude[0], rel=1e-9)
     assert png.stat().st_size > 5000
 
 
 def test_srs_half_sine_table_and_file_input(tmp_path):
-    res = runner.invoke(app, ["srs", "--duration", "0.5e-3", "--hold", "25e-6",
-                              "--fmax", "50000", "--n-freq", "4901"])
+    res = runner.invoke(
+        app,
+        ["srs", "--duration", "0.5e-3", "--hold", "25e-6", "--fmax", "50000", "--n-freq", "4901"],
+    )
     assert res.exit_code == 0, res.output
     assert "38" in res.stdout and "peak" in res.stdout
     f = tmp_path / "u.txt"
     np.savetxt(f, polynomial_wave(20, 25e-6, 1.0))
-    out = run_json("srs", "--input", str(f), "--hold", "25e-6", "--at", "40000",
-                   "--n-freq", "100")
+    out = run_json("srs", "--input", str(f), "--hold", "25e-6", "--at", "40000", "--n-freq", "100")
     ref = shock_response_spectrum(polynomial_wave(20, 25e-6, 1.0), 25e-6, [40000.0], 0.0)
     assert out["at"]["40000"] == pytest.approx(ref.magnitude[0], rel=1e-6)
 
@@ -74,8 +119,10 @@ def test_srs_half_sine_table_and_file_input(tmp_path):
         (["srs", "--input", "no-such-file"], "--input"),
         (["srs", "--input", "polynomial"], "--hold"),
         (["srs", "--fmin", "10", "--fmax", "5"], "--fmin"),
-        (["unobservable", "magnitude", "--freq", "1000", "--dt", "1e-4", "--damping", "0.1"],
-         "n_samples"),
+        (
+            ["unobservable", "magnitude", "--freq", "1000", "--dt", "1e-4", "--damping", "0.1"],
+            "n_samples",
+        ),
     ],
 )
 def test_user_errors_exit_2(args, message, capsys, monkeypatch):

@@ -32,7 +32,13 @@ def _rigid_model(dt: float, N: int, gain: float = 1.0):  # noqa: ANN202
     plant = ModalPlant(gain, (Mode(0.0, 0.0, 1.0),), name="rigid")
     A, B, n = augmented_design_model(plant, dt)
     lm = lifted_model(
-        A, B, N, np.zeros(n + 1), dt=dt, position=[1, 0, 0], velocity=[0, 1, 0],
+        A,
+        B,
+        N,
+        np.zeros(n + 1),
+        dt=dt,
+        position=[1, 0, 0],
+        velocity=[0, 1, 0],
         input_row=[0, 0, 1],
     )
     return A, B, lm
@@ -92,7 +98,12 @@ def test_voltage_current_velocity_signals_match_simulation(seed: int, N: int) ->
 
 def _feasible_lp(A_eq, b_eq, G, h) -> bool:  # noqa: ANN001
     res = scipy.optimize.linprog(
-        np.zeros(A_eq.shape[1]), A_ub=G, b_ub=h, A_eq=A_eq, b_eq=b_eq, bounds=(None, None),
+        np.zeros(A_eq.shape[1]),
+        A_ub=G,
+        b_ub=h,
+        A_eq=A_eq,
+        b_eq=b_eq,
+        bounds=(None, None),
         method="highs",
     )
     return res.status == 0
@@ -144,7 +155,10 @@ def test_qp_matches_kkt_of_active_set() -> None:
     Sigma, X = lm.x_gain[N], xN - lm.x_offset[N]
     U = solve_fsc_qp(np.eye(N), np.zeros(N), Sigma, X, G, h, groups=groups)
     ref = scipy.optimize.minimize(
-        lambda u: u @ u, np.zeros(N), jac=lambda u: 2 * u, method="SLSQP",
+        lambda u: u @ u,
+        np.zeros(N),
+        jac=lambda u: 2 * u,
+        method="SLSQP",
         constraints=[
             {"type": "eq", "fun": lambda u: Sigma @ u - X, "jac": lambda u: Sigma},
             {"type": "ineq", "fun": lambda u: h - G @ u, "jac": lambda u: -G},
@@ -185,8 +199,9 @@ def test_equality_only_and_errors() -> None:
     with pytest.raises(ServokitValueError, match="N=10"):
         solve_fsc_qp(np.eye(N), np.zeros(N + 1), lm.x_gain[N], xN)
     with pytest.raises(ServokitValueError, match="groups"):
-        solve_fsc_qp(np.eye(N), np.zeros(N), lm.x_gain[N], xN, np.eye(N), np.ones(N),
-                     groups=[("a", 3)])
+        solve_fsc_qp(
+            np.eye(N), np.zeros(N), lm.x_gain[N], xN, np.eye(N), np.ones(N), groups=[("a", 3)]
+        )
     with pytest.raises(InfeasibleConstraintsError, match="final"):
         solve_fsc_qp(np.eye(N), np.zeros(N), np.zeros((1, N)), np.ones(1))
     with pytest.raises(ServokitTypeError, match="MotorModel"):

@@ -5,12 +5,14 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from servokit.cases.resonance import (
+from servokit.cases.peak_filters import (
+    SEARCH_GRID,
+    _candidate,
     ltv_locus_case,
     peak_example_baseline,
     peak_filter_case,
-    resonance_filters_case,
 )
+from servokit.cases.resonance import resonance_filters_case
 from servokit.feedback import design_peak_filter
 
 
@@ -26,12 +28,17 @@ def test_resonance_filters_case(tmp_path):
     assert all(p.exists() for p in r.figures) and r.chapter == 5
 
 
-def test_peak_baseline_is_the_stated_one():
+def test_searched_baseline_is_a_grid_point_with_the_stated_loop():
     ex = peak_example_baseline()
-    assert ex.pseudo_resonance_hz() == pytest.approx(11800.0, abs=1e-3)
-    wc = 2 * np.pi * 1000.0
+    assert (ex.residue, ex.crossover_hz, ex.lead_spread) in SEARCH_GRID
+    wc = 2 * np.pi * ex.crossover_hz
     assert abs(complex((ex.plant * ex.controller)(1j * wc))) == pytest.approx(1.0, rel=1e-9)
     assert np.all(ex.sh.poles().real < 0)
+    # a candidate's pseudo plant is PC/(1+PC) at any frequency
+    other = _candidate(-1e-4, 1000.0, 2.0)
+    s = 2j * np.pi * 3000.0
+    loop = complex((other.plant * other.controller)(s))
+    assert complex(other.sh(s)) == pytest.approx(loop / (1 + loop), rel=1e-9)
 
 
 def test_peak_filter_case_rows(tmp_path):
@@ -39,12 +46,12 @@ def test_peak_filter_case_rows(tmp_path):
     got = rows(r)
     assert got["phase shift (5.38): extra attenuation at 12 kHz"].servokit == pytest.approx(10.0)
     ex = peak_example_baseline()
-    flt, _ = design_peak_filter(ex.sh, 12000.0, 0.01, r.extra["filter_gain_k"], "phase-shift")
-    k = r.extra["phase-shift"]["plant_k_crit"]
+    flt, _ = design_peak_filter(ex.sh, 12000.0, 0.01, r.extra["filter_gain_k"], "stable")
+    k = r.extra["stable"]["plant_k_crit"]
     # at the reported critical multiplier a closed-loop root sits on the imaginary axis
-    num = np.polymul(ex.sh.den[0][0], flt.den[0][0])
-    gnum = np.polymul(ex.sh.num[0][0], flt.num[0][0])
-    roots = np.roots(np.polyadd(num, k * gnum))
+    den = np.polymul(ex.sh.den[0][0], flt.den[0][0])
+    num = np.polymul(ex.sh.num[0][0], flt.num[0][0])
+    roots = np.roots(np.polyadd(den, k * num))
     assert np.min(np.abs(roots.real)) < 1e-6 * np.max(np.abs(roots))
     assert len(r.figures) == 4
 

@@ -62,8 +62,12 @@ def test_fsc_on_full_plant_leaves_no_residual_vibration() -> None:
 def test_spectrum_matches_piecewise_integral_and_dc() -> None:
     ff = fsc_input(hdd_benchmark(), TS, 12, 1.0, model="rigid-body")
     f = np.linspace(10.0, 30e3, 200)
-    np.testing.assert_allclose(ff.spectrum(f), _exact_spectrum(ff.u, TS, f), rtol=1e-9,
-                               atol=1e-12 * np.abs(ff.u).max() * TS)
+    np.testing.assert_allclose(
+        ff.spectrum(f),
+        _exact_spectrum(ff.u, TS, f),
+        rtol=1e-9,
+        atol=1e-12 * np.abs(ff.u).max() * TS,
+    )
     # f = 0: area of the staircase, which is zero because the move ends at rest
     np.testing.assert_allclose(ff.spectrum(0.0), TS * ff.u.sum(), atol=1e-20)
     assert ff.spectrum(np.zeros((2, 3))).shape == (2, 3)
@@ -152,8 +156,9 @@ def test_choose_n_picks_the_smallest_worst_case() -> None:
         calls.append(ff.N)
         return np.array([abs(ff.N - 9) + 1.0, 0.5])
 
-    res = choose_N([plant, plant], TS, 1.0, [12, 7, 9, 11], model="rigid-body",
-                   seek_time_fn=fake_seek)
+    res = choose_N(
+        [plant, plant], TS, 1.0, [12, 7, 9, 11], model="rigid-body", seek_time_fn=fake_seek
+    )
     assert res.N == 9 and res.seek_time == 1.0 and res.worst_plant == 0
     assert sorted(calls) == [7, 9, 11, 12] and list(res.N_values) == [7, 9, 11, 12]
     assert res.ff.N == 9
@@ -222,8 +227,14 @@ def test_constraints_are_duck_typed_and_infeasibility_is_reported() -> None:
     np.testing.assert_allclose(_response(plant.rigid_body(), ff, 3)[16:], 1.0, rtol=1e-8)
     free = fsc_input(plant, TS, 16, 1.0, model="rigid-body")
     with pytest.raises(ServokitValueError, match="input"):
-        fsc_input(plant, TS, 16, 1.0, model="rigid-body",
-                  constraints=[InputLimit(0.1 * np.abs(free.u).max())])
+        fsc_input(
+            plant,
+            TS,
+            16,
+            1.0,
+            model="rigid-body",
+            constraints=[InputLimit(0.1 * np.abs(free.u).max())],
+        )
     with pytest.raises(TypeError, match="rows"):
         fsc_input(plant, TS, 16, 1.0, model="rigid-body", constraints=[object()])
 
@@ -250,5 +261,11 @@ def test_zero_steps_and_bad_bands_are_reported_not_skipped():
         fsc_input(rigid, HDD_BENCHMARK_TS, 0, 1.0)
     # a user mistake inside the design must surface, not read as "no N settles"
     with pytest.raises(ServokitValueError, match="f_low_hz <= f_high_hz"):
-        choose_N(hdd_benchmark(), HDD_BENCHMARK_TS, 1.0, range(5, 8), design_plant=rigid,
-                 band_weights=[(5000.0, 1000.0, 1.0, 10)])
+        choose_N(
+            hdd_benchmark(),
+            HDD_BENCHMARK_TS,
+            1.0,
+            range(5, 8),
+            design_plant=rigid,
+            band_weights=[(5000.0, 1000.0, 1.0, 10)],
+        )

@@ -76,8 +76,9 @@ def test_minimum_norm_against_null_space_perturbations() -> None:
         other = u + null @ rng.normal(size=null.shape[1])
         np.testing.assert_allclose(S @ other, S @ u, rtol=1e-9, atol=1e-12)
         assert np.linalg.norm(other) > np.linalg.norm(u)
-    np.testing.assert_allclose(u, np.linalg.lstsq(S, xN - np.linalg.matrix_power(A, N) @ x0,
-                                                  rcond=None)[0], rtol=1e-9)
+    np.testing.assert_allclose(
+        u, np.linalg.lstsq(S, xN - np.linalg.matrix_power(A, N) @ x0, rcond=None)[0], rtol=1e-9
+    )
 
 
 def test_weighted_solution_solves_the_kkt_system() -> None:
@@ -109,8 +110,16 @@ def test_lifted_state_map_matches_recursion() -> None:
     traj = _simulate(A, B, x0, U)
     np.testing.assert_allclose(Phi @ x0 + Gamma @ U, traj, rtol=1e-12, atol=1e-14)
     np.testing.assert_allclose(Gamma[N], _sigma_by_powers(A, B, N), rtol=1e-12)
-    lm = lifted_model(A, B, N, x0, dt=0.1, position=np.array([1.0, 0.0]),
-                      velocity=np.array([0.0, 1.0]), input_row=np.array([0.0, 1.0]))
+    lm = lifted_model(
+        A,
+        B,
+        N,
+        x0,
+        dt=0.1,
+        position=np.array([1.0, 0.0]),
+        velocity=np.array([0.0, 1.0]),
+        input_row=np.array([0.0, 1.0]),
+    )
     np.testing.assert_allclose(lm.plant_input(U), traj[:N, 1], rtol=1e-12, atol=1e-14)
     np.testing.assert_allclose(lm.states(U), traj, rtol=1e-12, atol=1e-14)
 
@@ -139,8 +148,11 @@ def modal_systems(draw: st.DrawFn) -> tuple[np.ndarray, np.ndarray, int]:
     assume(all(b - a > 20.0 for a, b in zip(freqs, freqs[1:], strict=False)))
     modes = [Mode(0.0, 0.0, 1.0)] + [
         Mode(f, draw(st.floats(0.0, 0.3)), sign * draw(st.floats(0.1, 2.0)))
-        for f, sign in zip(freqs, draw(st.lists(st.sampled_from([-1.0, 1.0]), min_size=n_modes,
-                                                max_size=n_modes)), strict=True)
+        for f, sign in zip(
+            freqs,
+            draw(st.lists(st.sampled_from([-1.0, 1.0]), min_size=n_modes, max_size=n_modes)),
+            strict=True,
+        )
     ]
     dt = draw(st.floats(2e-5, 2e-4))
     assume(all(abs(np.sin(np.pi * f * dt)) > 0.05 for f in freqs))  # no pathological sampling

@@ -78,8 +78,10 @@ def test_peak_of_fig_2_15_and_independent_simulation(undelayed) -> None:
 
 
 def test_improvements_of_design_2(undelayed) -> None:
-    t = {d.key: float(np.max(seek_time(undelayed, d.design(undelayed[0]), d.tracks)))
-         for d in DESIGNS}
+    t = {
+        d.key: float(np.max(seek_time(undelayed, d.design(undelayed[0]), d.tracks)))
+        for d in DESIGNS
+    }
     # book: "resulting in 16% and 39% improvements of seek time"
     assert 100 * (1 - t["d2-1"] / t["d1-1"]) == pytest.approx(16.0, rel=0.05)
     assert 100 * (1 - t["d2-10"] / t["d1-10"]) == pytest.approx(39.0, rel=0.05)
@@ -97,8 +99,9 @@ def test_table_2_4_weights() -> None:
     fsc = fsc_input(nominal, TS, 10, 1.0, model="rigid-body")
 
     def band_term(ff):
-        return sum(q * np.sum(np.abs(ff.spectrum(np.linspace(lo, hi, n))) ** 2)
-                   for lo, hi, q, n in one)
+        return sum(
+            q * np.sum(np.abs(ff.spectrum(np.linspace(lo, hi, n))) ** 2) for lo, hi, q, n in one
+        )
 
     assert band_term(ffsc) < 0.1 * band_term(fsc)
 
@@ -114,10 +117,13 @@ def test_case_comparisons_and_figures(case_result) -> None:
     assert res.name == "hdd-seek"
     by_name = {c.quantity: c for c in res.comparisons}
     for d in DESIGNS:
-        c = by_name[f"{d.label}: worst seek time"]
-        assert c.book == BOOK_MS[d.key] and c.ok, c
-        assert by_name[f"{d.label}: worst seek time, 10 us delay simulated"].ok
-    assert by_name["Design 1, 1 track: Max(y) over the 18 plants"].ok
+        c = by_name[f"{d.label}: worst seek time (10 us input delay not simulated)"]
+        assert c.book == BOOK_MS[d.key] and c.ok, c  # within the printed precision
+        delayed = by_name[f"{d.label}: worst seek time, 10 us input delay simulated"]
+        assert delayed.kind == "consistency" and delayed.servokit > c.servokit
+    assert by_name[
+        "Design 1, 1 track: Max(y) over the 18 plants (10 us input delay not simulated)"
+    ].ok
     assert by_name["FFSC seek-time improvement, 1 track(s)"].ok
     assert by_name["FFSC seek-time improvement, 10 track(s)"].ok
     assert len(res.figures) == 5
@@ -132,3 +138,13 @@ def test_case_n_search(case_result) -> None:
     # every search result is at least as good as the book's N (by construction of the search)
     for d in DESIGNS:
         assert auto[d.key]["seek_time_ms"] <= case_result.extra["seek_time_ms"][d.key] + 1e-12
+
+
+def test_known_miss_design_2_ten_tracks_is_reported(case_result) -> None:
+    # Comparison.ok on the real row: the search finds N = 15, the book prints 17
+    row = next(
+        c for c in case_result.comparisons
+        if c.quantity == "Design 2 (FFSC), 10 tracks: N minimising the worst seek time"
+    )  # fmt: skip
+    assert (row.book, row.servokit, row.ok) == (17.0, 15.0, False)
+    assert "not explained" in row.note

@@ -134,3 +134,35 @@ def test_cli_identify_bad_input(args, flag, monkeypatch, capsys):
     assert exc.value.code == 2
     lines = capsys.readouterr().err.strip().splitlines()
     assert len(lines) == 1 and flag in lines[0]
+
+
+@pytest.mark.slow
+def test_identification_vcm_case(tmp_path):
+    from servokit.cases.identification import identification_vcm_case
+
+    r = identification_vcm_case(tmp_path)
+    assert r.name == "identification-vcm" and all(c.ok for c in r.comparisons)
+    assert list(r.extra["excluded_hz"]) == [15000.0, 30000.0, 45000.0, 60000.0]
+    assert len(r.figures) == 2 and all(p.exists() for p in r.figures)
+
+
+@pytest.mark.slow
+def test_identification_pzt_case(tmp_path):
+    from servokit.cases.identification import identification_pzt_case
+
+    r = identification_pzt_case(tmp_path)
+    assert r.name == "identification-pzt" and all(c.ok for c in r.comparisons)
+
+
+def test_chapter5_cases_are_registered():
+    from servokit.cases import registry
+
+    names = set(registry())
+    assert {
+        "resonance-filters",
+        "peak-filter-12khz",
+        "ltv-peak-filter-locus",
+        "ltv-peak-filter-transient",
+        "identification-vcm",
+        "identification-pzt",
+    } <= names

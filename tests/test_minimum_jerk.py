@@ -163,9 +163,7 @@ def test_errors() -> None:
 def test_plot(tmp_path: Path) -> None:
     import matplotlib.pyplot as plt
 
-    fig = minimum_jerk_zoh_plot(
-        [minimum_jerk_zoh_response(1.0, 1.0, tau) for tau in (0.01, 0.1)]
-    )
+    fig = minimum_jerk_zoh_plot([minimum_jerk_zoh_response(1.0, 1.0, tau) for tau in (0.01, 0.1)])
     out = tmp_path / "fig_2_10.png"
     fig.savefig(out)
     plt.close(fig)

@@ -264,8 +264,15 @@ def test_steady_state_matches_hybrid_simulation(f, use_multirate):
     mr = _multirate_4_68() if use_multirate else None
     kw = {"multirate": (4, mr.chain(TS))} if use_multirate else {}
     n = 800
-    res = simulate(plant, dt=TS, n_samples=n, substeps=8, controller=ctrl,
-                   output_disturbance=lambda t: np.sin(2 * np.pi * f * t), **kw)
+    res = simulate(
+        plant,
+        dt=TS,
+        n_samples=n,
+        substeps=8,
+        controller=ctrl,
+        output_disturbance=lambda t: np.sin(2 * np.pi * f * t),
+        **kw,
+    )
     keep = res.t >= 0.5 * n * TS
     ss = sinusoid_response(plant, ctrl, TS, f, res.t[keep], multirate=mr)
     np.testing.assert_allclose(res.yc[0, keep], ss.yc, atol=2e-5)

@@ -191,8 +191,9 @@ def test_tdof_nominal_plant_has_zero_feedback_and_open_loop_response():
     dt = HDD_SAMPLED_DATA_TS
     C = sk.models.controller_eq_4_69()
     u = 1e-4 * np.sin(2 * np.pi * np.arange(20) / 20)
-    res = tdof_response(plant, plant, controller=C, dt=dt, n_samples=80, substeps=6,
-                        feedforward=u, ff_dt=dt / 2)
+    res = tdof_response(
+        plant, plant, controller=C, dt=dt, n_samples=80, substeps=6, feedforward=u, ff_dt=dt / 2
+    )
     open_loop = simulate(plant, dt=dt, n_samples=80, substeps=6, feedforward=u, ff_dt=dt / 2)
     assert np.max(np.abs(res.sim.yc - open_loop.yc)) < 1e-12 * np.max(np.abs(open_loop.yc))
 
@@ -205,8 +206,9 @@ def test_tdof_reference_is_the_discretised_model_output():
     dt = HDD_SAMPLED_DATA_TS
     C = sk.models.controller_eq_4_69()
     u = 1e-4 * np.sin(2 * np.pi * np.arange(12) / 12)
-    res = tdof_response(plants, nominal, controller=C, dt=dt, n_samples=200, substeps=4,
-                        feedforward=u, ff_dt=2 * dt)
+    res = tdof_response(
+        plants, nominal, controller=C, dt=dt, n_samples=200, substeps=4, feedforward=u, ff_dt=2 * dt
+    )
     # M(z): exact ZOH discretisation of the nominal model with its delay (cf. eq. 4.75)
     held = np.zeros(200)
     held[:24] = np.repeat(u, 2)
@@ -226,8 +228,14 @@ def test_unstable_loop_is_refused():
     with pytest.raises(ValueError, match="unstable"):
         simulate(plant, dt=dt, n_samples=10, controller=C)
     with pytest.raises(ValueError, match="overflowed"):
-        simulate(plant, dt=dt, n_samples=4000, controller=C, check_stability=False,
-                 reference=np.ones(4000))
+        simulate(
+            plant,
+            dt=dt,
+            n_samples=4000,
+            controller=C,
+            check_stability=False,
+            reference=np.ones(4000),
+        )
 
 
 def test_multirate_stability_check_matches_simulated_growth():
@@ -235,8 +243,15 @@ def test_multirate_stability_check_matches_simulated_growth():
     dt, m = HDD_SAMPLED_DATA_TS, 4
     C = sk.models.controller_eq_4_69()
     Ip = control.tf([1, 1, 1, 1], [1, 0, 0, 0], dt / m)
-    res = simulate(plant, dt=dt, n_samples=400, substeps=4, controller=C, multirate=(m, Ip),
-                   reference=np.ones(400))
+    res = simulate(
+        plant,
+        dt=dt,
+        n_samples=400,
+        substeps=4,
+        controller=C,
+        multirate=(m, Ip),
+        reference=np.ones(400),
+    )
     assert abs(res.yd[0, -1] - 1.0) < 1e-3  # stable, integral action
     with pytest.raises(ValueError, match="unstable"):
         simulate(plant, dt=dt, n_samples=10, substeps=4, controller=C, multirate=(m, 8 * Ip))

@@ -78,7 +78,11 @@ def test_polynomial_wave_is_eq_4_60():
     N, Pt = 40, 2.0
     n = np.arange(N)
     book = (
-        840 * n**2 * (n - N) ** 3 * (-10 + (7 * n - 3 * N) * N * (1 + N**2)) * Pt
+        840
+        * n**2
+        * (n - N) ** 3
+        * (-10 + (7 * n - 3 * N) * N * (1 + N**2))
+        * Pt
         / (N * (N**2 - 4) * (N**2 - 1) * (N**2 + 5) * (10 + 3 * (N**2 + N**4)) * TZOH**2)
     )
     np.testing.assert_allclose(polynomial_wave(N, TZOH, Pt), book, rtol=1e-10, atol=1e-6)
@@ -189,8 +193,11 @@ def test_plot_and_errors(tmp_path):
 
 @settings(max_examples=25, deadline=None)
 @given(
-    st.lists(st.floats(-1.0, 1.0), min_size=1, max_size=30), st.integers(0, 20),
-    st.floats(0.0, 0.05), st.floats(1e-3, 5.0), st.booleans(),
+    st.lists(st.floats(-1.0, 1.0), min_size=1, max_size=30),
+    st.integers(0, 20),
+    st.floats(0.0, 0.05),
+    st.floats(1e-3, 5.0),
+    st.booleans(),
 )
 def test_residual_shift_invariant_and_linear(samples, lead, zeta, scale, negative):
     # Leading zeros leave the final state unchanged; the SRS is positively homogeneous.

@@ -68,7 +68,9 @@ def test_steady_state_worst_is_one_minus_cos_pi_over_q(q, p):
 
 @settings(max_examples=30, deadline=None)
 @given(
-    st.floats(0.03, 3.5), st.sampled_from([0.0, 0.005, 0.03, 0.1]), st.integers(1, 15),
+    st.floats(0.03, 3.5),
+    st.sampled_from([0.0, 0.005, 0.03, 0.1]),
+    st.integers(1, 15),
     st.integers(0, 35),
 )
 def test_finite_samples_match_brute_force(ratio, zeta, ns, k):

@@ -2,13 +2,42 @@
 
 from __future__ import annotations
 
+import io
+from collections.abc import Iterator
+from contextlib import contextmanager
+from contextvars import ContextVar
 from pathlib import Path
 from typing import TYPE_CHECKING
+
+from servokit._io import write_atomic
 
 if TYPE_CHECKING:
     from matplotlib.figure import Figure
 
-__all__ = ["save_figure"]
+__all__ = ["also_save_as", "figure_title", "save_figure"]
+
+_META_FORMATS = (".png", ".svg", ".pdf")
+
+# formats written beside every figure (e.g. the reproduce report's SVG copies)
+_EXTRA_FORMATS: ContextVar[tuple[str, ...]] = ContextVar("extra_formats", default=())
+
+
+@contextmanager
+def also_save_as(*formats: str) -> Iterator[None]:
+    """While active, :func:`save_figure` also writes each figure as ``formats`` (``"svg"``)
+    beside the requested file, same stem."""
+    token = _EXTRA_FORMATS.set(tuple(f.lower().lstrip(".") for f in formats))
+    try:
+        yield
+    finally:
+        _EXTRA_FORMATS.reset(token)
+
+
+def figure_title(fig: Figure) -> str:
+    """The figure's suptitle and axes titles joined with " | " (empty if untitled)."""
+    parts = [fig.get_suptitle()]
+    parts += [ax.get_title() for ax in fig.axes]
+    return " | ".join(p.strip() for p in parts if p and p.strip())
 
 
 def save_figure(fig: Figure, path: str | Path, *, dpi: int = 110) -> Path:
@@ -16,6 +45,17 @@ def save_figure(fig: Figure, path: str | Path, *, dpi: int = 110) -> Path:
     import matplotlib.pyplot as plt
 
     fig.tight_layout()
-    fig.savefig(path, dpi=dpi)
+    title = figure_title(fig)
+    targets = [Path(path)] + [
+        Path(path).with_suffix(f".{fmt}")
+        for fmt in _EXTRA_FORMATS.get()
+        if Path(path).suffix.lower() != f".{fmt}"
+    ]
+    for target in targets:
+        # the title travels in the file, so a report can caption any figure
+        meta = {"Title": title} if title and target.suffix.lower() in _META_FORMATS else None
+        buf = io.BytesIO()
+        fig.savefig(buf, dpi=dpi, metadata=meta, format=target.suffix.lstrip(".").lower() or None)
+        write_atomic(target, buf.getvalue())  # an interrupted run leaves no torn image
     plt.close(fig)
     return Path(path)

@@ -13,7 +13,7 @@ from pathlib import Path
 
 from servokit.report import CaseResult
 
-__all__ = ["register", "registry", "run_all"]
+__all__ = ["case_chapter", "register", "registry", "run_all"]
 
 CaseFn = Callable[[Path], CaseResult]
 _REGISTRY: dict[str, tuple[int, CaseFn]] = {}
@@ -55,3 +55,25 @@ def run_all(outdir: Path, only: list[str] | None = None) -> list[CaseResult]:
             f"case {unknown[0]!r} is unknown; choose one of {', '.join(cases)}"
         )
     return [cases[n](outdir) for n in names]
+
+
+#: Registration ``order`` ranges per book chapter (docs/CONVENTIONS.md); 0 = beyond the book.
+_CHAPTER_ORDERS = ((0, 20, 2), (20, 100, 4), (100, 200, 3), (300, 400, 5), (400, 500, 6))
+
+
+def case_chapter(name: str) -> int:
+    """Book chapter of the registered case ``name``, from its registration ``order``.
+
+    Parameters
+    ----------
+    name : str
+        A registered case.
+
+    Returns
+    -------
+    int
+        Chapter 2-6, or 0 for a case beyond the book (order 500+).
+    """
+    registry()
+    order = _REGISTRY[name][0]
+    return next((ch for lo, hi, ch in _CHAPTER_ORDERS if lo <= order < hi), 0)

@@ -37,7 +37,8 @@ from servokit.models import (
     controller_fig_4_57,
     hdd_sampled_data,
 )
-from servokit.report import CaseResult, Comparison, nearest
+from servokit.report import CaseResult, Comparison
+from servokit.report.pairing import pair_rows
 from servokit.sampled.srs import (
     shock_response_spectrum,
     srs_plot,
@@ -209,15 +210,27 @@ def _section_4_5_4(outdir: Path) -> tuple[list[Comparison], list[Path], dict]:
     den = np.asarray(mf.den[0][0], dtype=float)
     gain = float(num[0] / den[0])
     src = "§4.5.4.2, eq. (4.75)"
-    rows = [
-        Comparison(f"Mf zero {b:g}", b, nearest(zeros, b), "", 0.01, src)
-        for b in (14.34, 0.3574, -0.1314, -2.408)
-    ]
+    delay_note = f"fitted: the {MF_DELAY * 1e6:g} us Mf delay is chosen to match these zeros"
+    tau_note = "fitted: tau_fb = Ts/4 is inferred from these poles"
+    # the zeros are paired one-to-one, so an extra or missing zero shows as its own row
+    rows = pair_rows(
+        "Mf zero", ["14.34", "0.3574", "-0.1314", "-2.408"], zeros, source=src,
+        kind="fitted", note=delay_note,
+    )  # fmt: skip
     rows += [
-        Comparison("Mf pole pair: z coefficient", -0.9245, float(quad[1]), "", 0.01, src),
-        Comparison("Mf pole pair: constant", 0.5648, float(quad[2]), "", 0.01, src),
-        Comparison("Mf gain (plant gain from the 1 kHz crossover)", -3.157e-6, gain, "", 0.01, src),
-    ]
+        Comparison.printed(
+            "Mf pole pair: z coefficient", "-0.9245", float(quad[1]), source=src,
+            kind="fitted", note=tau_note,
+        ),
+        Comparison.printed(
+            "Mf pole pair: constant", "0.5648", float(quad[2]), source=src,
+            kind="fitted", note=tau_note,
+        ),
+        Comparison.printed(
+            "Mf gain", "-3.157e-6", gain, source=src, kind="fitted",
+            note="fitted: the plant gain is normalised to the 1 kHz crossover (units of (4.72))",
+        ),
+    ]  # fmt: skip
     runs = tdof_seeks(setup)
     srs_rank = _rank([r.srs_at_mode for r in runs])
     res_rank = _rank([r.residual for r in runs])

@@ -247,6 +247,30 @@ def _margins(mr: Multirate, n: int = 20_000) -> dict[str, float]:
     }
 
 
+def _spec_rows(extra: dict[str, object]) -> list[Comparison]:
+    """The design specifications §4.5.2 states for C (PM > 30 deg, GM > 4.5 dB, |Sd| < 1
+    below 500 Hz), each a row, also when missed."""
+    margins = extra["margins"]
+    assert isinstance(margins, dict)
+    src = "§4.5.2 (design of C, eq. 4.69)"
+    spec = {"kind": "spec", "rel_tol": 0.0, "source": src}
+    return [
+        Comparison(
+            "phase margin", 30.0, margins["phase_margin_deg"], "deg", bound="min",
+            book_text="30", note="book: 'more than 30 deg'", **spec,
+        ),
+        Comparison(
+            "gain margin", 4.5, margins["gain_margin_db"], "dB", bound="min",
+            book_text="4.5", note="book: 'greater than 4.5 dB'; first -180 deg crossing "
+            "above the gain crossover, dense grid", **spec,
+        ),
+        Comparison(
+            "max |Sd| below 500 Hz", 1.0, float(extra["max_Sd_below_500Hz"]), bound="max",
+            book_text="1", note="book: '|Sd| < 1 for frequencies below 500 Hz'", **spec,
+        ),
+    ]  # fmt: skip
+
+
 @register("hdd-sensitivity", order=20)
 def run(outdir: Path) -> CaseResult:
     """§4.5.2: Figs. 4.41-4.51 and the disturbance ratios (4.70)-(4.71)."""
@@ -257,7 +281,17 @@ def run(outdir: Path) -> CaseResult:
     freq = np.linspace(10.0, 10000.0, 2000)
     res = sampled_data_sensitivity(plant, ctrl, dt, freq, multirate=mr)
     figures = _frequency_figures(outdir, res, mr)
-    comps = [Comparison("sampling frequency ωs/2π", 6516.0, 1.0 / dt, "Hz", 0.01, "§4.5.2")]
+    comps = [
+        Comparison.printed(
+            "sampling frequency ωs/2π",
+            "6516",
+            1.0 / dt,
+            unit="Hz",
+            source="§4.5.2",
+            kind="consistency",
+            note="1/Ts of the typed-in Ts = 153.5 us: cannot fail independently",
+        )
+    ]
     extra: dict[str, object] = {
         "alias_terms": res.alias_terms,
         "tail_estimate": res.tail_estimate,
@@ -266,6 +300,7 @@ def run(outdir: Path) -> CaseResult:
     low = freq <= 500.0
     extra["max_Ssd_below_500Hz"] = float(res.Ssd[low].max())
     extra["max_Sd_below_500Hz"] = float(np.abs(res.Sd[low]).max())
+    comps += _spec_rows(extra)
     for f_hz, eq, fig in ((3600.0, "4.70", "4.50"), (ALIAS_HZ, "4.71", "4.51")):
         at = sampled_data_sensitivity(plant, ctrl, dt, [f_hz], multirate=mr)
         sim = disturbance_ratios(f_hz)
@@ -274,23 +309,22 @@ def run(outdir: Path) -> CaseResult:
             attr, feq = _FORMULA[key]
             val = float(np.abs(getattr(at, attr))[0])
             comps.append(
-                Comparison(
-                    f"||{key}||/||dc|| at {label}, formula ({feq})",
-                    book,
-                    val,
-                    "",
-                    0.10,
-                    f"eq. ({eq}) vs ({feq})",
+                Comparison.printed(
+                    f"||{key}||/||dc|| at {label}, simulation",
+                    f"{book:.2f}",
+                    sim["simulation"][key],
+                    source=f"eq. ({eq})",
+                    note="steady-state peak of the hybrid simulation, as the book's simulation",
                 )
             )
             comps.append(
-                Comparison(
-                    f"||{key}||/||dc|| at {label}, simulation",
-                    book,
-                    sim["simulation"][key],
-                    "",
-                    0.10,
-                    f"eq. ({eq})",
+                Comparison.printed(
+                    f"||{key}||/||dc|| at {label}, formula ({feq})",
+                    f"{book:.2f}",
+                    val,
+                    source=f"eq. ({eq}) vs ({feq})",
+                    kind="consistency",
+                    note="the same quantity from the formula: a cross-check of the simulation row",
                 )
             )
         extra[f"steady_state_{f_hz:g}Hz"] = sim["steady_state"]

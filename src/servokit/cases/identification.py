@@ -150,6 +150,7 @@ def identification_vcm_case(outdir: Path) -> CaseResult:
         "Fig. 5.7",
         outdir,
         "fig5_7_identification_vcm",
+        VCM_GRID_HZ,
     )
 
 
@@ -164,4 +165,5 @@ def identification_pzt_case(outdir: Path) -> CaseResult:
         "Fig. 5.10",
         outdir,
         "fig5_10_identification_pzt",
+        PZT_GRID_HZ,
     )

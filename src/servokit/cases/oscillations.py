@@ -11,6 +11,7 @@ frequency (Fig. 4.54) and the measurement time (Fig. 4.55).
 
 from __future__ import annotations
 
+from dataclasses import replace
 from pathlib import Path
 
 import numpy as np
@@ -19,6 +20,7 @@ from servokit._figures import save_figure
 from servokit.cases import register
 from servokit.models import hdd_sampled_data
 from servokit.report import CaseResult, Comparison, nearest
+from servokit.report.pairing import pair_rows
 from servokit.sampled.srs import (
     amplitude_spectrum,
     half_sine,
@@ -89,26 +91,22 @@ def _section_4_3(outdir: Path) -> tuple[list[Comparison], list[Path]]:
         ]
     iv = unacceptable_sampling_frequencies(40e3, 0.01, 10, 0.2, (5e3, 200e3))
     peaks = [i.peak_hz for i in iv]
-    rows += [
-        Comparison(
-            "unacceptable fs (wd 40 kHz, Ns 10, level 0.2)",
-            b,
-            nearest(peaks, b * 1e3) / 1e3,
-            "kHz",
-            0.01,
-            "§4.3.2.3, Fig. 4.24",
-        )
-        for b in (13.3, 20.0, 40.0, 80.0)
-    ]
+    rows += pair_rows(
+        "unacceptable fs (wd 40 kHz, Ns 10, level 0.2)",
+        ["13.3", "20.0", "40.0", "80.0"],
+        np.asarray(peaks) / 1e3,
+        unit="kHz",
+        source="§4.3.2.3, Fig. 4.24",
+    )
     req = required_measurement_time(40e3, 23.8e-6, 0.01, 0.2, max_samples=40)
     rows.append(
-        Comparison(
+        Comparison.printed(
             "tau*Ns for yui <= 0.2 (tau 23.8 us)",
-            0.26,
+            "0.26",
             req.crossing_time_s * 1e3,
-            "ms",
-            0.10,
-            "§4.3.2.3, Fig. 4.25",
+            unit="ms",
+            source="§4.3.2.3, Fig. 4.25",
+            note="book: 'more than 0.26 ms', read from its figure; tolerance = printed precision",
         )
     )
     fig = _yui_vs_fs_figure(
@@ -238,33 +236,29 @@ def _section_4_5_3(outdir: Path) -> tuple[list[Comparison], list[Path]]:
     src = "§4.5.3, Fig. 4.54"
     iv10 = [i.peak_hz for i in unacceptable_sampling_frequencies(f, zeta, 10, 0.1, (0.9e3, 15e3))]
     iv20 = [i.peak_hz for i in unacceptable_sampling_frequencies(f, zeta, 20, 0.1, (0.9e3, 15e3))]
-    rows = [
-        Comparison(
-            f"unacceptable fs, Ns 10{note}", b, nearest(iv10, b * 1e3) / 1e3, "kHz", 0.01, src
-        )
-        for b, note in (
-            (1.02, ""),
-            (1.37, ""),
-            (2.05, ""),
-            (2.73, ""),
-            (4.10, ""),
-            (8.20, " (printed 82.0)"),
-            (12.3, " (printed 123)"),
-        )
-    ]
-    rows += [
-        Comparison("unacceptable fs, Ns 20", b, nearest(iv20, b * 1e3) / 1e3, "kHz", 0.01, src)
-        for b in (2.05, 4.10, 8.20)
-    ]
+    # every computed interval is paired one-to-one with the book's list (extras reported)
+    rows = pair_rows(
+        "unacceptable fs, Ns 10",
+        ["1.02", "1.37", "2.05", "2.73", "4.10", "8.20", "12.3"],
+        np.asarray(iv10) / 1e3,
+        unit="kHz",
+        source=src,
+    )
+    for i, printed in ((5, "82.0"), (6, "123")):  # misprinted in the book's text
+        rows[i] = replace(rows[i], note=f"printed {printed} in the book; read as {rows[i].book:g}")
+    rows += pair_rows(
+        "unacceptable fs, Ns 20", ["2.05", "4.10", "8.20"], np.asarray(iv20) / 1e3,
+        unit="kHz", source=src,
+    )  # fmt: skip
     req = required_measurement_time(f, 233e-6, zeta, 0.1, max_samples=40)
     rows.append(
-        Comparison(
+        Comparison.printed(
             "tau*Ns for yui <= 0.1 (tau 233 us)",
-            3.0,
+            "3",
             req.crossing_time_s * 1e3,
-            "ms",
-            0.10,
-            "§4.5.3, Fig. 4.55",
+            unit="ms",
+            source="§4.5.3, Fig. 4.55",
+            note="book: 'more than 3 ms' (one printed digit: 2.5-3.5 ms)",
         )
     )
     fig1 = _yui_vs_fs_figure(

@@ -41,8 +41,7 @@ def polynomial_cmd(
         fig.savefig(plot)
         plt.close(fig)
     if json_out:
-        emit_json({"order": order, "N": N, "dt": dt, "target": target, "formula": formula,
-                   "u": u})
+        emit_json({"order": order, "N": N, "dt": dt, "target": target, "formula": formula, "u": u})
         return
     console.print(f"order {order}, N = {N}, dt = {dt:g} s, target = {target:g}")
     console.print(f"u[n] = {formula}")
@@ -67,8 +66,14 @@ def minimum_jerk_cmd(
         fig = minimum_jerk_zoh_plot([res])
         fig.savefig(plot)
         plt.close(fig)
-    data = {"T": T, "tau": tau, "target": target, "final_error": res.final_error,
-            "final_velocity": res.final_velocity, "n_samples": int(res.u.size)}
+    data = {
+        "T": T,
+        "tau": tau,
+        "target": target,
+        "final_error": res.final_error,
+        "final_velocity": res.final_velocity,
+        "n_samples": int(res.u.size),
+    }
     if json_out:
         emit_json(data)
         return

@@ -2,49 +2,52 @@
 
 from __future__ import annotations
 
+import json
 from pathlib import Path
 
 import typer
 from rich.markup import escape
 from rich.table import Table
 
-from servokit.cli._app import app, console, emit_json
+from servokit.cli._app import app, console, emit_json, example, progress, wrote
 
 
-@app.command("reproduce")
+@app.command(
+    "reproduce",
+    epilog=example("servokit reproduce --chapter 2 --out out", "servokit reproduce --json"),
+)
 def reproduce(
-    out: Path = typer.Option(Path("out"), help="directory for the figures"),
-    case: list[str] | None = typer.Option(None, help="run only these cases (repeatable)"),
-    json_out: bool = typer.Option(False, "--json", help="machine-readable output"),
+    out: Path = typer.Option(
+        Path("out"), help="directory for report.html, results.json and the figures"
+    ),
+    case: list[str] | None = typer.Option(
+        None, help="run only these cases (repeatable)", metavar="NAME"
+    ),
+    chapter: list[int] | None = typer.Option(
+        None, help="run only the cases of this book chapter 2-6 (repeatable)", metavar="N"
+    ),
+    json_out: bool = typer.Option(
+        False, "--json", help="print results.json on stdout (nothing else on stdout)"
+    ),
 ) -> None:
-    """Reproduce the book's published numbers and figures."""
-    from servokit.cases import run_all
+    """Reproduce the book's published numbers and figures; write report.html and results.json.
 
-    results = run_all(out, only=case or None)
+    results.json: servokit_version, generated_utc, cases (name, title, chapter, runtime_s,
+    figures), rows (case, chapter, source, quantity, unit, book, book_text, servokit,
+    ratio, tolerance, within_tolerance, kind, note, bound) and summary (counts per chapter).
+    """
+    from servokit.report.output import clear_report, run_cases, select_cases, write_report
+
+    names = select_cases(case, chapter)
+    out.mkdir(parents=True, exist_ok=True)
+    clear_report(out)
+    with progress(len(names), "reproducing") as advance:
+        results, runtimes = run_cases(out, names, advance=advance)
+    json_path, html_path = write_report(results, out, runtimes)
+    wrote(json_path)
+    wrote(html_path)
     if json_out:
-        emit_json(
-            [
-                {
-                    "case": r.name,
-                    "title": r.title,
-                    "comparisons": [
-                        {
-                            "quantity": c.quantity,
-                            "book": c.book,
-                            "servokit": c.servokit,
-                            "ratio": c.ratio,
-                            "unit": c.unit,
-                            "rel_tol": c.rel_tol,
-                            "ok": c.ok,
-                            "source": c.source,
-                        }
-                        for c in r.comparisons
-                    ],
-                    "figures": [str(f) for f in r.figures],
-                }
-                for r in results
-            ]
-        )
+        emit_json(json.loads(json_path.read_text(encoding="utf-8")))
         return
     n_ok = n_all = 0
     for r in results:
@@ -72,3 +75,10 @@ def reproduce(
         for f in r.figures:
             console.print(f"  figure: {f}")
     console.print(f"{n_ok}/{n_all} book numbers within tolerance; figures in {out}/")
+    total = json.loads(json_path.read_text(encoding="utf-8"))["summary"]["total"]
+    console.print(
+        f"independent reproductions within tolerance: {total['reproduced']}; missed "
+        f"{total['missed']}; fitted {total['fitted']}, assumed {total['assumed']}, "
+        f"spec {total['spec']}, consistency checks {total['consistency']} (see report.html)"
+    )
+    console.print(f"report: {html_path.resolve()}")

@@ -25,26 +25,58 @@ def _parse_band(spec: str) -> tuple[float, float, float, int]:
         ) from None
 
 
+def _int_steps(n_steps: str) -> int:
+    try:
+        return int(n_steps)
+    except ValueError:
+        raise ServokitValueError(f"--N must be an integer or 'auto', got {n_steps!r}") from None
+
+
 @app.command("seek")
 def seek_cmd(
     plant: str = typer.Option("hdd-benchmark", help="catalogue name or .toml plant file"),
     tracks: float = typer.Option(1.0, help="seek distance (plant output units, tracks for HDDs)"),
-    method: str = typer.Option("fsc", help="'fsc' (minimum jerk) or 'ffsc' (frequency shaped)"),
-    n_steps: str = typer.Option("auto", "--N", help="step number, or 'auto' to minimise the "
-                                "worst-case seek time"),
-    dt: float | None = typer.Option(None, help="hold period in seconds (default: Ts of the HDD "
-                                    "benchmark for hdd-benchmark; required otherwise)"),
-    band: Annotated[list[str] | None, typer.Option(
-        "--band", help="FFSC band F_LOW:F_HIGH:WEIGHT:N_POINTS (repeatable; default for "
-        "hdd-benchmark: Table 2.4, 1-track column up to 3 tracks, 10-track beyond)")] = None,
+    method: str = typer.Option(
+        "fsc",
+        help="'fsc' (minimum jerk), 'ffsc' (frequency shaped) "
+        "or 'robust' (LP over the plant set, needs --u-max)",
+    ),
+    n_steps: str = typer.Option(
+        "auto", "--N", help="step number, or 'auto' to minimise the worst-case seek time"
+    ),
+    dt: float | None = typer.Option(
+        None,
+        help="hold period in seconds (default: Ts of the HDD "
+        "benchmark for hdd-benchmark; required otherwise)",
+    ),
+    band: Annotated[
+        list[str] | None,
+        typer.Option(
+            "--band",
+            help="FFSC band F_LOW:F_HIGH:WEIGHT:N_POINTS (repeatable; default for "
+            "hdd-benchmark: Table 2.4, 1-track column up to 3 tracks, 10-track beyond)",
+        ),
+    ] = None,
     model: str = typer.Option("rigid-body", help="design model: 'rigid-body' (book) or 'plant'"),
     settle_band: float = typer.Option(0.1, "--settle-band", help="settling band half-width"),
-    delay: bool = typer.Option(True, "--delay/--no-delay", help="simulate the plant's input "
-                               "delay (--no-delay: the book's §2.4 convention)"),
+    delay: bool = typer.Option(
+        True,
+        "--delay/--no-delay",
+        help="simulate the plant's input delay (--no-delay: the book's §2.4 convention)",
+    ),
     n_max: int = typer.Option(40, "--n-max", help="largest N tried by --N auto"),
-    plot: Annotated[Path | None, typer.Option(
-        "--plot", help="write the input/response plot here")] = None,
+    plot: Annotated[
+        Path | None, typer.Option("--plot", help="write the input/response plot here")
+    ] = None,
     json_out: bool = typer.Option(False, "--json", help="machine-readable output"),
+    u_max: float | None = typer.Option(
+        None, "--u-max", help="robust: input limit |u| [plant input unit, A for hdd-benchmark]"
+    ),
+    margin: float = typer.Option(0.2, "--margin", help="robust: band shrink [fraction]"),
+    slew_max: float | None = typer.Option(
+        None, "--slew-max", help="robust: |u[k]-u[k-1]| limit [plant input unit per sample]"
+    ),
+    objective: str = typer.Option("peak", "--objective", help="robust: 'peak' or 'energy'"),
 ) -> None:
     """Design an FSC/FFSC seek input and report the worst-case seek time over the plant set.
 
@@ -55,8 +87,8 @@ def seek_cmd(
     from servokit.feedforward import fsc_input
     from servokit.simulate import choose_N
 
-    if method not in ("fsc", "ffsc"):
-        raise ServokitValueError(f"--method must be 'fsc' or 'ffsc', got {method!r}")
+    if method not in ("fsc", "ffsc", "robust"):
+        raise ServokitValueError(f"--method must be 'fsc', 'ffsc' or 'robust', got {method!r}")
     if model not in ("rigid-body", "plant"):
         raise ServokitValueError(f"--model must be 'rigid-body' or 'plant', got {model!r}")
     is_hdd = plant == "hdd-benchmark"
@@ -75,28 +107,60 @@ def seek_cmd(
         if not is_hdd:
             raise ServokitValueError("--method ffsc needs at least one --band for this plant")
         bands = table_2_4_weights(tracks)
-    if method == "fsc" and bands:
+    if method != "ffsc" and bands:
         raise ServokitValueError("--band only applies to --method ffsc")
     sim_plants = plants if delay else [p.replace(delay=0.0) for p in plants]
+    if method == "robust":  # servokit.cli.robust: design over the set, verify, report
+        from servokit.cli.robust import RobustSeekRequest, robust_seek
+
+        N_fixed = None if n_steps == "auto" else _int_steps(n_steps)
+        return robust_seek(
+            RobustSeekRequest(
+                plant,
+                sim_plants,
+                dt,
+                tracks,
+                settle_band,
+                u_max,
+                N_fixed,
+                n_max,
+                margin,
+                slew_max,
+                objective,
+                plot,
+                json_out,
+            )
+        )
     design_kw = {"band_weights": bands, "model": model}
 
     search = None
     if n_steps == "auto":
-        search = choose_N(sim_plants, dt, tracks, range(3, n_max + 1), design_plant=nominal,
-                          band=settle_band, **design_kw)
+        search = choose_N(
+            sim_plants,
+            dt,
+            tracks,
+            range(3, n_max + 1),
+            design_plant=nominal,
+            band=settle_band,
+            **design_kw,
+        )
         ff = search.ff
     else:
-        try:
-            N = int(n_steps)
-        except ValueError:
-            raise ServokitValueError(f"--N must be an integer or 'auto', got {n_steps!r}") from None
+        N = _int_steps(n_steps)
         ff = fsc_input(nominal, dt, N, tracks, **design_kw)
     out = simulate_seek(sim_plants, ff, tracks, band=settle_band)
     if plot is not None:
         resonances = [m.freq_hz for m in nominal.modes if m.freq_hz > 0]
-        seek_plot(out, tracks, f"{method.upper()} seek of {tracks:g} on {plant}, N = {ff.N}",
-                  plot, resonances_hz=resonances, bands=bands, band=settle_band,
-                  unit="track" if is_hdd else "output unit")
+        seek_plot(
+            out,
+            tracks,
+            f"{method.upper()} seek of {tracks:g} on {plant}, N = {ff.N}",
+            plot,
+            resonances_hz=resonances,
+            bands=bands,
+            band=settle_band,
+            unit="track" if is_hdd else "output unit",
+        )
     data = {
         "plant": plant,
         "method": method,
@@ -110,8 +174,9 @@ def seek_cmd(
         "peak": float(np.max(out.y)),
         "delay_simulated": delay,
         "input": ff.u,
-        "N_search": None if search is None else {
-            "N": search.N_values, "worst_seek_time_s": search.worst_seek_times},
+        "N_search": None
+        if search is None
+        else {"N": search.N_values, "worst_seek_time_s": search.worst_seek_times},
         "plot": str(plot) if plot else None,
     }
     if json_out:

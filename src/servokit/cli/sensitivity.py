@@ -76,8 +76,9 @@ def sensitivity_cmd(
     for col in ("f [Hz]", "|Ssd|", "|Tsd|", "|Sd|", "|Td|"):
         table.add_column(col, justify="right")
     for i in np.unique(np.linspace(0, n - 1, min(n, 12)).astype(int)):
-        table.add_row(*(f"{v:.4g}" for v in (freq[i], res.Ssd[i], res.Tsd[i],
-                                             abs(res.Sd[i]), abs(res.Td[i]))))
+        table.add_row(
+            *(f"{v:.4g}" for v in (freq[i], res.Ssd[i], res.Tsd[i], abs(res.Sd[i]), abs(res.Td[i])))
+        )
     console.print(table)
     console.print(
         f"peak |Ssd| = {summary['peak_Ssd']:.4g} at {summary['peak_Ssd_freq_hz']:.4g} Hz; "

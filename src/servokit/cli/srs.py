@@ -35,24 +35,31 @@ def _read_samples(path: str) -> np.ndarray:
 
 @app.command("srs")
 def srs_cmd(
-    input_: Annotated[str, typer.Option(
-        "--input", help="'half-sine', 'polynomial' (eq. 4.60) or a file of held samples")]
-    = "half-sine",
-    hold: Annotated[float | None, typer.Option(
-        "--hold", help="hold period Tzoh [s] (omit for a continuous half-sine)")] = None,
-    duration: Annotated[float, typer.Option(
-        "--duration", help="half-sine width Tsrs [s]")] = 0.5e-3,
+    input_: Annotated[
+        str,
+        typer.Option(
+            "--input", help="'half-sine', 'polynomial' (eq. 4.60) or a file of held samples"
+        ),
+    ] = "half-sine",
+    hold: Annotated[
+        float | None,
+        typer.Option("--hold", help="hold period Tzoh [s] (omit for a continuous half-sine)"),
+    ] = None,
+    duration: Annotated[
+        float, typer.Option("--duration", help="half-sine width Tsrs [s]")
+    ] = 0.5e-3,
     n: Annotated[int, typer.Option("--n", help="polynomial length N [samples]")] = 40,
     target: Annotated[float, typer.Option("--target", help="polynomial move Pt")] = 1.0,
     damping: Annotated[float, typer.Option("--damping", help="zeta_srs of (4.54)")] = 0.0,
-    kind: Annotated[str, typer.Option("--kind", help="'residual' (4.57) or 'initial' (4.56)")]
-    = "residual",
+    kind: Annotated[
+        str, typer.Option("--kind", help="'residual' (4.57) or 'initial' (4.56)")
+    ] = "residual",
     fmin: Annotated[float, typer.Option("--fmin", help="lowest oscillator frequency [Hz]")] = 100.0,
-    fmax: Annotated[float, typer.Option("--fmax", help="highest oscillator frequency [Hz]")]
-    = 100e3,
+    fmax: Annotated[
+        float, typer.Option("--fmax", help="highest oscillator frequency [Hz]")
+    ] = 100e3,
     n_freq: Annotated[int, typer.Option("--n-freq", help="number of frequencies")] = 5000,
-    at: Annotated[list[float] | None, typer.Option("--at", help="report gsrs at this [Hz]")]
-    = None,
+    at: Annotated[list[float] | None, typer.Option("--at", help="report gsrs at this [Hz]")] = None,
     plot: Annotated[Path | None, typer.Option("--plot", help="write the SRS here (PNG)")] = None,
     json_out: Annotated[bool, typer.Option("--json", help="machine-readable output")] = False,
 ) -> None:
@@ -83,9 +90,20 @@ def srs_cmd(
     if plot is not None:
         srs_plot(spec, [f"{input_}, zeta = {damping:g}"], path=plot, marks_hz=at or ())
     if json_out:
-        emit_json({"input": input_, "hold": hold, "duration": spec.duration, "damping": damping,
-                   "kind": kind, "freq_hz": freq, "magnitude": spec.magnitude,
-                   "peaks_hz": peaks, "at": values, "plot": str(plot) if plot else None})
+        emit_json(
+            {
+                "input": input_,
+                "hold": hold,
+                "duration": spec.duration,
+                "damping": damping,
+                "kind": kind,
+                "freq_hz": freq,
+                "magnitude": spec.magnitude,
+                "peaks_hz": peaks,
+                "at": values,
+                "plot": str(plot) if plot else None,
+            }
+        )
         return
     table = Table(title=f"{kind} SRS of {input_} (Tsrs = {spec.duration * 1e3:.4g} ms)")
     table.add_column("peak at [Hz]", justify="right")

@@ -45,15 +45,28 @@ def magnitude_cmd(
     r = unobservable_magnitude(freq, dt, damping=damping, n_samples=ns)
     edges, pct = r.histogram(0.1)
     out = {
-        "freq_hz": freq, "dt": dt, "damping": damping, "n_samples": ns,
-        "worst": float(r.worst), "worst_delta_s": float(r.worst_delta_s),
-        "minimum": float(r.minimum), "minimum_delta_s": float(r.minimum_delta_s),
-        "rms": float(r.rms), "histogram_edges": edges, "histogram_percent": pct,
+        "freq_hz": freq,
+        "dt": dt,
+        "damping": damping,
+        "n_samples": ns,
+        "worst": float(r.worst),
+        "worst_delta_s": float(r.worst_delta_s),
+        "minimum": float(r.minimum),
+        "minimum_delta_s": float(r.minimum_delta_s),
+        "rms": float(r.rms),
+        "histogram_edges": edges,
+        "histogram_percent": pct,
         "plot": str(plot) if plot else None,
     }
     if plot is not None:
-        unobservable_plot(r.delta_s, {"yu": r.yu}, xlabel="Sampling phase delta_s [-]",
-                          ylabel="yu [-]", title=f"yu at {freq:g} Hz, tau = {dt:g} s", path=plot)
+        unobservable_plot(
+            r.delta_s,
+            {"yu": r.yu},
+            xlabel="Sampling phase delta_s [-]",
+            ylabel="yu [-]",
+            title=f"yu at {freq:g} Hz, tau = {dt:g} s",
+            path=plot,
+        )
     if json_out:
         emit_json(out)
         return
@@ -91,14 +104,29 @@ def sampling_cmd(
     ]
     if plot is not None:
         fs = np.geomspace(lo, hi, 1500)
-        rms = unobservable_magnitude(freq, 1 / fs, damping=damping, n_samples=ns,
-                                     n_phases=360).rms
-        unobservable_plot(fs, {f"Ns = {ns}": rms}, xlabel="Sampling frequency [Hz]",
-                          ylabel="yui [-]", title=f"yui vs sampling frequency ({freq:g} Hz)",
-                          level=level, path=plot, logx=True)
+        rms = unobservable_magnitude(freq, 1 / fs, damping=damping, n_samples=ns, n_phases=360).rms
+        unobservable_plot(
+            fs,
+            {f"Ns = {ns}": rms},
+            xlabel="Sampling frequency [Hz]",
+            ylabel="yui [-]",
+            title=f"yui vs sampling frequency ({freq:g} Hz)",
+            level=level,
+            path=plot,
+            logx=True,
+        )
     if json_out:
-        emit_json({"freq_hz": freq, "damping": damping, "n_samples": ns, "level": level,
-                   "fs_range": [lo, hi], "intervals": rows, "plot": str(plot) if plot else None})
+        emit_json(
+            {
+                "freq_hz": freq,
+                "damping": damping,
+                "n_samples": ns,
+                "level": level,
+                "fs_range": [lo, hi],
+                "intervals": rows,
+                "plot": str(plot) if plot else None,
+            }
+        )
         return
     table = Table(title=f"sampling frequencies with yui > {level:g} ({freq:g} Hz, Ns = {ns})")
     for col in ("from [Hz]", "to [Hz]", "peak at [Hz]", "peak yui"):
@@ -122,14 +150,26 @@ def time_cmd(
     req = required_measurement_time(freq, dt, damping, level, max_samples=max_ns)
     if plot is not None:
         ns = np.arange(1, req.rms.size + 1)
-        unobservable_plot(ns * dt * 1e3, {f"tau = {dt * 1e6:.4g} us": req.rms},
-                          xlabel="Measurement time tau x Ns [ms]", ylabel="yui [-]",
-                          title=f"yui vs measurement time ({freq:g} Hz)", level=level,
-                          path=plot)
-    out = {"freq_hz": freq, "dt": dt, "damping": damping, "level": level,
-           "n_samples": req.n_samples, "time_s": req.time_s,
-           "crossing_time_s": req.crossing_time_s, "rms": req.rms,
-           "plot": str(plot) if plot else None}
+        unobservable_plot(
+            ns * dt * 1e3,
+            {f"tau = {dt * 1e6:.4g} us": req.rms},
+            xlabel="Measurement time tau x Ns [ms]",
+            ylabel="yui [-]",
+            title=f"yui vs measurement time ({freq:g} Hz)",
+            level=level,
+            path=plot,
+        )
+    out = {
+        "freq_hz": freq,
+        "dt": dt,
+        "damping": damping,
+        "level": level,
+        "n_samples": req.n_samples,
+        "time_s": req.time_s,
+        "crossing_time_s": req.crossing_time_s,
+        "rms": req.rms,
+        "plot": str(plot) if plot else None,
+    }
     if json_out:
         emit_json(out)
         return

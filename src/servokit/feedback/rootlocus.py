@@ -169,6 +169,15 @@ class PeakFilterLocus:
         """The smallest critical multiplier of the two branches."""
         return min(self.filter_k_crit, self.plant_k_crit)
 
+    def to_dict(self) -> dict[str, float]:
+        """Critical multipliers and departure angles [deg] (JSON-ready)."""
+        return {
+            "filter_k_crit": self.filter_k_crit,
+            "plant_k_crit": self.plant_k_crit,
+            "filter_departure_deg": self.filter_departure_deg,
+            "plant_departure_deg": self.plant_departure_deg,
+        }
+
 
 def peak_filter_locus(
     sh: control.TransferFunction, flt: control.TransferFunction, plant_hz: float

@@ -46,6 +46,9 @@ from servokit.feedforward.fsc import (
 
 #: sympy-based modules, imported on first use of one of their names (their ``__all__``)
 _LAZY_MODULES = ("polynomial", "minimum_jerk")
+#: names that live in a higher layer (they evaluate designs by simulation), served on first
+#: use so that the public contract ``servokit.feedforward.robust_minimum_time`` holds
+_FORWARDED = {"robust_minimum_time": "servokit.robust"}
 
 __all__ = [
     "CurrentLimit",
@@ -71,6 +74,8 @@ __all__ = [
     "min_norm_final_state",
     "solve_fsc_qp",
     "supply_voltage",
+    # servokit.robust (beyond the book, issue 13)
+    "robust_minimum_time",
     # polynomial.py: Table 2.1, (2.24)-(2.25)
     "POLYNOMIAL_ORDERS",
     "boundary_condition_split",
@@ -92,6 +97,10 @@ __all__ = [
 
 
 def __getattr__(name: str) -> Any:
+    if name in _FORWARDED:
+        value = getattr(importlib.import_module(_FORWARDED[name]), name)
+        globals()[name] = value
+        return value
     if name in __all__:
         for module_name in _LAZY_MODULES:
             module = importlib.import_module(f"{__name__}.{module_name}")

@@ -298,9 +298,7 @@ def constraint_rows(
 
 
 # ------------------------------------------------------------------------- QP solve
-def _null_space_split(
-    A_eq: np.ndarray, b_eq: np.ndarray
-) -> tuple[np.ndarray, np.ndarray]:
+def _null_space_split(A_eq: np.ndarray, b_eq: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     """Particular (minimum-norm) solution and null-space basis of ``A_eq U = b_eq``.
 
     Eliminating the final-state equality this way keeps it exact to round-off whatever
@@ -534,6 +532,4 @@ def _binding_groups(
     labels = np.concatenate([np.full(int(m.sum()), i) for i, (_, m) in enumerate(groups)])
     if len(groups) == 1:
         return [groups[0][0]]
-    return [
-        name for i, (name, _) in enumerate(groups) if _feasible(G[labels != i], h[labels != i])
-    ]
+    return [name for i, (name, _) in enumerate(groups) if _feasible(G[labels != i], h[labels != i])]

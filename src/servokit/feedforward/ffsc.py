@@ -309,6 +309,7 @@ def _constrained(
 ) -> np.ndarray:
     """Constrained FSC as the QP of (2.64)-(2.72) solved by ``solve_fsc_qp``."""
     from servokit.feedforward.constraints import constraint_rows, solve_fsc_qp
+    from servokit.feedforward.sparse_qp import SPARSE_MIN_STEPS, sparse_constrained_fsc
 
     pos = np.zeros(n + 1)
     pos[0:n:2] = 1.0
@@ -316,6 +317,13 @@ def _constrained(
     vel[1:n:2] = 1.0
     input_row = np.zeros(n + 1)
     input_row[n] = 1.0
+    if N >= SPARSE_MIN_STEPS:  # banded QP (issue 8); None falls through to the dense path
+        U = sparse_constrained_fsc(
+            A, B, N, x0, xN, W, dt=dt, position=pos, velocity=vel, input_row=input_row,
+            constraints=constraints,
+        )  # fmt: skip
+        if U is not None:
+            return U
     lm = lifted_model(A, B, N, x0, dt=dt, position=pos, velocity=vel, input_row=input_row)
     G, h, groups = constraint_rows(constraints, lm)
     P = np.eye(N) if W is None else W.T @ W

@@ -121,6 +121,13 @@ class VariationSet:
 
     def monte_carlo(self, n: int, seed: int = 0) -> list[ModalPlant]:
         """``n`` plants with every range and the gain drawn uniformly (reproducible by ``seed``)."""
+        return self.from_draws(*self.draw(n, seed))
+
+    def draw(self, n: int, seed: int = 0) -> tuple[np.ndarray, np.ndarray]:
+        """The relative changes of :meth:`monte_carlo`: ``(draws (n, R), gains (n,))``.
+
+        Kept as arrays so that large sets can be built chunk by chunk (:meth:`from_draws`).
+        """
         if n < 1:
             raise ServokitValueError(f"n must be >= 1 (got {n})")
         rng = np.random.default_rng(seed)
@@ -128,7 +135,11 @@ class VariationSet:
         highs = np.array([p.high for p in self.ranges])
         draws = rng.uniform(lows, highs, size=(n, len(self.ranges)))
         gains = rng.uniform(self.gain[0], self.gain[1], size=n)
+        return draws, gains
+
+    def from_draws(self, draws: np.ndarray, gains: np.ndarray) -> list[ModalPlant]:
+        """Plants for rows of relative changes (one per range) and relative gains."""
         return [
             _apply(self.nominal, list(zip(self.ranges, row, strict=True)), g)
-            for row, g in zip(draws, gains, strict=True)
+            for row, g in zip(np.atleast_2d(draws), np.atleast_1d(gains), strict=True)
         ]

@@ -11,7 +11,7 @@ from pathlib import Path
 
 import numpy as np
 
-__all__ = ["Comparison", "CaseResult", "nearest", "printed_tolerance"]
+__all__ = ["Comparison", "CaseResult", "nearest", "printed_tolerance", "printed_unit"]
 
 
 @dataclass(frozen=True)
@@ -23,7 +23,10 @@ class Comparison:
     ``"fitted"`` (rests on a parameter fitted to the book; name it in ``note``),
     ``"assumed"`` (rests on a value the book omits), ``"spec"`` (a specification the book
     states for its design) or ``"consistency"`` (a check that cannot fail independently).
-    ``note`` says what was read, fitted or assumed.
+    ``note`` says what was read, fitted or assumed.  ``bound`` makes the book value a
+    limit instead of a value to match: ``"min"`` (the book asks for more than it, e.g.
+    "gain margin greater than 4.5 dB") or ``"max"`` (less than it); ``rel_tol`` then
+    loosens the limit by that fraction of it.
     """
 
     quantity: str
@@ -35,6 +38,7 @@ class Comparison:
     kind: str = "reproduced"
     note: str = ""
     book_text: str = ""
+    bound: str = ""
 
     @classmethod
     def printed(
@@ -61,6 +65,11 @@ class Comparison:
 
     @property
     def ok(self) -> bool:
+        if self.bound:
+            slack = self.rel_tol * abs(self.book)
+            if self.bound == "min":
+                return bool(self.servokit >= self.book - slack)
+            return bool(self.servokit <= self.book + slack)
         if self.book == 0:
             return abs(self.servokit) <= self.rel_tol
         return abs(self.ratio - 1.0) <= self.rel_tol
@@ -82,19 +91,61 @@ def printed_tolerance(book_text: str, *, floor: float = 0.0) -> float:
     """Relative half-unit of the last printed digit of ``book_text`` (at least ``floor``).
 
     ``"0.26"`` -> 0.005 / 0.26; ``"3"`` -> 0.5 / 3; ``"1.51e3"`` -> 5 / 1510.
+
+    Parameters
+    ----------
+    book_text : str
+        The number exactly as the book prints it.
+    floor : float
+        Smallest tolerance returned.
+
+    Returns
+    -------
+    float
+        Relative tolerance (absolute for a printed zero).
     """
-    text = book_text.strip().lower()
-    mantissa, _, exponent = text.partition("e")
-    decimals = len(mantissa.split(".")[1]) if "." in mantissa else 0
-    half_unit = 0.5 * 10.0 ** (-decimals + (int(exponent) if exponent else 0))
+    half_unit = 0.5 * printed_unit(book_text)
     value = abs(float(book_text))
     if value == 0:
         return max(half_unit, floor)
     return max(half_unit / value, floor)
 
 
+def printed_unit(book_text: str) -> float:
+    """One unit of the last printed digit of ``book_text``.
+
+    Parameters
+    ----------
+    book_text : str
+        The number exactly as printed (``"0.26"`` -> 0.01, ``"1.51e3"`` -> 10).
+
+    Returns
+    -------
+    float
+        The absolute size of one unit in the last place.
+    """
+    mantissa, _, exponent = book_text.strip().lower().partition("e")
+    decimals = len(mantissa.split(".")[1]) if "." in mantissa else 0
+    return 10.0 ** (-decimals + (int(exponent) if exponent else 0))
+
+
 def nearest(found: object, value: float) -> float:
-    """The entry of ``found`` closest to ``value`` (NaN if empty): pairs a computed peak,
-    root or frequency with the book's value for a :class:`Comparison`."""
+    """The entry of ``found`` closest to ``value`` (NaN if empty).
+
+    Pairs one computed peak, root or frequency with one book value; to pair whole lists
+    without dropping unmatched items use :func:`servokit.report.pairing.pair_rows`.
+
+    Parameters
+    ----------
+    found : array_like
+        Computed items.
+    value : float
+        The book's value.
+
+    Returns
+    -------
+    float
+        The closest item, NaN when ``found`` is empty.
+    """
     arr = np.asarray(found, dtype=float).ravel()
     return float(arr[np.argmin(np.abs(arr - value))]) if arr.size else float("nan")

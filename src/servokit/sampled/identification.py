@@ -76,7 +76,9 @@ class Identification:
 def aliased_frequency(freq_hz: np.ndarray, dt: float) -> np.ndarray:
     """ω'd / 2π = fd − n/T in [0, 1/T), eq. (5.11) [Hz]."""
     fs = 1.0 / dt
-    return np.mod(np.asarray(freq_hz, dtype=float), fs)
+    a = np.mod(np.asarray(freq_hz, dtype=float), fs)
+    # 1/(1/fs) may round above fs: a multiple of fs must alias to 0, not to fs
+    return np.where(np.isclose(a, fs, rtol=1e-12, atol=0.0), 0.0, a)
 
 
 def settling_samples(
@@ -190,8 +192,7 @@ def identify_above_nyquist(
     fs = 1.0 / dt
     if f.max() >= 0.5 * fs * S:
         raise ServokitValueError(
-            f"freq_hz must stay below half the excitation rate {0.5 * fs * S:g} Hz; "
-            "raise substeps"
+            f"freq_hz must stay below half the excitation rate {0.5 * fs * S:g} Hz; raise substeps"
         )
     alias = aliased_frequency(f, dt)
     nyq = np.isclose(alias, 0.0, atol=1e-9 * fs) | np.isclose(alias, fs, atol=1e-9 * fs)

@@ -413,9 +413,9 @@ def srs_plot(
     import matplotlib.pyplot as plt
 
     items = [spectra] if isinstance(spectra, ShockResponseSpectrum) else list(spectra)
-    labels = list(labels) if labels is not None else [
-        f"{s.kind}, zeta={s.damping:g}" for s in items
-    ]
+    labels = (
+        list(labels) if labels is not None else [f"{s.kind}, zeta={s.damping:g}" for s in items]
+    )
     fig, ax = plt.subplots(figsize=(7, 4))
 
     def show(fz: np.ndarray, m: np.ndarray, label: str, style: str) -> None:

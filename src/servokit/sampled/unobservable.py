@@ -91,7 +91,9 @@ def damped_sine_extrema(
     (fmax, fmin) : tuple of ndarray
     """
     decay, omega, phase, length = np.broadcast_arrays(
-        np.asarray(decay, float), np.asarray(omega, float), np.asarray(phase, float),
+        np.asarray(decay, float),
+        np.asarray(omega, float),
+        np.asarray(phase, float),
         np.asarray(length, float),
     )
     gamma = np.arctan2(omega, decay)
@@ -165,7 +167,11 @@ def _yu(b: np.ndarray, a: np.ndarray, n_samples: int | None, ds: np.ndarray) -> 
 
 
 def _refine(
-    b: np.ndarray, a: np.ndarray, n_samples: int | None, grid: np.ndarray, yu: np.ndarray,
+    b: np.ndarray,
+    a: np.ndarray,
+    n_samples: int | None,
+    grid: np.ndarray,
+    yu: np.ndarray,
     sign: float,
 ) -> tuple[np.ndarray, np.ndarray]:
     """Polish the grid extremum of ``sign * yu`` by two zooms of 33 phases each."""
@@ -312,14 +318,21 @@ def unobservable_magnitude(
     minimum, minimum_ds = _refine(b, a, ns, grid, yu, -1.0)
     rms = np.sqrt(np.mean(yu**2, axis=1))
     out = {
-        "worst": worst, "worst_delta_s": worst_ds, "minimum": minimum,
-        "minimum_delta_s": minimum_ds, "rms": rms,
+        "worst": worst,
+        "worst_delta_s": worst_ds,
+        "minimum": minimum,
+        "minimum_delta_s": minimum_ds,
+        "rms": rms,
     }
     for name, value in out.items():
         if not np.all(np.isfinite(value)):
             raise ServokitValueError(f"unobservable magnitude: non-finite {name}; check the inputs")
     return UnobservableMagnitude(
-        freq_hz=f.copy(), dt=tau.copy(), damping=zeta, n_samples=ns, delta_s=grid,
+        freq_hz=f.copy(),
+        dt=tau.copy(),
+        damping=zeta,
+        n_samples=ns,
+        delta_s=grid,
         yu=yu.reshape(shape + (n_phases,)),
         **{k: v.reshape(shape) for k, v in out.items()},
     )
@@ -482,12 +495,16 @@ def required_measurement_time(
     n_max = _check_samples(max_samples)
     if n_max is None:
         raise ServokitValueError("max_samples must be a positive integer")
-    rms = np.array([
-        float(unobservable_magnitude(
-            freq_hz, dt, damping=damping, n_samples=ns, n_phases=n_phases
-        ).rms)
-        for ns in range(1, n_max + 1)
-    ])
+    rms = np.array(
+        [
+            float(
+                unobservable_magnitude(
+                    freq_hz, dt, damping=damping, n_samples=ns, n_phases=n_phases
+                ).rms
+            )
+            for ns in range(1, n_max + 1)
+        ]
+    )
     bad = np.flatnonzero(rms > level)
     n_req: int | None
     if bad.size == 0:

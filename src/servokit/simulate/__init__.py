@@ -1,6 +1,6 @@
 """Hybrid sampled-data simulation, batched over plant variants, and seek/settling metrics."""
 
-from servokit.simulate.hybrid import SimulationResult, simulate
+from servokit.simulate.hybrid import SimulationResult, iter_simulate, simulate, simulate_metrics
 from servokit.simulate.metrics import (
     HeldInput,
     StepMetrics,
@@ -21,6 +21,8 @@ __all__ = [
     "SimulationResult",
     "StepMetrics",
     "choose_N",
+    "iter_simulate",
+    "simulate_metrics",
     "TdofResult",
     "seek_response",
     "seek_time",

@@ -9,10 +9,11 @@ as ``Td = dd*h + frac`` (see :func:`servokit.models._zoh.delayed_zoh`):
 
     x[j+1] = Phi x[j] + Gnew u[j-dd] + Gold u[j-dd-1].
 
-The block quantities used by the simulator (powers ``Phi^i`` for ``i = 0..S`` and the
-impulse responses of one block of ``S`` fine steps) are built by cumulative products of
-the exact one-step matrices: ``S`` is a number of sub-steps per sample (tens to a few
-hundred), where the rounding of a product chain stays at the 1e-14 level.
+Everything is built in closed form per 2x2 modal block
+(:func:`servokit.models._zoh.modal_zoh`): one vectorised expression over variants and
+modes instead of a matrix exponential per block (30x faster for 1000 HDD variants,
+same values to 1e-15 relative).  The powers ``Phi^i`` are elementwise products of the
+one-step matrices (rounding ``i eps``).
 """
 
 from __future__ import annotations
@@ -23,7 +24,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from servokit.errors import ServokitTypeError, ServokitValueError
-from servokit.models._zoh import delayed_zoh
+from servokit.models._zoh import modal_delayed_zoh
 from servokit.models.modal import ModalPlant
 
 __all__ = ["PlantBank", "as_plant_list"]
@@ -47,10 +48,30 @@ def as_plant_list(plants: ModalPlant | Sequence[ModalPlant]) -> list[ModalPlant]
     return plist
 
 
+def modal_arrays(plants: Sequence[ModalPlant]) -> tuple[np.ndarray, ...]:
+    """``(w, zeta, r, real)`` of shape (V, M): modes zero-padded, ``real`` marks true modes."""
+    n_modes = max(len(p.modes) for p in plants)
+    V = len(plants)
+    # plain lists: ModalPlant.arrays() per plant costs 20 us, 2 s for 10^5 variants
+    rows = [
+        [(m.freq_hz, m.damping, p.gain * m.residue) for m in p.modes]
+        + [(0.0, 0.0, 0.0)] * (n_modes - len(p.modes))
+        for p in plants
+    ]
+    out = np.array(rows, dtype=float).reshape(V, n_modes, 3)
+    real = np.arange(n_modes)[None, :] < np.array([len(p.modes) for p in plants])[:, None]
+    return 2.0 * np.pi * out[..., 0], out[..., 1], out[..., 2], real
+
+
 @dataclass(frozen=True)
 class PlantBank:
     """Exact fine-step models of ``V`` plant variants with ``M`` modes each (zero-padded)."""
 
+    w: np.ndarray  # (V, M) natural frequencies [rad/s]
+    zeta: np.ndarray  # (V, M)
+    r: np.ndarray  # (V, M) input gains; padded modes have zero gain and do nothing
+    real: np.ndarray  # (V, M) bool: False for padding
+    delay: float
     Phi: np.ndarray  # (V, M, 2, 2) one fine step
     Gnew: np.ndarray  # (V, M, 2)
     Gold: np.ndarray  # (V, M, 2)
@@ -59,32 +80,66 @@ class PlantBank:
 
     @classmethod
     def build(cls, plants: Sequence[ModalPlant], h: float) -> PlantBank:
-        n_modes = max(len(p.modes) for p in plants)
-        V = len(plants)
-        w = np.zeros((V, n_modes))
-        z = np.zeros((V, n_modes))
-        r = np.zeros((V, n_modes))  # padded modes have zero gain and do nothing
-        for v, p in enumerate(plants):
-            wv, zv, rv = p.arrays()
-            w[v, : len(wv)], z[v, : len(zv)], r[v, : len(rv)] = wv, zv, rv
-        A = np.zeros((V, n_modes, 2, 2))
-        A[..., 0, 1] = 1.0
-        A[..., 1, 0] = -(w**2)
-        A[..., 1, 1] = -2.0 * z * w
-        B = np.zeros((V, n_modes, 2, 1))
-        B[..., 1, 0] = r
-        Phi, Gnew, Gold, dd = delayed_zoh(A, B, h, plants[0].delay)
-        return cls(Phi, Gnew[..., 0], Gold[..., 0], dd, h)
+        w, z, r, real = modal_arrays(plants)
+        delay = plants[0].delay
+        Phi, Gnew, Gold, dd = modal_delayed_zoh(w, z, r, h, delay)
+        return cls(w, z, r, real, delay, Phi, Gnew, Gold, dd, h)
 
     @property
     def shape(self) -> tuple[int, int]:
         return self.Phi.shape[0], self.Phi.shape[1]
 
-    def powers(self, S: int) -> np.ndarray:
-        """``Phi^i`` for ``i = 0..S``, shape (V, M, S+1, 2, 2)."""
+    def transition_rows(self, S: int) -> np.ndarray:
+        """Entries of ``Phi^i``, ``i = 0..S``: array (4, S+1, V, M) of ``p00, p01, p10, p11``.
+
+        Products of the closed-form one-step matrix written elementwise (12 flops per
+        mode and step; a closed form at every ``t = i h`` costs three transcendental
+        calls each, 10x more); the rounding grows as ``i eps``, below 1e-13 for
+        hundreds of sub-steps.  Time-major so that every step and the block maps built
+        from them are contiguous.
+        """
         V, M = self.shape
-        out = np.empty((V, M, S + 1, 2, 2))
-        out[:, :, 0] = np.eye(2)
+        f00, f01, f10, f11 = (self.Phi[..., i, j] for i in range(2) for j in range(2))
+        out = np.empty((4, S + 1, V, M))
+        out[:, 0] = np.array([1.0, 0.0, 0.0, 1.0])[:, None, None]
         for i in range(S):
-            out[:, :, i + 1] = self.Phi @ out[:, :, i]
+            a, b, c, d = out[:, i]
+            out[0, i + 1] = a * f00 + b * f10
+            out[1, i + 1] = a * f01 + b * f11
+            out[2, i + 1] = c * f00 + d * f10
+            out[3, i + 1] = c * f01 + d * f11
         return out
+
+    def discrete(self, dt: float) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """Stacked exact ZOH models at ``dt`` with delay states, like ``ModalPlant.discretize``.
+
+        Returns ``A`` (V, N, N), ``B`` (V, N) and ``C`` (N,) with the ``2M`` modal states
+        first and the delay line ``u[k-1], u[k-2], ...`` last.  Padded modes get
+        ``Phi = 0`` so that they add only poles at ``z = 0``.
+        """
+        V, M = self.shape
+        Phi, Gnew, Gold, d = modal_delayed_zoh(self.w, self.zeta, self.r, dt, self.delay)
+        Phi = np.where(self.real[..., None, None], Phi, 0.0)
+        n = 2 * M
+        has_old = bool(np.any(Gold != 0.0))
+        n_del = d + 1 if has_old else d
+        N = n + n_del
+        A = np.zeros((V, N, N))
+        B = np.zeros((V, N))
+        blocks = np.arange(M)
+        for i in range(2):
+            for j in range(2):
+                A[:, 2 * blocks + i, 2 * blocks + j] = Phi[..., i, j]
+        if n_del:
+            B[:, n] = 1.0
+            A[:, n + np.arange(1, n_del), n + np.arange(n_del - 1)] = 1.0
+        gn, go = Gnew.reshape(V, n), Gold.reshape(V, n)
+        if d == 0:
+            B[:, :n] = gn
+        else:
+            A[:, :n, n + d - 1] = gn
+        if has_old:
+            A[:, :n, n + d] = go
+        C = np.zeros(N)
+        C[:n:2] = 1.0
+        return A, B, C

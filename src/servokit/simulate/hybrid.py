@@ -15,24 +15,42 @@ fractional fine steps) on a fine grid ``h = Ts/substeps``; all holds switch on t
 The time loop runs once per sampling period ``Ts`` and is vectorised over variants and
 modes; the outputs between samples are then produced for all periods at once from the
 stored sample states (free response) and a per-period Toeplitz convolution (forced
-response).  ``d_in`` is sampled on the fine grid and held over each fine step; ``dc``
-is added exactly.
+response), see :mod:`servokit.simulate._core`.  ``d_in`` is sampled on the fine grid and
+held over each fine step; ``dc`` is added exactly.
+
+Variants are processed in chunks sized from a memory budget (``max_memory_mb``), so the
+working set stays bounded for 10^5-10^6 variants; :func:`iter_simulate` yields the
+chunks and :func:`simulate_metrics` keeps only per-variant metrics, never all
+trajectories.
 """
 
 from __future__ import annotations
 
-from collections.abc import Callable, Sequence
+from collections.abc import Callable, Iterator, Sequence
 from dataclasses import dataclass
+from typing import Any
 
 import control
 import numpy as np
 
-from servokit.errors import ServokitTypeError, ServokitValueError, check_finite
+from servokit.errors import (
+    DEFAULT_MAX_MEMORY_MB,
+    ServokitTypeError,
+    ServokitValueError,
+    check_finite,
+    check_memory,
+)
 from servokit.models.controllers import require_proper
 from servokit.models.modal import ModalPlant
 from servokit.simulate._bank import PlantBank, as_plant_list
+from servokit.simulate._closed import Loop, run_closed
+from servokit.simulate._core import run_chunk
+from servokit.simulate.stability import closed_loop, unstable
 
-__all__ = ["SimulationResult", "simulate"]
+__all__ = ["SimulationResult", "iter_simulate", "simulate", "simulate_metrics"]
+
+#: Working memory of one chunk of variants [MB] (the outputs of :func:`simulate` come on top).
+CHUNK_MEMORY_MB = 256.0
 
 Signal = Callable[[np.ndarray], np.ndarray]
 
@@ -107,33 +125,230 @@ def _ss(name: str, sys: object, dt: float) -> tuple[np.ndarray, ...]:
     )
 
 
-def _check_closed_loop(
-    plants: Sequence[ModalPlant],
-    controller: control.LTI,
-    dt: float,
-    multirate: tuple[int, control.LTI] | None,
-) -> None:
-    """Raise if the discrete loop (plant with delay behind its holds, controller) is unstable.
+@dataclass(frozen=True)
+class _Job:
+    """A validated simulation request: everything but the plant chunks."""
 
-    With a multirate path the fast series ``P_d(dt/m) F`` driven by the zero-inserted
-    controller output is lifted over one period: ``A^m, A^(m-1) B, C, D``.
-    """
-    for i, p in enumerate(plants):
-        if multirate is None:
-            g = control.ss(p.discretize(dt))
-        else:
-            m, F = multirate
-            fast = control.ss(p.discretize(dt / m)) * control.ss(F)
-            Am1 = np.linalg.matrix_power(fast.A, m - 1)  # m is a small multirate number
-            g = control.ss(Am1 @ fast.A, Am1 @ fast.B, fast.C, fast.D, dt)
-        poles = control.poles(control.feedback(g * control.ss(controller), 1))
-        rho = float(np.max(np.abs(poles))) if poles.size else 0.0
-        if rho >= 1.0 - 1e-10:
+    plants: list[ModalPlant]
+    dt: float
+    K: int
+    S: int
+    u_open: np.ndarray  # (1 or V, Nt)
+    dc: np.ndarray | None  # (1 or V, Nt)
+    x0: np.ndarray | None  # (1 or V, 2M)
+    loop: Loop | None
+
+    @property
+    def t(self) -> np.ndarray:
+        return self.dt / self.S * np.arange(self.K * self.S)
+
+    def per_variant_bytes(self, n_modes: int) -> float:
+        """Working bytes of one variant in :func:`run_chunk` (states, maps, output temps)."""
+        S, K, Nt = self.S, self.K, self.K * self.S
+        per = n_modes * (S + 1) * 4 + 8 * S * n_modes + 6 * K * n_modes + 3 * Nt
+        per += 2 * Nt if self.loop is not None or self.u_open.shape[0] > 1 else 0
+        return 8.0 * per
+
+    def rows(self, arr: np.ndarray | None, lo: int, hi: int) -> np.ndarray | None:
+        """Rows lo..hi of a per-variant array, or the shared row itself."""
+        if arr is None or arr.shape[0] == 1:
+            return arr
+        return arr[lo:hi]
+
+
+def _loop_spec(
+    controller: control.LTI | None,
+    reference: np.ndarray | Sequence[float] | None,
+    multirate: tuple[int, control.LTI] | None,
+    dt: float,
+    K: int,
+    S: int,
+) -> Loop | None:
+    if controller is None:
+        if reference is not None or multirate is not None:
             raise ServokitValueError(
-                f"the closed loop of controller and plants[{i}] ({p.name or 'plant'}) is unstable "
-                f"(largest closed-loop pole |z| = {rho:.4g}); redesign the controller or check "
-                "the plant gain and units (check_stability=False simulates it anyway)"
+                "reference and multirate need a controller; pass controller=..."
             )
+        return None
+    ctrl = _ss("controller", controller, dt)
+    r = np.zeros(K)
+    if reference is not None:
+        ref = check_finite("reference", reference)
+        if ref.ndim != 1 or ref.size == 0:
+            raise ServokitValueError("reference must be a non-empty 1-D array at dt")
+        r[: min(K, ref.size)] = ref[:K]
+        r[ref.size :] = ref[-1]
+    if multirate is None:
+        return Loop(ctrl, r)
+    m, F = multirate
+    if int(m) != m or m < 1 or S % m:
+        raise ServokitValueError(
+            f"multirate m = {m} must be a positive integer dividing substeps = {S}"
+        )
+    return Loop(ctrl, r, int(m), _ss("multirate filter", F, dt / int(m)))
+
+
+#: optional arguments of :func:`simulate` and their defaults (``dt`` and ``n_samples`` are required)
+_OPTIONAL = {
+    "substeps": 10,
+    "feedforward": None,
+    "ff_dt": None,
+    "controller": None,
+    "reference": None,
+    "multirate": None,
+    "output_disturbance": None,
+    "input_disturbance": None,
+    "x0": None,
+}
+
+
+def _prepare(plants: ModalPlant | Sequence[ModalPlant], request: dict[str, Any]) -> _Job:
+    """Validate a request of :func:`simulate` (its keyword arguments as a dict)."""
+    unknown = sorted(set(request) - set(_OPTIONAL) - {"dt", "n_samples"})
+    if unknown:
+        raise ServokitTypeError(f"simulate got unexpected argument(s) {unknown}")
+    for name in ("dt", "n_samples"):
+        if name not in request:
+            raise ServokitTypeError(f"simulate needs {name}=...")
+    r = {**_OPTIONAL, **request}
+    dt, n_samples, substeps, x0 = r["dt"], r["n_samples"], r["substeps"], r["x0"]
+    feedforward, ff_dt = r["feedforward"], r["ff_dt"]
+    input_disturbance, output_disturbance = r["input_disturbance"], r["output_disturbance"]
+    plist = as_plant_list(plants)
+    dt = float(check_finite("dt", dt))
+    if dt <= 0:
+        raise ServokitValueError(f"dt must be > 0 seconds (got {dt})")
+    for name, val in (("n_samples", n_samples), ("substeps", substeps)):
+        if isinstance(val, bool) or not isinstance(val, int | np.integer):
+            raise ServokitTypeError(f"{name} must be an integer, got {val!r}")
+        if val < 1:
+            raise ServokitValueError(f"{name} must be a positive integer (got {val})")
+    K, S = int(n_samples), int(substeps)
+    h = dt / S
+    Nt = K * S
+    t = h * np.arange(Nt)
+    V = len(plist)
+    # Inputs shared by every variant (feedforward, 1-D disturbances) are kept as one row
+    # so that the open-loop response is a single large matrix product for all variants.
+    u_open = np.zeros((1, Nt))
+    if feedforward is not None:
+        ff = check_finite("feedforward", feedforward)
+        if ff.ndim != 1:
+            raise ServokitValueError("feedforward must be a 1-D array of held samples")
+        q = _integer_ratio("ff_dt", dt if ff_dt is None else float(ff_dt), h)
+        fine = np.repeat(ff, q)[:Nt]
+        u_open[:, : fine.size] += fine
+    if input_disturbance is not None:
+        d_in = _eval_signal("input_disturbance", input_disturbance, t, V)
+        u_open = u_open + (d_in[:1] if np.all(d_in == d_in[:1]) else d_in)
+    dc = None
+    if output_disturbance is not None:
+        dcv = _eval_signal("output_disturbance", output_disturbance, t, V)
+        dc = np.array(dcv[:1] if np.all(dcv == dcv[:1]) else dcv)
+    x0a = None
+    if x0 is not None:
+        n = 2 * max(len(p.modes) for p in plist)
+        x0a = check_finite("x0", x0)
+        if x0a.shape not in ((n,), (V, n)):
+            raise ServokitValueError(f"x0 must have shape ({n},) or ({V}, {n})")
+        x0a = x0a.reshape(-1, n)
+    loop = _loop_spec(r["controller"], r["reference"], r["multirate"], dt, K, S)
+    return _Job(plist, dt, K, S, u_open, dc, x0a, loop)
+
+
+def _check_stability(job: _Job, A: np.ndarray, offset: int) -> None:
+    """Raise if the discrete loop is unstable for any variant of the chunk."""
+    bad, rho = unstable(A)
+    if bad.size:
+        i = int(bad[0])
+        name = job.plants[offset + i].name or "plant"
+        raise ServokitValueError(
+            f"the closed loop of controller and plants[{offset + i}] ({name}) is unstable "
+            f"(largest closed-loop pole |z| = {rho[0]:.4g}); redesign the controller or check "
+            "the plant gain and units (check_stability=False simulates it anyway)"
+        )
+
+
+def _chunks(job: _Job, budget_mb: float) -> Iterator[tuple[int, int]]:
+    """Variant ranges whose working set fits in ``budget_mb`` (at least one variant each)."""
+    V = len(job.plants)
+    n_modes = max(len(p.modes) for p in job.plants)
+    size = max(1, int(budget_mb * 1e6 // job.per_variant_bytes(n_modes)))
+    for lo in range(0, V, size):
+        yield lo, min(V, lo + size)
+
+
+def _run(job: _Job, lo: int, hi: int, check_stability: bool) -> SimulationResult:
+    """Simulate variants lo..hi-1 of the job."""
+    bank = PlantBank.build(job.plants[lo:hi], job.dt / job.S)
+    V, M = bank.shape
+    x0 = job.rows(job.x0, lo, hi)
+    if x0 is not None:
+        x0 = np.broadcast_to(x0, (V, x0.shape[1])).reshape(V, -1, 2)
+        x0 = np.pad(x0, ((0, 0), (0, M - x0.shape[1]), (0, 0)))
+    dc = job.rows(job.dc, lo, hi)
+    S = job.S
+    # an unstable loop run with check_stability=False overflows: reported below, not warned
+    with np.errstate(over="ignore", invalid="ignore"):
+        u_open = job.rows(job.u_open, lo, hi)
+        dcs = None if dc is None else dc[:, ::S]
+        if job.loop is None:
+            y, yd = run_chunk(bank, S, job.K, u_open, x0, dcs)
+            u = np.broadcast_to(u_open, (V, job.K * S))
+        else:
+            cl = closed_loop(bank, job.loop.controller, job.dt, job.loop.multirate)
+            if check_stability:
+                _check_stability(job, cl.A, lo)
+            y, yd, u = run_closed(bank, S, job.K, job.loop, cl, u_open, x0, dcs)
+        yc = y if dc is None else y + dc
+    if not np.isfinite(yc.sum()):  # a sum is finite iff all terms are (barring ~1e308)
+        raise ServokitValueError(
+            "the simulated output overflowed (an unstable loop or plant); check the controller"
+        )
+    t = job.t
+    return SimulationResult(t=t, yc=yc, td=t[::S], yd=yd, u=u, substeps=S)
+
+
+def iter_simulate(
+    plants: ModalPlant | Sequence[ModalPlant],
+    *,
+    check_stability: bool = True,
+    max_memory_mb: float | None = None,
+    **kwargs: object,
+) -> Iterator[tuple[slice, SimulationResult]]:
+    """Simulate plant variants chunk by chunk; yields ``(variants, result)`` per chunk.
+
+    Same arguments as :func:`simulate`; ``variants`` is the slice of ``plants`` the
+    chunk holds.  Only one chunk's trajectories live at a time, so the memory stays
+    within ``max_memory_mb`` (default 256 MB) for any number of variants.
+    """
+    job = _prepare(plants, kwargs)
+    budget = CHUNK_MEMORY_MB if max_memory_mb is None else float(max_memory_mb)
+    for lo, hi in _chunks(job, budget / 2):  # half for the working set, half for results
+        yield slice(lo, hi), _run(job, lo, hi, check_stability)
+
+
+def simulate_metrics(
+    plants: ModalPlant | Sequence[ModalPlant],
+    metric: Callable[[SimulationResult], np.ndarray],
+    **kwargs: object,
+) -> np.ndarray:
+    """Per-variant metrics of a simulation too large to keep: ``metric`` runs on each chunk.
+
+    ``metric(result)`` must return an array whose first axis has one entry per variant
+    of the chunk (a seek time, a peak error...); the chunks' arrays are concatenated.
+    Other arguments as :func:`iter_simulate`.
+    """
+    parts = []
+    for sl, res in iter_simulate(plants, **kwargs):  # type: ignore[arg-type]
+        part = np.asarray(metric(res))
+        if part.shape[:1] != (sl.stop - sl.start,):
+            raise ServokitValueError(
+                f"metric must return one value per variant (first axis {sl.stop - sl.start}), "
+                f"got shape {part.shape}"
+            )
+        parts.append(part)
+    return np.concatenate(parts, axis=0)
 
 
 def simulate(
@@ -151,8 +366,13 @@ def simulate(
     input_disturbance: Signal | np.ndarray | None = None,
     x0: np.ndarray | None = None,
     check_stability: bool = True,
+    max_memory_mb: float | None = None,
 ) -> SimulationResult:
     """Simulate plant variants under feedforward and/or digital feedback.
+
+    The whole result is kept: its size (``yc`` and ``u``, ``V x n_samples x substeps``
+    doubles) must fit in ``max_memory_mb`` (default 2000 MB); use
+    :func:`simulate_metrics` or :func:`iter_simulate` for larger sets.
 
     Parameters
     ----------
@@ -181,181 +401,43 @@ def simulate(
     output_disturbance, input_disturbance : callable or array, optional
         ``dc(t)`` added to the output (exactly) and ``d(t)`` added to the plant input
         (held on the fine grid), evaluated on the fine grid.
-    check_stability : bool
-        With a controller, refuse a loop that is unstable for any variant (closed-loop
-        poles of the exact discrete loop, lifted over ``dt`` with a multirate path).
     x0 : array_like, optional
         Initial modal state, shape (2M,) or (V, 2M) in ``ModalPlant.to_statespace`` order.
+    check_stability : bool
+        With a controller, refuse a loop that is unstable for any variant (closed-loop
+        poles of the exact discrete loop, lifted over ``dt`` with a multirate path; one
+        batched eigenvalue call per chunk).  ``False`` skips the check.
+    max_memory_mb : float, optional
+        Memory budget [MB]; variants are simulated in chunks whose working set fits in
+        it (at most 256 MB per chunk).
 
     Returns
     -------
     SimulationResult
     """
-    plist = as_plant_list(plants)
-    dt = float(check_finite("dt", dt))
-    if dt <= 0:
-        raise ServokitValueError(f"dt must be > 0 seconds (got {dt})")
-    if isinstance(n_samples, bool) or not isinstance(n_samples, int | np.integer):
-        raise ServokitTypeError(f"n_samples must be an integer, got {n_samples!r}")
-    if isinstance(substeps, bool) or not isinstance(substeps, int | np.integer):
-        raise ServokitTypeError(f"substeps must be an integer, got {substeps!r}")
-    if int(n_samples) != n_samples or n_samples < 1:
-        raise ServokitValueError(f"n_samples must be a positive integer (got {n_samples})")
-    if int(substeps) != substeps or substeps < 1:
-        raise ServokitValueError(f"substeps must be a positive integer (got {substeps})")
-    K, S = int(n_samples), int(substeps)
-    h = dt / S
-    Nt = K * S
-    t = h * np.arange(Nt)
-    V = len(plist)
-
-    # Inputs shared by every variant (feedforward, 1-D disturbances) are kept as one row
-    # so that the open-loop response is a single large matrix product for all variants.
-    Vu = 1 if controller is None else V
-    u_open = np.zeros((1, Nt))
-    if feedforward is not None:
-        ff = check_finite("feedforward", feedforward)
-        if ff.ndim != 1:
-            raise ServokitValueError("feedforward must be a 1-D array of held samples")
-        q = _integer_ratio("ff_dt", dt if ff_dt is None else float(ff_dt), h)
-        fine = np.repeat(ff, q)[:Nt]
-        u_open[:, : fine.size] += fine
-    if input_disturbance is not None:
-        d_in = _eval_signal("input_disturbance", input_disturbance, t, V)
-        if not np.all(d_in == d_in[:1]):
-            Vu = V
-        u_open = u_open + (d_in if Vu == V else d_in[:1])
-    dc = np.zeros((V, Nt))
-    if output_disturbance is not None:
-        dc = dc + _eval_signal("output_disturbance", output_disturbance, t, V)
-
-    bank = PlantBank.build(plist, h)
-    M = bank.shape[1]
-    P = bank.powers(S)  # (V, M, S+1, 2, 2)
-    x = np.zeros((V, M, 2))
-    if x0 is not None:
-        x0a = check_finite("x0", x0)
-        if x0a.shape not in ((2 * M,), (V, 2 * M)):
-            raise ServokitValueError(f"x0 must have shape ({2 * M},) or ({V}, {2 * M})")
-        x = np.broadcast_to(x0a, (V, 2 * M)).reshape(V, M, 2).copy()
-
-    # B2[v, s, :]: contribution of the new (s < S) / old (s >= S) input at fine step s of
-    # a block to the modal state (flattened to 2M) at the block's end
-    back = P[:, :, S - 1 :: -1] if S > 1 else P[:, :, :1]
-    B2 = (
-        np.concatenate(
-            [back @ bank.Gnew[:, :, None, :, None], back @ bank.Gold[:, :, None, :, None]], axis=2
-        )[..., 0]
-        .transpose(0, 2, 1, 3)
-        .reshape(V, 2 * S, 2 * M)
+    request = {k: v for k, v in locals().items() if k in _OPTIONAL or k in ("dt", "n_samples")}
+    job = _prepare(plants, request)
+    V, Nt = len(job.plants), job.K * job.S
+    per_u = job.loop is not None or job.u_open.shape[0] > 1
+    out_bytes = 8.0 * V * (Nt * (2 if per_u else 1) + job.K)
+    limit = DEFAULT_MAX_MEMORY_MB if max_memory_mb is None else float(max_memory_mb)
+    check_memory(
+        out_bytes,
+        what=f"simulating {V} variants x {Nt} fine steps",
+        flag="max_memory_mb (or use simulate_metrics)",
+        max_memory_mb=limit,
     )
-    PS = P[:, :, S]
-
-    # u_j sits at ubuf[:, j + dd + 1]; the plant sees u[j-dd] (new) and u[j-dd-1] (old)
-    dd = bank.dd
-    ubuf = np.zeros((Vu, Nt + dd + 1))
-    ubuf[:, dd + 1 :] = u_open
-
-    def windows(lo: int, hi: int) -> np.ndarray:
-        """Delayed inputs of blocks lo..hi-1 as (Vu, hi-lo, 2S): new then old."""
-        w_new = ubuf[:, lo * S + 1 : hi * S + 1].reshape(Vu, hi - lo, S)
-        w_old = ubuf[:, lo * S : hi * S].reshape(Vu, hi - lo, S)
-        return np.concatenate([w_new, w_old], axis=2)
-
-    def apply(W: np.ndarray, mats: np.ndarray) -> np.ndarray:
-        """(Vu, n, 2S) inputs times per-variant (V, 2S, q) maps -> (V, n, q)."""
-        if W.shape[0] == 1:  # one shared input: a single GEMM over all variants
-            q = mats.shape[2]
-            flat = W[0] @ mats.transpose(1, 0, 2).reshape(2 * S, V * q)
-            return flat.reshape(W.shape[1], V, q).transpose(1, 0, 2)
-        return W @ mats
-
-    xs = np.empty((V, K, M, 2))
-    yd = np.empty((V, K))
-
-    loop = False
-    if controller is not None:
-        Ac, Bc, Cc, Dc = _ss("controller", controller, dt)
-        xc = np.zeros((V, Ac.shape[0]))
-        r = np.zeros(K)
-        if reference is not None:
-            ref = check_finite("reference", reference)
-            if ref.ndim != 1 or ref.size == 0:
-                raise ServokitValueError("reference must be a non-empty 1-D array at dt")
-            r[: min(K, ref.size)] = ref[:K]
-            r[ref.size :] = ref[-1]
-        m = 1
-        filt = None
-        if multirate is not None:
-            m, F = multirate
-            if int(m) != m or m < 1 or S % m:
-                raise ServokitValueError(
-                    f"multirate m = {m} must be a positive integer dividing substeps = {S}"
-                )
-            m = int(m)
-            filt = _ss("multirate filter", F, dt / m)
-            xf = np.zeros((V, filt[0].shape[0]))
-        loop = True
-        if check_stability:
-            _check_closed_loop(plist, controller, dt, None if filt is None else (m, F))
-    elif reference is not None or multirate is not None:
-        raise ServokitValueError("reference and multirate need a controller; pass controller=...")
-
-    # an unstable loop run with check_stability=False overflows: reported below, not warned
-    with np.errstate(over="ignore", invalid="ignore"):
-        open_drive = None if loop else apply(windows(0, K), B2).reshape(V, K, M, 2)
-        for k in range(K):
-            xs[:, k] = x
-            yk = x[..., 0].sum(axis=-1) + dc[:, k * S]
-            yd[:, k] = yk
-            if loop:
-                e = r[k] - yk
-                ufb = xc @ Cc + Dc * e
-                xc = xc @ Ac.T + e[:, None] * Bc
-                if filt is None:
-                    fb = np.repeat(ufb[:, None], S, axis=1)
-                else:
-                    Af, Bf, Cf, Df = filt
-                    sub = np.empty((V, m))
-                    inp = ufb  # zero insertion: only the first sub-sample carries the value
-                    for i in range(m):
-                        sub[:, i] = xf @ Cf + Df * inp
-                        xf = xf @ Af.T + inp[:, None] * Bf
-                        inp = np.zeros(V)
-                    fb = np.repeat(sub, S // m, axis=1)
-                ubuf[:, dd + 1 + k * S : dd + 1 + (k + 1) * S] += fb
-                inc = (windows(k, k + 1) @ B2).reshape(V, M, 2)
-            else:
-                inc = open_drive[:, k]
-            x = (PS @ x[..., None])[..., 0] + inc
-
-        # outputs between the samples: free response of the stored states + forced response
-        CP = P[:, :, :S, 0, :]  # (V, M, S, 2): first row of Phi^i
-        y = xs.reshape(V, K, 2 * M) @ CP.transpose(0, 1, 3, 2).reshape(V, 2 * M, S)
-        # impulse responses C Phi^l G (l = 0..S-1) summed over modes
-        H2 = np.concatenate(
-            [np.einsum("vmlc,vmc->vl", CP, bank.Gnew), np.einsum("vmlc,vmc->vl", CP, bank.Gold)],
-            axis=1,
-        )  # (V, 2S)
-        idx = np.arange(S)
-        W = np.concatenate([np.zeros((Vu, K, 1)), windows(0, K)], axis=2)  # leading zero pad
-        if Vu == 1:
-            # shared input: its per-block Toeplitz Wt[l, k, i] = w[k, i-1-l] is built once
-            lag = np.clip(idx[None, :] - idx[:, None], 0, None)  # [l, i] -> i - l (0 = pad)
-            Wt_new = W[0][:, lag].transpose(1, 0, 2)  # (S, K, S)
-            Wt_old = W[0][:, S + lag].transpose(1, 0, 2)
-            Wt_old[(lag == 0)[:, None, :].repeat(K, axis=1)] = 0.0
-            Wt = np.concatenate([Wt_new, Wt_old], axis=0).reshape(2 * S, K * S)
-            y += (H2 @ Wt).reshape(V, K, S)
-        else:
-            lag = np.clip(idx[:, None] - idx[None, :], 0, None)  # [i, j] -> i - j (0 if i <= j)
-            Hp = np.concatenate([np.zeros((V, 1)), H2[:, :S], np.zeros((V, 1)), H2[:, S:]], axis=1)
-            T2 = np.concatenate([Hp[:, lag.T], Hp[:, S + 1 + lag.T]], axis=1)  # (V, 2S, S)
-            y += W[:, :, 1:] @ T2
-        yc = y.reshape(V, Nt) + dc
-    if not np.all(np.isfinite(yc)):
-        raise ServokitValueError(
-            "the simulated output overflowed (an unstable loop or plant); check the controller"
-        )
-    u = np.broadcast_to(ubuf[:, dd + 1 :], (V, Nt))
-    return SimulationResult(t=t, yc=yc, td=t[::S], yd=yd, u=u, substeps=S)
+    budget = min(CHUNK_MEMORY_MB, max(limit - out_bytes / 1e6, 1.0))
+    ranges = list(_chunks(job, budget))
+    if len(ranges) == 1:
+        return _run(job, 0, V, check_stability)
+    yc, yd = np.empty((V, Nt)), np.empty((V, job.K))
+    u = np.empty((V, Nt)) if per_u else None
+    for lo, hi in ranges:
+        res = _run(job, lo, hi, check_stability)
+        yc[lo:hi], yd[lo:hi] = res.yc, res.yd
+        if u is not None:
+            u[lo:hi] = res.u
+    u_out = np.broadcast_to(job.u_open, (V, Nt)) if u is None else u
+    t = job.t
+    return SimulationResult(t=t, yc=yc, td=t[:: job.S], yd=yd, u=u_out, substeps=job.S)

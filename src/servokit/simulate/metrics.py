@@ -15,7 +15,7 @@ import numpy as np
 
 from servokit.errors import ServokitValueError, check_finite
 from servokit.models.modal import ModalPlant
-from servokit.simulate.hybrid import simulate
+from servokit.simulate.hybrid import simulate, simulate_metrics
 
 __all__ = [
     "HeldInput",
@@ -97,6 +97,22 @@ def step_metrics(t: np.ndarray, y: np.ndarray, target: float, band: float) -> St
     return StepMetrics(settling_time(t, y2, target, band), over, peak)
 
 
+def _seek_request(ff: HeldInput, grid: float | None, horizon: float | None) -> dict:
+    """Arguments of :func:`simulate` for the open-loop response to the held input ``ff``."""
+    u = check_finite("ff.u", ff.u)
+    dt = float(ff.dt)
+    grid = dt / 10 if grid is None else float(grid)
+    S = int(round(dt / grid))
+    if S < 1 or abs(S * grid - dt) > 1e-9 * dt:
+        raise ServokitValueError(
+            f"grid ({grid:g} s) must divide ff.dt ({dt:g} s) a whole number of times"
+        )
+    duration = u.size * dt
+    horizon = max(3 * duration, duration + 2e-3) if horizon is None else float(horizon)
+    K = int(np.ceil(horizon / dt)) + 1
+    return {"dt": dt, "n_samples": K, "substeps": S, "feedforward": u}
+
+
 def seek_response(
     plants: ModalPlant | Sequence[ModalPlant],
     ff: HeldInput,
@@ -109,18 +125,7 @@ def seek_response(
     ``grid`` defaults to ``ff.dt / 10``; ``horizon`` to ``max(3 T, T + 2 ms)`` with
     ``T`` the input's duration.
     """
-    u = check_finite("ff.u", ff.u)
-    dt = float(ff.dt)
-    grid = dt / 10 if grid is None else float(grid)
-    S = int(round(dt / grid))
-    if S < 1 or abs(S * grid - dt) > 1e-9 * dt:
-        raise ServokitValueError(
-            f"grid ({grid:g} s) must divide ff.dt ({dt:g} s) a whole number of times"
-        )
-    duration = u.size * dt
-    horizon = max(3 * duration, duration + 2e-3) if horizon is None else float(horizon)
-    K = int(np.ceil(horizon / dt)) + 1
-    return simulate(plants, dt=dt, n_samples=K, substeps=S, feedforward=u)
+    return simulate(plants, **_seek_request(ff, grid, horizon))
 
 
 def seek_time(
@@ -130,8 +135,12 @@ def seek_time(
     band: float = 0.1,
     grid: float | None = None,
     horizon: float | None = None,
+    max_memory_mb: float | None = None,
 ) -> np.ndarray:
     """Seek time of every plant under the feedforward input ``ff`` (no feedback).
+
+    The trajectories are reduced chunk by chunk (:func:`simulate_metrics`), so any
+    number of variants runs within ``max_memory_mb`` (default 256 MB).
 
     Parameters
     ----------
@@ -145,11 +154,21 @@ def seek_time(
         Time grid on which the position is read (default ``ff.dt / 10``).
     horizon : float, optional
         Length of the simulated record [s].
+    max_memory_mb : float, optional
+        Memory budget of the simulation [MB].
 
     Returns
     -------
     ndarray (V,)
         Seek time per plant [s] (``inf`` if not settled within the horizon).
     """
-    res = seek_response(plants, ff, grid=grid, horizon=horizon)
-    return settling_time(res.t, res.yc, target, band)
+    target = float(check_finite("target", target))
+    band = float(check_finite("band", band))
+    if band <= 0:
+        raise ServokitValueError(f"band must be > 0 (got {band})")
+    return simulate_metrics(
+        plants,
+        lambda res: settling_time(res.t, res.yc, target, band),
+        max_memory_mb=max_memory_mb,
+        **_seek_request(ff, grid, horizon),
+    )

@@ -1,0 +1,43 @@
+"""Timing helpers of the benchmark suite: best-of-n wall times, DGEMM peak, peak memory.
+
+The machine is shared, so every figure is the best of several runs and every claim is a
+ratio of two timings taken in the same process, close together in time.
+"""
+
+from __future__ import annotations
+
+import time
+import tracemalloc
+from collections.abc import Callable
+from typing import Any
+
+import numpy as np
+
+
+def best_time(fn: Callable[[], Any], repeat: int = 5) -> float:
+    """Smallest wall time [s] of ``repeat`` calls (the least disturbed one)."""
+    best = float("inf")
+    for _ in range(repeat):
+        t0 = time.perf_counter()
+        fn()
+        best = min(best, time.perf_counter() - t0)
+    return best
+
+
+def dgemm_peak_flops(n: int = 1000, repeat: int = 7) -> float:
+    """Single-call DGEMM rate [flop/s] of an n x n product (the machine's arithmetic peak)."""
+    rng = np.random.default_rng(0)
+    a, b = rng.standard_normal((n, n)), rng.standard_normal((n, n))
+    return 2.0 * n**3 / best_time(lambda: a @ b, repeat)
+
+
+def peak_memory(fn: Callable[[], Any]) -> tuple[Any, float]:
+    """Result of ``fn()`` and the peak of memory allocated during it [bytes] (tracemalloc;
+    numpy reports its buffers to it)."""
+    tracemalloc.start()
+    try:
+        out = fn()
+        _, peak = tracemalloc.get_traced_memory()
+    finally:
+        tracemalloc.stop()
+    return out, float(peak)

@@ -1,0 +1,180 @@
+"""``servokit export``: firmware tables of a design as C, CSV or JSON."""
+
+from __future__ import annotations
+
+import json
+from pathlib import Path
+from typing import Annotated
+
+import numpy as np
+import typer
+
+from servokit.cli._app import JsonOpt, emit_json, example, sub_app, wrote
+
+export_app = sub_app(
+    "export",
+    "Firmware export: feedforward tables, controllers (state space / second-order "
+    "sections), gain matrices; C header + source (float, double, Q15, Q31), CSV, JSON.",
+)
+
+FormatOpt = Annotated[
+    str, typer.Option("--format", help="c (header + source), csv or json", metavar="c|csv|json")
+]
+PrecisionOpt = Annotated[
+    str,
+    typer.Option(
+        "--precision",
+        help="number format: float, double, q15 or q31 (fixed point with a power-of-two scale)",
+        metavar="float|double|q15|q31",
+    ),
+]
+OutOpt = Annotated[Path, typer.Option("--out", help="output directory")]
+NameOpt = Annotated[str, typer.Option("--name", help="C prefix and file stem (a C identifier)")]
+
+
+def _finish(tables: list, out: Path, name: str, fmt: str, precision: str, step: str | None,
+            title: str, json_out: bool) -> None:  # fmt: skip
+    """Write the files; report them and each table's quantisation error."""
+    from servokit.export import FORMATS, quantize, write_export
+
+    paths = write_export(
+        tables, out, name, file_format=fmt, precision=precision, step=step, title=title
+    )
+    for p in paths:
+        wrote(p)
+    bits = FORMATS[precision][1]
+    rows = []
+    for t in tables:
+        row = {"table": t.name, "shape": list(t.values.shape)}
+        if bits is not None:
+            q = quantize(t.values, bits)
+            row |= {"scale": q.scale, "error_bound": q.error_bound, "max_error": q.max_error}
+        rows.append(row)
+    if json_out:
+        emit_json({"files": [str(p) for p in paths], "precision": precision, "tables": rows})
+        return
+    for row in rows:
+        extra = (
+            f", scale {row['scale']:.6g}, max error {row['max_error']:.3g} "
+            f"(bound {row['error_bound']:.3g})"
+            if "scale" in row
+            else ""
+        )
+        typer.echo(f"{row['table']}: shape {tuple(row['shape'])}{extra}")
+
+
+@export_app.command(
+    "feedforward",
+    epilog=example("servokit export feedforward --design 2 --target 10 --format c --out fw"),
+)
+def feedforward_cmd(
+    design: int = typer.Option(2, "--design", help="1: FSC (2.40)-(2.42); 2: FFSC, Table 2.4"),
+    target: float = typer.Option(10.0, "--target", help="seek distance [track]"),
+    n_samples: int | None = typer.Option(
+        None, "--n-samples", help="steps N (default: the book's N for 1 or 10 tracks)"
+    ),
+    fmt: FormatOpt = "c",
+    precision: PrecisionOpt = "float",
+    out: OutOpt = Path("firmware"),
+    name: NameOpt = "hdd_ff",
+    json_out: JsonOpt = False,
+) -> None:
+    """HDD benchmark feedforward table u_c[0..N-1] held at Ts = 37.879 us (book §2.4).
+
+    JSON keys: files, precision, tables (table, shape, scale, error_bound, max_error).
+    """
+    from servokit.export import feedforward_tables
+    from servokit.export.designs import hdd_feedforward
+
+    ff = hdd_feedforward(design, target, n_samples)
+    tables = feedforward_tables(ff.u, ff.dt, name="u")
+    title = f"HDD benchmark Design {design}, {target:g} track(s), N = {ff.N} (book §2.4.2)"
+    _finish(tables, out, name, fmt, precision, None, title, json_out)
+
+
+@export_app.command(
+    "controller",
+    epilog=example("servokit export controller --controller eq-4.69 --realization sos"),
+)
+def controller_cmd(
+    controller: str = typer.Option(
+        ..., "--controller", help="book controller (eq-4.69, fig-4.57, table-5.2) or .toml file"
+    ),
+    realization: str = typer.Option(
+        "ss", "--realization", help="ss (state-space matrices) or sos (second-order sections)"
+    ),
+    fmt: FormatOpt = "c",
+    precision: PrecisionOpt = "float",
+    out: OutOpt = Path("firmware"),
+    name: NameOpt = "ctrl",
+    json_out: JsonOpt = False,
+) -> None:
+    """A discrete controller's matrices or sections, with a C step function (float/double).
+
+    JSON keys: files, precision, tables (table, shape, scale, error_bound, max_error).
+    """
+    from servokit.errors import ServokitValueError
+    from servokit.export import sos_tables, statespace_tables
+    from servokit.models.controllers import get_discrete_controller
+
+    if realization not in ("ss", "sos"):
+        raise ServokitValueError(f"--realization {realization!r}: choose ss or sos")
+    try:
+        ctrl = get_discrete_controller(controller)
+    except ServokitValueError as exc:
+        raise ServokitValueError(f"--controller {exc}") from None
+    make = statespace_tables if realization == "ss" else sos_tables
+    tables = make(ctrl, "ss" if realization == "ss" else "sos")
+    step = realization if fmt == "c" and precision in ("float", "double") else None
+    _finish(tables, out, name, fmt, precision, step, f"controller {controller}", json_out)
+
+
+@export_app.command(
+    "table",
+    epilog=example("servokit export table --input gains.json --precision q15 --format c"),
+)
+def table_cmd(
+    input_file: Path = typer.Option(
+        ..., "--input", help='.json {"name": [[...], ...]} or .csv of numbers (one table)'
+    ),
+    fmt: FormatOpt = "c",
+    precision: PrecisionOpt = "float",
+    out: OutOpt = Path("firmware"),
+    name: NameOpt = "tables",
+    json_out: JsonOpt = False,
+) -> None:
+    """Arrays from a file (IVC gain matrices, filter coefficients...) as firmware tables.
+
+    JSON keys: files, precision, tables (table, shape, scale, error_bound, max_error).
+    """
+    tables = _read_tables(input_file)
+    _finish(tables, out, name, fmt, precision, None, f"tables of {input_file.name}", json_out)
+
+
+def _read_tables(path: Path) -> list:
+    from servokit.errors import ServokitValueError
+    from servokit.export import FirmwareTable
+
+    if not path.is_file():
+        raise ServokitValueError(f"--input {path}: no such file; give a .json or .csv file")
+    if path.suffix.lower() == ".json":
+        try:
+            data = json.loads(path.read_text(encoding="utf-8"))
+        except json.JSONDecodeError as exc:
+            raise ServokitValueError(f"--input {path}: not valid JSON ({exc.msg})") from None
+        if not isinstance(data, dict) or not data:
+            raise ServokitValueError(f'--input {path}: give an object {{"name": [numbers]}}')
+        items = list(data.items())
+    elif path.suffix.lower() == ".csv":
+        try:
+            items = [(path.stem.replace("-", "_"), np.loadtxt(path, delimiter=",", ndmin=2))]
+        except ValueError:
+            raise ServokitValueError(f"--input {path}: the CSV must hold numbers only") from None
+    else:
+        raise ServokitValueError(f"--input {path}: use a .json or .csv file")
+    try:
+        return [FirmwareTable(k, np.asarray(v, dtype=float)) for k, v in items]
+    except (TypeError, ValueError) as exc:
+        if isinstance(exc, ServokitValueError):
+            raise ServokitValueError(f"--input {path}: {exc}") from None
+        raise ServokitValueError(f"--input {path}: tables must be arrays of numbers") from None

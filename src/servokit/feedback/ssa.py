@@ -1,0 +1,225 @@
+"""Self-sensing actuation bridges and active mode damping (book §5.4.2-§5.4.3).
+
+Direct-driven SSA (DDSSA, Fig. 5.27, eqs. 5.59-5.62)
+    The PZT is a capacitance ``CPZT`` in series with the strain voltage ``vM``.  Read
+    from (5.59)-(5.60): the PZT arm (``uM`` -> PZT -> node ``v1``) over ``C1`` to ground,
+    and the reference arm ``uM`` -> ``C2`` -> node ``v2`` -> ``C3`` to ground; the
+    differential amplifier gives ``vs = v2 - v1``.  With admittances (``R1 || C1``,
+    ``R3 || C3`` when the drift resistors are fitted)::
+
+        v1 = YP (uM - vM) / (YP + Y1),   v2 = Y2 uM / (Y2 + Y3),
+        vs = [Y2/(Y2+Y3) - YP/(YP+Y1)] uM + YP/(YP+Y1) vM.
+
+    **Correction**: the printed (5.61) has the ``uM`` coefficient with the opposite sign
+    (``CPZT/(C1+CPZT) - C2/(C2+C3)``); it follows from ``vs = v2 - v1`` as above.  It
+    vanishes at balance either way.  Balance for all frequencies needs
+    ``CPZT C3 = C1 C2`` and, with resistors, ``CPZT / R3 = C2 / R1``; the book's choice
+    ``C1 = C2 = C3 = CPZT`` gives ``vs = vM / 2`` (5.62).
+
+Indirect-driven SSA (IDSSA, Fig. 5.28, eqs. 5.63-5.66)
+    The figure's topology is lost in the text; servokit implements the printed relations
+    (5.63)-(5.64).  **Correction**: the printed ``v2`` denominator
+    ``C3 C4 R3 R4 s^2 + (C'PZT + C3 + C4) R1 s + 1`` is read with ``R3`` for ``R1``
+    (the mirror of ``v1``); the two agree at balance (5.65).  With (5.65),
+    ``vS = k (v2 - v1)``: ``uM`` cancels and ``vS / vM = k s^2 / (s^2 + 2 zeta wc s + wc^2)``
+    (5.66) with ``fc = 1 / (2 pi sqrt(C1 C2 R1 R2))`` and
+    ``zeta = sqrt(C1 C2 R1 R2) (C1 + C2 + CPZT) / (2 C1 C2 R2)``.
+
+Active mode damping (AMD, eqs. 5.67-5.69)
+    The printed (5.67) lost its fraction layout.  servokit reads it as::
+
+        CD,i(s) = KD,i (s + wn/eps) (s + wn) / ((s + kappa wn / eps) (s + eps wn / kappa))
+
+    which is what the text describes: the two poles multiply to ``wn^2``, a PPF-like pair
+    ``s^2 + 2 zeta_D wn s + wn^2`` with ``zeta_D = (kappa/eps + eps/kappa)/2`` ("a general
+    case of PPF with additional zeros"); the zeros at ``wn/eps`` and ``wn`` give the phase
+    lead; the DC gain is ``KD / eps``, so the text's usual ``KD = eps`` gives unit DC gain
+    and a gain ``eps`` at high frequency.  In this reading the phase at exactly ``wn`` is
+    ``atan(eps) - 45 deg`` whatever ``kappa``; ``kappa`` sets the pole damping, i.e. how
+    fast the phase changes around ``wn`` (the lift at ``wn (1 +- P %)``), which is how we
+    read "kappa determines the amount of phase lift".  The loop
+    (5.68) ``yM/uM = PM / (1 + CD PM)`` attenuates mode ``i`` by about ``1/|CD(j wn)|``
+    when ``|CD PM| >> 1`` (5.69).
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import control
+import numpy as np
+
+from servokit.errors import ServokitValueError, check_positive
+
+__all__ = [
+    "DDSSABridge",
+    "ddssa_bridge",
+    "IDSSABridge",
+    "idssa_bridge",
+    "amd_controller",
+    "amd_mode",
+    "ModeDamping",
+    "mode_damping",
+]
+
+
+def _positive_or_none(name: str, value: float | None) -> float | None:
+    return None if value is None else check_positive(name, value)
+
+
+def _rc_admittance(c: float, r: float | None) -> control.TransferFunction:
+    """``s C`` or ``s C + 1/R`` as a transfer function."""
+    return control.tf([c, 0.0 if r is None else 1.0 / r], [1.0])
+
+
+@dataclass(frozen=True)
+class DDSSABridge:
+    """Direct-driven bridge (Fig. 5.27): ``vs = from_um * uM + from_vm * vM``."""
+
+    from_um: control.TransferFunction
+    from_vm: control.TransferFunction
+    balanced: bool
+
+
+def ddssa_bridge(
+    c_pzt: float,
+    c1: float,
+    c2: float,
+    c3: float,
+    *,
+    r1: float | None = None,
+    r3: float | None = None,
+    rtol: float = 1e-9,
+) -> DDSSABridge:
+    """DDSSA transfer functions from ``uM`` and ``vM`` to ``vs`` (5.59)-(5.62), corrected.
+
+    Parameters
+    ----------
+    c_pzt, c1, c2, c3 : float
+        Capacitances [F].
+    r1, r3 : float, optional
+        Drift resistors [ohm] in parallel with ``C1`` and ``C3``.
+    rtol : float
+        Relative tolerance of the balance test ``CPZT C3 = C1 C2`` (and
+        ``CPZT / R3 = C2 / R1``).
+    """
+    cp, c1, c2, c3 = (
+        check_positive(n, v, "F") for n, v in (("c_pzt", c_pzt), ("c1", c1), ("c2", c2), ("c3", c3))
+    )
+    r1, r3 = _positive_or_none("r1", r1), _positive_or_none("r3", r3)
+    if (r1 is None) != (r3 is None):
+        raise ServokitValueError("give both r1 and r3 (the drift resistors) or neither")
+    yp, y1 = control.tf([cp, 0.0], [1.0]), _rc_admittance(c1, r1)
+    y2, y3 = control.tf([c2, 0.0], [1.0]), _rc_admittance(c3, r3)
+    arm1 = control.minreal(yp / (yp + y1), verbose=False)
+    arm2 = control.minreal(y2 / (y2 + y3), verbose=False)
+    balanced = np.isclose(cp * c3, c1 * c2, rtol=rtol, atol=0.0) and (
+        r1 is None or np.isclose(cp / r3, c2 / r1, rtol=rtol, atol=0.0)
+    )
+    return DDSSABridge(arm2 - arm1, arm1, bool(balanced))
+
+
+@dataclass(frozen=True)
+class IDSSABridge:
+    """Indirect-driven bridge (Fig. 5.28): ``vs = from_um * uM + from_vm * vM`` (5.63)-(5.64)
+    and, at balance (5.65), the high-pass (5.66) with ``fc_hz``, ``damping``, ``gain``."""
+
+    from_um: control.TransferFunction
+    from_vm: control.TransferFunction
+    fc_hz: float
+    damping: float
+    gain: float
+
+
+def _idssa_arm(ca: float, cb: float, cp: float, ra: float, rb: float) -> control.TransferFunction:
+    """``1 + (ca cp ra rb s^2 + ca rb s) / (ca cb ra rb s^2 + (cp + ca + cb) ra s + 1)`` (5.63)."""
+    den = [ca * cb * ra * rb, (cp + ca + cb) * ra, 1.0]
+    return 1 + control.tf([ca * cp * ra * rb, ca * rb, 0.0], den)
+
+
+def idssa_bridge(
+    c: tuple[float, float, float, float],
+    c_pzt: float,
+    c_pzt_ref: float,
+    r: tuple[float, float, float, float, float, float, float, float],
+) -> IDSSABridge:
+    """IDSSA output (5.63)-(5.64) for ``c = (C1, C2, C3, C4)``, ``r = (R1, ..., R8)``.
+
+    ``c_pzt`` is the PZT capacitance, ``c_pzt_ref`` the reference ``C'PZT``.  ``fc_hz``,
+    ``damping`` and ``gain`` are those of (5.66) (meaningful at balance (5.65)).
+    """
+    c1, c2, c3, c4 = (check_positive(f"C{i + 1}", v, "F") for i, v in enumerate(c))
+    cp, cpr = check_positive("c_pzt", c_pzt, "F"), check_positive("c_pzt_ref", c_pzt_ref, "F")
+    rr = [check_positive(f"R{i + 1}", v, "ohm") for i, v in enumerate(r)]
+    r1, r2, r3, r4, r5, r6, r7, r8 = rr
+    v1_um = _idssa_arm(c1, c2, cp, r1, r2)
+    v1_vm = -control.tf([c1 * cp * r1 * r2, 0.0, 0.0], [c1 * c2 * r1 * r2, (cp + c1 + c2) * r1, 1])
+    v2_um = _idssa_arm(c3, c4, cpr, r3, r4)
+    a2, a1 = r6 / (r5 + r6) * (r7 + r8) / r8, r7 / r8  # (5.64)
+    wc = 1.0 / np.sqrt(c1 * c2 * r1 * r2)
+    zeta = np.sqrt(c1 * c2 * r1 * r2) * (c1 + c2 + cp) / (2.0 * c1 * c2 * r2)
+    return IDSSABridge(
+        control.minreal(a2 * v2_um - a1 * v1_um, verbose=False),
+        -a1 * v1_vm,
+        float(wc / (2 * np.pi)),
+        float(zeta),
+        float(r6 / r5),
+    )
+
+
+# --------------------------------------------------------------- active mode damping
+def amd_mode(freq_hz: float, eps: float, kappa: float, gain: float | None = None):
+    """One AMD factor ``CD,i`` (5.67) as read in the module docstring (``KD,i = eps`` default).
+
+    ``1 < eps <= P`` (frequency uncertainty, P < 3) and ``5 < kappa < 15`` in the book.
+    """
+    wn = 2 * np.pi * check_positive("freq_hz", freq_hz, "Hz")
+    eps, kappa = check_positive("eps", eps), check_positive("kappa", kappa)
+    if not kappa > eps:
+        raise ServokitValueError(f"kappa must exceed eps (got kappa={kappa}, eps={eps})")
+    k = eps if gain is None else check_positive("gain", gain)
+    num = np.polymul([1, wn / eps], [1, wn])
+    den = np.polymul([1, kappa * wn / eps], [1, eps * wn / kappa])
+    return control.tf(k * num, den)
+
+
+def amd_controller(modes: list[tuple[float, float, float]]) -> control.TransferFunction:
+    """``CD = prod_i CD,i`` for ``modes = [(freq_hz, eps, kappa), ...]`` (§5.4.3)."""
+    if not modes:
+        raise ServokitValueError("modes is empty; give at least one (freq_hz, eps, kappa)")
+    out = amd_mode(*modes[0])
+    for m in modes[1:]:
+        out = out * amd_mode(*m)
+    return out
+
+
+@dataclass(frozen=True)
+class ModeDamping:
+    """Peaks of ``|PM|`` and of the damped ``|PM / (1 + CD PM)|`` (5.68) near each mode,
+    the attenuation [dB], the estimate ``1/|CD(j wn)|`` of (5.69), and stability."""
+
+    freq_hz: np.ndarray
+    open_db: np.ndarray
+    damped_db: np.ndarray
+    attenuation_db: np.ndarray
+    estimate_db: np.ndarray
+    stable: bool
+
+
+def mode_damping(
+    plant: control.LTI, cd: control.LTI, freq_hz: np.ndarray, *, band: float = 0.1
+) -> ModeDamping:
+    """Effect of the AMD loop (5.68) on the modes at ``freq_hz`` (peak within +-``band``)."""
+    closed = control.feedback(plant, cd)
+    stable = bool(np.all(np.real(control.poles(closed)) < 0))
+    centres = np.atleast_1d(np.asarray(freq_hz, dtype=float))
+    rows = []
+    for f in centres:
+        grid = np.linspace((1 - band) * f, (1 + band) * f, 2001)
+        s = 2j * np.pi * grid
+        p, c = np.asarray(plant(s)).ravel(), np.asarray(cd(s)).ravel()
+        rows.append(
+            (np.abs(p).max(), np.abs(p / (1 + c * p)).max(), 1 / abs(complex(cd(2j * np.pi * f))))
+        )
+    a = 20 * np.log10(np.array(rows))
+    return ModeDamping(centres, a[:, 0], a[:, 1], a[:, 0] - a[:, 1], a[:, 2], stable)

@@ -1,0 +1,15 @@
+"""Beyond the book: robust minimum-time feedforward over a plant set, and sweeps at scale.
+
+* :func:`robust_minimum_time` — the shortest worst-case seek guaranteed on a plant set
+  under input, slew and §2.6 limits, as linear programs (:mod:`.feedforward`);
+* :mod:`servokit.robust.sweep` — seek-time distributions over 10^4-10^5 Monte-Carlo
+  plants in bounded memory, in-process or on Dask (``sweep_seek_times``, ``connect_dask``).
+"""
+
+from servokit.robust.feedforward import (
+    NoFeasibleSeekError,
+    RobustFeedforwardInput,
+    robust_minimum_time,
+)
+
+__all__ = ["NoFeasibleSeekError", "RobustFeedforwardInput", "robust_minimum_time"]

@@ -1,0 +1,272 @@
+"""Seek-time sweeps over large Monte-Carlo variation sets, in bounded memory (issue 13).
+
+A feedforward design is evaluated on ``n`` plants drawn from a
+:class:`~servokit.models.VariationSet` (10^4-10^5 and more).  The relative changes of all
+plants are drawn at once (``n x R`` numbers, exactly those of
+:meth:`VariationSet.monte_carlo`), and the plants are built and simulated chunk by chunk,
+so that memory is set by the chunk size, not by ``n``.  The chunks run in-process by
+default or on Dask (optional extra ``servokit[dask]``) when a ``distributed.Client`` is
+given; both paths run the same function on the same chunks and give identical numbers.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable, Iterator
+from dataclasses import dataclass
+from typing import Any
+
+import numpy as np
+
+from servokit.errors import ServokitValueError, check_count, check_memory, check_positive
+from servokit.models.variations import VariationSet
+from servokit.simulate import seek_time
+
+__all__ = [
+    "SweepResult",
+    "chunk_bytes",
+    "connect_dask",
+    "plan_chunks",
+    "sweep_seek_times",
+]
+
+#: default bytes one chunk may use (the rest of the limit stays free for the caller)
+_CHUNK_BUDGET = 200e6
+PERCENTILES = (50.0, 90.0, 99.0, 99.9, 100.0)
+
+
+@dataclass(frozen=True)
+class _Held:
+    """Held input samples and their period (picklable, for Dask workers)."""
+
+    u: np.ndarray
+    dt: float
+
+
+@dataclass(frozen=True, eq=False)
+class SweepResult:
+    """Seek times of a Monte-Carlo sweep.
+
+    Attributes
+    ----------
+    seek_times : ndarray (n,)
+        Seek time per plant [s] (inf: not settled within the record).
+    draws, gains : ndarray
+        Relative changes of the worst plant (one per range) and its relative gain.
+    chunk_size : int
+        Plants simulated together.
+    chunk_mb : float
+        Estimated memory of one chunk [MB].
+    backend : str
+        ``"numpy"`` (in-process) or ``"dask"``.
+    """
+
+    seek_times: np.ndarray
+    draws: np.ndarray
+    gains: np.ndarray
+    chunk_size: int
+    chunk_mb: float
+    backend: str
+
+    @property
+    def worst_index(self) -> int:
+        """Index of the plant with the longest seek time."""
+        return int(np.argmax(self.seek_times))
+
+    @property
+    def n_unsettled(self) -> int:
+        """Plants that did not settle within the simulated record."""
+        return int(np.sum(~np.isfinite(self.seek_times)))
+
+    def percentiles(self, q: tuple[float, ...] = PERCENTILES) -> dict[str, float]:
+        """Seek-time percentiles [s] keyed ``p50``, ``p99_9``, ...; ``inf`` when unsettled
+        plants reach that rank (nearest-rank on the sorted times, no interpolation)."""
+        t = np.sort(self.seek_times)
+        ranks = np.clip(np.ceil(np.asarray(q) / 100.0 * t.size).astype(int) - 1, 0, t.size - 1)
+        return {f"p{q_:g}".replace(".", "_"): float(t[r]) for q_, r in zip(q, ranks, strict=True)}
+
+
+def chunk_bytes(n_plants: int, n_modes: int, n_samples: int, substeps: int) -> float:
+    """Estimated peak bytes of simulating ``n_plants`` together (the simulator's arrays:
+    outputs and their deviation on the fine grid, sample states, block powers)."""
+    fine = n_samples * substeps
+    per_plant = 8.0 * (5 * fine + 6 * n_samples * n_modes + 12 * n_modes * (substeps + 1))
+    return n_plants * per_plant
+
+
+def _record(ff: _Held, horizon: float | None) -> int:
+    """Samples of the simulated record (as :func:`servokit.simulate.seek_response`)."""
+    duration = ff.u.size * ff.dt
+    horizon = max(3 * duration, duration + 2e-3) if horizon is None else horizon
+    return int(np.ceil(horizon / ff.dt)) + 1
+
+
+def _chunk_seek_times(
+    vset: VariationSet,
+    draws: np.ndarray,
+    gains: np.ndarray,
+    ff: _Held,
+    target: float,
+    band: float,
+    grid: float | None,
+    horizon: float | None,
+) -> np.ndarray:
+    """Seek times of the plants of one chunk (runs in-process or on a Dask worker)."""
+    plants = vset.from_draws(draws, gains)
+    return seek_time(plants, ff, target, band=band, grid=grid, horizon=horizon)
+
+
+def connect_dask(scheduler: str | None = None, workers: int | None = None) -> Any:
+    """A ``distributed.Client``: to ``scheduler`` (an address) or a local cluster.
+
+    Raises a one-line error naming the optional extra when Dask is not installed.
+    """
+    try:
+        from distributed import Client, LocalCluster
+    except ImportError:
+        raise ServokitValueError(
+            "the Dask backend needs the optional extra: pip install 'servokit[dask]'"
+        ) from None
+    if scheduler is not None:
+        return Client(scheduler, timeout="10s")
+    n = check_count("workers", 1 if workers is None else workers, lo=1, hi=256)
+    cluster = LocalCluster(n_workers=n, threads_per_worker=1, dashboard_address=None)
+    return Client(cluster)
+
+
+def plan_chunks(
+    vset: VariationSet,
+    ff: Any,
+    n: int,
+    *,
+    grid: float | None = None,
+    horizon: float | None = None,
+    chunk_size: int | None = None,
+    max_memory_mb: float | None = None,
+    n_workers: int = 1,
+) -> tuple[int, float]:
+    """Chunk size and estimated bytes per plant of a sweep; refuses it, before anything
+    is allocated, when the draws plus one chunk per worker exceed ``max_memory_mb``."""
+    dt = check_positive("ff.dt", ff.dt, "s")
+    S = 10 if grid is None else int(round(dt / check_positive("grid", grid, "s")))
+    K = _record(_Held(np.asarray(ff.u), dt), horizon)
+    per_plant = chunk_bytes(1, len(vset.nominal.modes), K, max(S, 1))
+    limit = 2000.0 if max_memory_mb is None else float(max_memory_mb)
+    fixed = n * (len(vset.ranges) + 3) * 8.0  # draws, gains and seek times of all plants
+    if chunk_size is None:
+        budget = min(_CHUNK_BUDGET, (limit * 1e6 - fixed) / n_workers)
+        chunk_size = int(max(1, min(n, budget // per_plant)))
+        if n_workers > 1:  # a few chunks per worker, so that all of them have work
+            chunk_size = min(chunk_size, -(-n // (4 * n_workers)))
+    chunk_size = check_count("chunk_size", chunk_size, lo=1)
+    check_memory(
+        fixed + n_workers * chunk_size * per_plant,
+        what=f"a sweep of {n} variants in chunks of {chunk_size} ({K * S} grid points each)",
+        max_memory_mb=limit,
+    )
+    return chunk_size, per_plant
+
+
+def _chunks(n: int, size: int) -> Iterator[slice]:
+    for lo in range(0, n, size):
+        yield slice(lo, min(n, lo + size))
+
+
+def sweep_seek_times(
+    vset: VariationSet,
+    ff: Any,
+    target: float,
+    *,
+    n: int,
+    seed: int = 0,
+    band: float = 0.1,
+    grid: float | None = None,
+    horizon: float | None = None,
+    chunk_size: int | None = None,
+    max_memory_mb: float | None = None,
+    client: Any = None,
+    progress: Callable[[int], None] | None = None,
+) -> SweepResult:
+    """Seek time of ``ff`` on ``n`` Monte-Carlo plants of ``vset``, chunk by chunk.
+
+    Parameters
+    ----------
+    vset : VariationSet
+        Nominal plant and ranges (e.g. ``hdd_benchmark_variation_set()``); its plants are
+        exactly those of ``vset.monte_carlo(n, seed)``.
+    ff : object with ``u`` (held samples) and ``dt`` [s]
+        The feedforward design (a :class:`~servokit.feedforward.FeedforwardInput`).
+    target, band : float
+        Seek distance and settling band (plant output units).
+    n : int
+        Number of plants.
+    seed : int
+        Random seed of the draws.
+    grid, horizon : float, optional
+        Read-out step and record length [s], as in :func:`servokit.simulate.seek_time`.
+    chunk_size : int, optional
+        Plants per chunk; default: as many as fit in 200 MB (and in ``max_memory_mb``).
+    max_memory_mb : float, optional
+        Limit on the estimated memory of the draws plus one chunk per worker [MB].
+    client : distributed.Client, optional
+        Run the chunks on Dask (see :func:`connect_dask`); default in-process.
+    progress : callable, optional
+        Called with the number of plants of each finished chunk.
+
+    Returns
+    -------
+    SweepResult
+    """
+    n = check_count("n", n, lo=1)
+    band = check_positive("band", band)
+    held = _Held(np.asarray(ff.u, dtype=float), check_positive("ff.dt", ff.dt, "s"))
+    n_workers = 1 if client is None else max(1, len(client.scheduler_info()["workers"]))
+    chunk_size, per_plant = plan_chunks(
+        vset,
+        held,
+        n,
+        grid=grid,
+        horizon=horizon,
+        chunk_size=chunk_size,
+        max_memory_mb=max_memory_mb,
+        n_workers=n_workers,
+    )
+    draws, gains = vset.draw(n, seed)
+    args = (held, float(target), band, grid, horizon)
+    times = np.empty(n)
+    tick = progress or (lambda k: None)
+    if client is None:
+        for sl in _chunks(n, chunk_size):
+            times[sl] = _chunk_seek_times(vset, draws[sl], gains[sl], *args)
+            tick(sl.stop - sl.start)
+        backend = "numpy"
+    else:
+        _run_dask(client, vset, draws, gains, args, chunk_size, times, tick)
+        backend = "dask"
+    worst = int(np.argmax(times))
+    return SweepResult(
+        times, draws[worst], gains[worst], chunk_size, chunk_size * per_plant / 1e6, backend
+    )
+
+
+def _run_dask(
+    client: Any,
+    vset: VariationSet,
+    draws: np.ndarray,
+    gains: np.ndarray,
+    args: tuple,
+    chunk_size: int,
+    out: np.ndarray,
+    tick: Callable[[int], None],
+) -> None:
+    """Submit one task per chunk; fill ``out`` as they complete."""
+    from distributed import as_completed
+
+    vset_f = client.scatter(vset, broadcast=True)
+    futures = {}
+    for sl in _chunks(draws.shape[0], chunk_size):
+        fut = client.submit(_chunk_seek_times, vset_f, draws[sl], gains[sl], *args, pure=False)
+        futures[fut] = sl
+    for fut in as_completed(futures):
+        sl = futures[fut]
+        out[sl] = fut.result()
+        tick(sl.stop - sl.start)

@@ -1,0 +1,150 @@
+"""Sample-rate closed loops of a digital controller around many plant variants, batched.
+
+The discrete loop of :func:`servokit.simulate.simulate` (unity negative feedback, plant
+exact ZOH with its delay, controller ``C(z)``) driven by ``e0 = r - y_open`` (the
+reference minus the output the plant would have without feedback) has, for each
+variant, the state ``z = [x_p, x_c]`` and::
+
+    z[k+1] = A_cl z[k] + B_cl e0[k],      v[k] = C_v z[k] + D_c e0[k]
+
+    A_cl = [[A_p - B_p D_c C_p, B_p C_c],      B_cl = [B_p D_c; B_c]
+            [-B_c C_p,          A_c    ]],     C_v  = [-D_c C_p, C_c]
+
+(the plant is strictly proper), ``v`` being the controller output.  With a multirate
+path the fast series ``P(dt/m) F`` driven by the zero-inserted controller output is
+first lifted over one period: ``A^m, A^(m-1) B``; the filter state is then part of
+``x_p``.
+
+Stability: ``rho(A)^n <= ||A^n||`` for any norm, so a variant whose ``||A^(2^j)||_inf``
+drops below 1 after ``j`` squarings is certified stable (one batched product of the
+stacked matrices per squaring, 0.6 ms for 1000 variants of order 20).  Only the
+variants not certified that way (unstable or marginal ones) go to
+``numpy.linalg.eigvals`` (0.1 ms per matrix), which gives their exact spectral radius.
+This replaces python-control's ``sample_system``/``feedback``/``poles`` per variant,
+which cost more than the simulation itself.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from servokit.simulate._bank import PlantBank
+
+__all__ = ["ClosedLoop", "closed_loop", "closed_loop_matrices", "spectral_radii", "unstable"]
+
+StateSpace = tuple[np.ndarray, np.ndarray, np.ndarray, float]
+
+#: squarings tried before falling back to eigenvalues: certifies rho < 1 - 1e-6 or so
+_SQUARINGS = 24
+
+
+@dataclass(frozen=True)
+class ClosedLoop:
+    """Stacked sample-rate closed loops (see module docstring) of ``V`` variants."""
+
+    A: np.ndarray  # (V, N, N)
+    B: np.ndarray  # (V, N)
+    Cv: np.ndarray  # (V, N)
+    Dv: float
+    n_plant: int  # plant (and filter) states come first, then the controller's
+    n_filter: int  # the last n_filter plant states are the multirate filter's
+
+
+def _series_fast(
+    A: np.ndarray, B: np.ndarray, C: np.ndarray, filt: StateSpace
+) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Plant (A, B, C; D = 0) fed by the filter ``F``: stacked series model."""
+    Af, Bf, Cf, Df = filt
+    V, n, _ = A.shape
+    nf = Af.shape[0]
+    As = np.zeros((V, n + nf, n + nf))
+    As[:, :n, :n] = A
+    As[:, :n, n:] = B[:, :, None] * Cf[None, None, :]
+    As[:, n:, n:] = Af
+    Bs = np.concatenate([B * Df, np.broadcast_to(Bf, (V, nf))], axis=1)
+    Cs = np.concatenate([C, np.zeros(nf)])
+    return As, Bs, Cs
+
+
+def _lifted_plant(
+    bank: PlantBank, dt: float, multirate: tuple[int, StateSpace] | None
+) -> tuple[np.ndarray, np.ndarray, np.ndarray, int]:
+    """Sample-rate plant ``(A, B, C)`` seen by the controller, and its filter order."""
+    if multirate is None:
+        return (*bank.discrete(dt), 0)
+    m, filt = multirate
+    A, B, C = _series_fast(*bank.discrete(dt / m), filt)
+    Am1 = np.linalg.matrix_power(A, m - 1)  # m is a small multirate number
+    return Am1 @ A, np.einsum("vij,vj->vi", Am1, B), C, filt[0].shape[0]
+
+
+def closed_loop(
+    bank: PlantBank,
+    controller: StateSpace,
+    dt: float,
+    multirate: tuple[int, StateSpace] | None = None,
+) -> ClosedLoop:
+    """The stacked sample-rate closed loops driven by ``e0`` (see module docstring)."""
+    A, B, C, nf = _lifted_plant(bank, dt, multirate)
+    Ac, Bc, Cc, Dc = controller
+    V, n, _ = A.shape
+    nc = Ac.shape[0]
+    Acl = np.zeros((V, n + nc, n + nc))
+    Acl[:, :n, :n] = A - Dc * B[:, :, None] * C[None, None, :]
+    Acl[:, :n, n:] = B[:, :, None] * Cc[None, None, :]
+    Acl[:, n:, :n] = -Bc[None, :, None] * C[None, None, :]
+    Acl[:, n:, n:] = Ac
+    Bcl = np.concatenate([B * Dc, np.broadcast_to(Bc, (V, nc))], axis=1)
+    Cv = np.broadcast_to(np.concatenate([-Dc * C, Cc]), (V, n + nc))
+    return ClosedLoop(Acl, Bcl, Cv, float(Dc), n, nf)
+
+
+def closed_loop_matrices(
+    bank: PlantBank,
+    controller: StateSpace,
+    dt: float,
+    multirate: tuple[int, StateSpace] | None = None,
+) -> np.ndarray:
+    """Stacked closed-loop matrices ``A_cl`` (V, N, N) of the sampled loop."""
+    return closed_loop(bank, controller, dt, multirate).A
+
+
+def spectral_radii(
+    bank: PlantBank,
+    controller: StateSpace,
+    dt: float,
+    multirate: tuple[int, StateSpace] | None = None,
+) -> np.ndarray:
+    """Largest closed-loop pole magnitude ``|z|`` of every variant, shape (V,)."""
+    Acl = closed_loop_matrices(bank, controller, dt, multirate)
+    if Acl.shape[-1] == 0:
+        return np.zeros(Acl.shape[0])
+    return np.abs(np.linalg.eigvals(Acl)).max(axis=-1)
+
+
+def unstable(A: np.ndarray, margin: float = 1e-10) -> tuple[np.ndarray, np.ndarray]:
+    """Variants of the stack ``A`` (V, N, N) with spectral radius ``>= 1 - margin``.
+
+    Returns their indices and spectral radii.  Certified-stable variants are dropped
+    by repeated squaring; the rest get exact eigenvalues (see module docstring).
+    """
+    V = A.shape[0]
+    if A.shape[-1] == 0:
+        return np.zeros(0, dtype=int), np.zeros(0)
+    todo = np.arange(V)
+    X = A
+    with np.errstate(over="ignore", invalid="ignore"):
+        for _ in range(_SQUARINGS):
+            norm = np.abs(X).sum(axis=-1).max(axis=-1)
+            keep = ~(norm < 1.0)  # NaN (overflow) stays undecided
+            todo, X = todo[keep], X[keep]
+            if todo.size == 0 or not np.any(norm[keep] < 1e100):
+                break  # all left are growing: their eigenvalues tell by how much
+            X = X @ X
+    if todo.size == 0:
+        return todo, np.zeros(0)
+    rho = np.abs(np.linalg.eigvals(A[todo])).max(axis=-1)
+    bad = rho >= 1.0 - margin
+    return todo[bad], rho[bad]

@@ -1,0 +1,162 @@
+"""Dual-stage loop structures (book §5.5.1) and the grid measurements of Table 5.4."""
+
+from __future__ import annotations
+
+import control
+import numpy as np
+import pytest
+from hypothesis import given, settings
+from hypothesis import strategies as st
+
+from servokit.errors import ServokitValueError
+from servokit.feedback.dual_stage import (
+    dual_stage_loops,
+    dual_stage_open_loop,
+    handoff,
+    loop_margins,
+)
+
+FREQ = np.geomspace(1.0, 1e5, 4000)
+
+
+def _resp(sys: control.LTI, f: np.ndarray = FREQ) -> np.ndarray:
+    return np.asarray(sys(2j * np.pi * f)).ravel()
+
+
+def _block_diagram(PV, CV, PM, CM, structure, PM_hat=None):
+    """r -> y and r -> e of the Fig. 5.35-5.37 block diagrams, built by interconnect."""
+    est = PM if PM_hat is None else PM_hat
+    blocks = [
+        control.ss(PV, inputs="uV", outputs="yV", name="PV"),
+        control.ss(PM, inputs="uM", outputs="yM", name="PM"),
+        control.ss(CM, inputs="e", outputs="uM", name="CM"),
+        control.ss(est, inputs="uM", outputs="yMh", name="PMh"),
+        control.summing_junction(["r", "-y"], "e", name="err"),
+        control.summing_junction(["yV", "yM"], "y", name="out"),
+    ]
+    cv_in = {"parallel": "e", "cms": "yMh", "dms": "eV"}[structure]
+    blocks.append(control.ss(CV, inputs=cv_in, outputs="uV", name="CV"))
+    if structure == "dms":
+        blocks.append(control.summing_junction(["e", "yMh"], "eV", name="dms"))
+    return control.interconnect(blocks, inputs="r", outputs=["y", "e"], check_unused=False)
+
+
+def _plants():
+    PV = control.tf([1.4e8], [1, 2 * 0.2 * 120, 120**2])
+    PM = 0.36 * control.tf([1], [1 / (2 * np.pi * 9e3) ** 2, 0.02 / (2 * np.pi * 9e3), 1])
+    CV = 5.0 * control.tf([1, 200 * np.pi, (100 * np.pi) ** 2], [1, 2 * np.pi * 3e4, 0]) * 1e-4
+    CM = 0.2 * control.tf([1, 2 * np.pi * 3e4], [1, 2 * np.pi * 900])
+    return PV, CV, PM, CM
+
+
+@pytest.mark.parametrize("structure", ["parallel", "cms", "dms"])
+def test_formulas_match_block_diagram(structure: str) -> None:
+    PV, CV, PM, CM = _plants()
+    loops = dual_stage_loops(PV, CV, PM, CM, structure)
+    sys = _block_diagram(PV, CV, PM, CM, structure)
+    ry, re = _resp(sys[0, 0]), _resp(sys[1, 0])
+    np.testing.assert_allclose(_resp(loops.T), ry, rtol=1e-8, atol=1e-12)
+    np.testing.assert_allclose(_resp(loops.S), re, rtol=1e-8, atol=1e-12)
+
+
+@pytest.mark.parametrize("structure", ["cms", "dms"])
+def test_imperfect_estimator_matches_block_diagram(structure: str) -> None:
+    PV, CV, PM, CM = _plants()
+    PMh = 1.1 * PM
+    loops = dual_stage_loops(PV, CV, PM, CM, structure, PM_hat=PMh)
+    sys = _block_diagram(PV, CV, PM, CM, structure, PM_hat=PMh)
+    np.testing.assert_allclose(_resp(loops.S), _resp(sys[1, 0]), rtol=1e-8, atol=1e-12)
+
+
+complex_arrays = st.lists(
+    st.tuples(
+        st.floats(0.01, 100.0),
+        st.floats(-np.pi, np.pi),
+        st.floats(0.01, 100.0),
+        st.floats(-np.pi, np.pi),
+        st.floats(0.01, 100.0),
+        st.floats(-np.pi, np.pi),
+        st.floats(0.01, 100.0),
+        st.floats(-np.pi, np.pi),
+    ),
+    min_size=1,
+    max_size=20,
+)
+
+
+@settings(max_examples=80, deadline=None)
+@given(complex_arrays)
+def test_dms_identities_on_random_responses(rows) -> None:
+    a = np.array(rows)
+    pv, cv, pm, cm = (a[:, 2 * k] * np.exp(1j * a[:, 2 * k + 1]) for k in range(4))
+    ld = dual_stage_open_loop(pv, cv, pm, cm, "dms")
+    sd = 1 / (1 + ld)
+    sv, sm = 1 / (1 + cv * pv), 1 / (1 + cm * pm)
+    # (5.87) SD = SV SM; (5.89) DMS == parallel with CVP = (1 + CM PM) CV
+    np.testing.assert_allclose(sd, sv * sm, rtol=1e-12, atol=1e-12 * np.abs(sd).max())
+    par = dual_stage_open_loop(pv, (1 + cm * pm) * cv, pm, cm, "parallel")
+    np.testing.assert_allclose(ld, par, rtol=1e-12)
+    # (5.83): CMS sensitivity
+    lc = dual_stage_open_loop(pv, cv, pm, cm, "cms")
+    np.testing.assert_allclose(1 / (1 + lc), 1 / (1 + cm * pm + cv * pv * cm * pm), rtol=1e-12)
+
+
+def test_dms_statespace_product() -> None:
+    PV, CV, PM, CM = _plants()
+    loops = dual_stage_loops(PV, CV, PM, CM, "dms")
+    sv = control.feedback(1, CV * PV)
+    sm = control.feedback(1, CM * PM)
+    np.testing.assert_allclose(_resp(loops.S), _resp(sv * sm), rtol=1e-9)
+
+
+def test_loop_margins_against_python_control() -> None:
+    L = control.tf([2e3**2 * 3], [1, 0, 0]) * control.tf([1 / 600, 1], [1 / 6000, 1])
+    L = L * control.tf([1], [1 / (2 * np.pi * 2e4), 1])
+    L = L * control.tf([1], [1 / 1e5, 1])
+    gm, pm, wcg, wcp = control.margin(L)
+    m = loop_margins(FREQ, _resp(L))
+    assert m.gain_crossover_hz == pytest.approx(wcp / (2 * np.pi), rel=1e-4)
+    assert m.phase_margin_deg == pytest.approx(pm, abs=0.02)
+    assert m.gain_margin_db == pytest.approx(20 * np.log10(gm), abs=0.02)
+    assert m.phase_crossover_hz == pytest.approx(wcg / (2 * np.pi), rel=1e-4)
+
+
+def test_second_phase_margin_of_a_phase_stabilised_mode() -> None:
+    # rigid body + lead, plus an in-phase resonance above 0 dB: crossings 3 times
+    wr = 2 * np.pi * 5e3
+    P = control.tf([1e8], [1, 0, 0]) + control.tf([4e8 * 1.0], [1, 2 * 0.01 * wr, wr**2])
+    C = control.tf([1 / 300, 1], [1 / 3000, 1]) * 0.03
+    m = loop_margins(FREQ, _resp(P * C))
+    assert m.crossovers_hz.size >= 3
+    # each margin is 180 + phase at that crossover (later ones in [0, 360))
+    ph = np.degrees(np.unwrap(np.angle(_resp(P * C))))
+    for f, pm in zip(m.crossovers_hz[1:], m.phase_margins_deg[1:], strict=True):
+        want = (180 + np.interp(np.log(f), np.log(FREQ), ph)) % 360
+        assert pm == pytest.approx(want, abs=1e-9)
+        assert 0 <= pm < 360
+    assert -180 < m.phase_margin_deg <= 180
+    assert m.second_phase_margin_deg == m.phase_margins_deg[1]
+
+
+def test_handoff_closed_form() -> None:
+    # |k/s^2| = |c| at f = sqrt(k/c)/(2 pi); the phase difference is 180 deg there
+    f = FREQ
+    s = 2j * np.pi * f
+    a, b = 1e8 / s**2, np.full_like(s, 0.5)
+    h = handoff(f, a, b)
+    assert h.freq_hz == pytest.approx(np.sqrt(1e8 / 0.5) / (2 * np.pi), rel=1e-5)
+    assert h.phase_difference_deg == pytest.approx(180.0, abs=1e-9)
+    h2 = handoff(f, 1e4 / s, b)
+    assert h2.phase_difference_deg == pytest.approx(90.0, abs=1e-9)
+
+
+def test_bad_input() -> None:
+    PV, CV, PM, CM = _plants()
+    with pytest.raises(ServokitValueError, match="structure"):
+        dual_stage_loops(PV, CV, PM, CM, "serial")
+    with pytest.raises(ServokitValueError, match="PV"):
+        dual_stage_loops(1.0, CV, PM, CM)
+    with pytest.raises(ServokitValueError, match="never crosses"):
+        loop_margins(FREQ, np.full(FREQ.size, 0.1 + 0j))
+    with pytest.raises(ServokitValueError, match="NaN"):
+        loop_margins(FREQ, np.full(FREQ.size, np.nan + 0j))

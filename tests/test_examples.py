@@ -1,0 +1,32 @@
+"""Every script in examples/ runs top to bottom (small sizes), prints its results and
+writes every file it says it wrote."""
+
+from __future__ import annotations
+
+import re
+import runpy
+import sys
+from pathlib import Path
+
+import pytest
+
+EXAMPLES = sorted((Path(__file__).resolve().parents[1] / "examples").glob("chapter*.py"))
+
+
+def test_one_example_per_chapter() -> None:
+    chapters = {re.match(r"chapter(\d)", p.name).group(1) for p in EXAMPLES}
+    assert {"2", "4", "5", "6"} <= chapters
+
+
+@pytest.mark.parametrize("script", EXAMPLES, ids=[p.stem for p in EXAMPLES])
+def test_example_runs(script: Path, tmp_path: Path, monkeypatch, capsys) -> None:
+    monkeypatch.setenv("SERVOKIT_EXAMPLE_SMALL", "1")
+    monkeypatch.setattr(sys, "argv", [str(script), str(tmp_path)])
+    runpy.run_path(str(script), run_name="__main__")
+    out = capsys.readouterr().out
+    written = [
+        Path(line.split(" ", 1)[1]) for line in out.splitlines() if line.startswith("wrote ")
+    ]
+    assert out.strip(), "an example prints what it computes"
+    for path in written:
+        assert path.is_file() and path.stat().st_size > 0

@@ -1,0 +1,169 @@
+"""Firmware tables: quantisation (property-based), CSV / JSON content, the export CLI."""
+
+from __future__ import annotations
+
+import csv
+import io
+import json
+import sys
+from pathlib import Path
+
+import numpy as np
+import pytest
+from hypothesis import given, settings
+from hypothesis import strategies as st
+from hypothesis.extra.numpy import arrays
+
+from servokit.errors import ServokitValueError
+from servokit.export import (
+    FirmwareTable,
+    c_files,
+    quantize,
+    sos_tables,
+    statespace_tables,
+    tables_csv,
+    tables_json,
+)
+from servokit.models.controllers import controller_eq_4_69
+
+_values = arrays(
+    np.float64,
+    st.integers(1, 40),
+    elements=st.floats(-1e6, 1e6, allow_nan=False, allow_subnormal=False),
+)
+
+
+@settings(max_examples=200, deadline=None)
+@given(values=_values, bits=st.sampled_from([15, 31]))
+def test_quantize_within_half_unit_no_saturation_minimal_scale(
+    values: np.ndarray, bits: int
+) -> None:
+    q = quantize(values, bits)
+    assert np.all(q.integers <= 2**bits - 1) and np.all(q.integers >= -(2**bits))
+    assert np.all(np.abs(values - q.integers * q.scale) <= q.error_bound * (1 + 1e-12))
+    assert q.max_error <= q.error_bound
+    peak = np.max(np.abs(values))
+    if peak > 0:  # one bit less of range would not hold the peak
+        assert peak > (2**bits - 1) * q.scale / 2 - q.error_bound
+
+
+def test_quantize_hand_case() -> None:
+    q = quantize(np.array([0.5, -1.0, 0.25]), 15)
+    assert q.exponent == 1  # |-1.0| = 2**0 exactly: 2**15 does not fit int16, so e = 1
+    assert q.scale == 2.0**-14
+    assert q.integers.tolist() == [8192, -16384, 4096] and q.max_error == 0.0
+
+
+def test_table_refuses_nan_and_bad_names() -> None:
+    with pytest.raises(ServokitValueError, match="finite"):
+        FirmwareTable("u", np.array([1.0, np.nan]))
+    with pytest.raises(ServokitValueError, match="C identifier"):
+        FirmwareTable("1u", np.array([1.0]))
+    with pytest.raises(ServokitValueError, match="non-empty"):
+        FirmwareTable("u", np.zeros((2, 2, 2)))
+
+
+def test_statespace_tables_rebuild_the_controller() -> None:
+    ctrl = controller_eq_4_69()
+    a, b, c, d = (t.values for t in statespace_tables(ctrl))
+    z = np.exp(2j * np.pi * 500.0 * ctrl.dt)
+    h = (c @ np.linalg.solve(z * np.eye(a.shape[0]) - a, b) + d)[0, 0]
+    assert h == pytest.approx(complex(ctrl(z)), rel=1e-10)
+
+
+def test_sos_tables_cascade_equals_transfer_function() -> None:
+    ctrl = controller_eq_4_69()
+    sos = sos_tables(ctrl)[0].values
+    z = np.exp(2j * np.pi * 1234.0 * ctrl.dt)
+    cascade = np.prod(
+        [np.polyval(s[:3], z) / np.polyval(s[3:], z) for s in sos]
+    )  # b, a in powers of z^-1 times z^2/z^2
+    assert cascade == pytest.approx(complex(ctrl(z)), rel=1e-10)
+
+
+def test_continuous_controller_refused() -> None:
+    import control
+
+    with pytest.raises(ServokitValueError, match="continuous"):
+        statespace_tables(control.tf([1.0], [1.0, 1.0]))
+
+
+def test_csv_and_json_hold_values_and_integers() -> None:
+    t = FirmwareTable("k", np.array([[0.5, -0.25], [0.125, 1.0]]), "gain", "A/track")
+    rows = list(csv.DictReader(io.StringIO(tables_csv(t, "q15"))))
+    assert [(r["row"], r["col"]) for r in rows] == [("0", "0"), ("0", "1"), ("1", "0"), ("1", "1")]
+    doc = tables_json([t], "m", "q15")["tables"][0]
+    assert doc["shape"] == [2, 2] and doc["values"] == t.values.tolist()
+    assert [int(r["q15"]) for r in rows] == np.ravel(doc["integers"]).tolist()
+    assert float(rows[1]["value"]) == -0.25
+
+
+def test_step_function_needs_floating_point() -> None:
+    with pytest.raises(ServokitValueError, match="float or double"):
+        c_files(statespace_tables(controller_eq_4_69()), "k", "q15", step="ss")
+
+
+# ---- the CLI, in process (one line on stderr and exit 2 for bad input) ----
+def _cli(monkeypatch, capsys, *args: str) -> tuple[int, str, str]:
+    from servokit.cli import main
+
+    monkeypatch.setattr(sys, "argv", ["servokit", "export", *args])
+    try:
+        main()
+        code = 0
+    except SystemExit as exc:
+        code = int(exc.code or 0)
+    out, err = capsys.readouterr()
+    return code, out, err
+
+
+def test_cli_feedforward_json(monkeypatch, capsys, tmp_path: Path) -> None:
+    code, out, err = _cli(
+        monkeypatch, capsys, "feedforward", "--precision", "q15", "--out", str(tmp_path), "--json"
+    )
+    assert code == 0, err
+    data = json.loads(out)
+    assert data["files"] == [str(tmp_path / "hdd_ff.h"), str(tmp_path / "hdd_ff.c")]
+    table = data["tables"][0]
+    assert table["shape"] == [17] and table["max_error"] <= table["error_bound"]
+    assert "#define HDD_FF_U_LEN 17" in (tmp_path / "hdd_ff.h").read_text()
+
+
+def test_cli_table_from_json_file(monkeypatch, capsys, tmp_path: Path) -> None:
+    src = tmp_path / "gains.json"
+    src.write_text(json.dumps({"ivc_K": [[1.0, 2.0], [3.0, 4.0]]}))
+    code, _, err = _cli(
+        monkeypatch, capsys, "table", "--input", str(src), "--format", "csv", "--out",
+        str(tmp_path),
+    )  # fmt: skip
+    assert code == 0, err
+    assert (tmp_path / "tables_ivc_K.csv").read_text().startswith("row,col,value\n")
+
+
+@pytest.mark.parametrize(
+    ("args", "flag"),
+    [
+        (("feedforward", "--design", "3"), "--design"),
+        (("feedforward", "--precision", "q7"), "--precision"),
+        (("feedforward", "--format", "xml"), "--format"),
+        (("feedforward", "--target", "-1"), "--target"),
+        (("feedforward", "--n-samples", "1"), "--n-samples"),
+        (("controller", "--controller", "nope"), "--controller"),
+        (("controller", "--controller", "eq-4.69", "--realization", "tf"), "--realization"),
+        (("table", "--input", "missing.json"), "--input"),
+    ],
+)
+def test_cli_bad_input_one_line_exit_2(
+    monkeypatch, capsys, tmp_path: Path, args: tuple[str, ...], flag: str
+) -> None:
+    code, out, err = _cli(monkeypatch, capsys, *args, "--out", str(tmp_path))
+    assert code == 2
+    lines = err.strip().splitlines()
+    assert len(lines) == 1 and flag in lines[0]
+
+
+def test_cli_bad_table_file(monkeypatch, capsys, tmp_path: Path) -> None:
+    src = tmp_path / "bad.json"
+    src.write_text('{"k": [1, "x"]}')
+    code, _, err = _cli(monkeypatch, capsys, "table", "--input", str(src), "--out", str(tmp_path))
+    assert code == 2 and "--input" in err and len(err.strip().splitlines()) == 1

@@ -1,0 +1,39 @@
+"""save_figure: atomic writes, the title kept in the file, SVG copies on request."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import matplotlib.pyplot as plt
+from PIL import Image
+
+from servokit._figures import also_save_as, figure_title, save_figure
+
+
+def _fig():
+    fig, (a, b) = plt.subplots(1, 2)
+    fig.suptitle("Fig. 4.41")
+    a.set_title("(a) gain")
+    b.plot([0, 1])
+    return fig
+
+
+def test_title_joins_suptitle_and_axes_titles() -> None:
+    fig = _fig()
+    assert figure_title(fig) == "Fig. 4.41 | (a) gain"
+    plt.close(fig)
+
+
+def test_png_keeps_title_and_no_temp_file(tmp_path: Path) -> None:
+    path = save_figure(_fig(), tmp_path / "f.png")
+    with Image.open(path) as img:
+        assert img.text["Title"] == "Fig. 4.41 | (a) gain"
+    assert [p.name for p in tmp_path.iterdir()] == ["f.png"]
+
+
+def test_svg_copy_only_inside_the_context(tmp_path: Path) -> None:
+    with also_save_as("svg"):
+        save_figure(_fig(), tmp_path / "a.png")
+    save_figure(_fig(), tmp_path / "b.png")
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["a.png", "a.svg", "b.png"]
+    assert "<title>Fig. 4.41 | (a) gain</title>" in (tmp_path / "a.svg").read_text()

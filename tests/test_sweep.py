@@ -1,0 +1,173 @@
+"""Monte-Carlo seek-time sweeps (servokit.robust.sweep) and `servokit sweep`."""
+
+from __future__ import annotations
+
+import dataclasses
+import json
+import sys
+import tracemalloc
+from pathlib import Path
+
+import numpy as np
+import pytest
+from hypothesis import given, settings
+from hypothesis import strategies as st
+
+from servokit.cases.hdd_seek import DESIGNS
+from servokit.cli import _discover
+from servokit.cli._app import main
+from servokit.errors import ServokitValueError
+from servokit.models import hdd_benchmark, hdd_benchmark_variation_set
+from servokit.robust.sweep import SweepResult, connect_dask, sweep_seek_times
+from servokit.simulate import seek_time
+
+_discover()
+VSET = dataclasses.replace(hdd_benchmark_variation_set(), gain=(0.0, 0.0))
+FF = DESIGNS[2].design(hdd_benchmark())  # Design 2, 1 track
+
+
+@settings(max_examples=3, deadline=None)
+@given(n=st.integers(1, 12), seed=st.integers(0, 2**31), chunk=st.integers(1, 15))
+def test_sweep_equals_direct_monte_carlo(n, seed, chunk):
+    """Chunking changes nothing: the plants and seek times of monte_carlo(n, seed)."""
+    res = sweep_seek_times(VSET, FF, 1.0, n=n, seed=seed, chunk_size=chunk)
+    direct = seek_time(VSET.monte_carlo(n, seed=seed), FF, 1.0, band=0.1)
+    np.testing.assert_array_equal(res.seek_times, direct)
+    worst = VSET.monte_carlo(n, seed=seed)[int(np.argmax(direct))]
+    assert VSET.from_draws(res.draws, res.gains)[0].modes == worst.modes
+
+
+@settings(max_examples=30, deadline=None)
+@given(t=st.lists(st.one_of(st.floats(0.0, 1.0), st.just(float("inf"))), min_size=1, max_size=200))
+def test_percentiles_are_nearest_rank(t):
+    res = SweepResult(np.array(t), np.zeros(1), np.zeros(1), 1, 0.0, "numpy")
+    pct = res.percentiles((50.0, 99.0, 100.0))
+    for key, q in (("p50", 50.0), ("p99", 99.0), ("p100", 100.0)):
+        assert pct[key] == np.percentile(np.array(t), q, method="inverted_cdf")
+
+
+def test_memory_is_bounded_by_the_chunk():
+    peaks = []
+    for n in (100, 400):
+        tracemalloc.start()
+        res = sweep_seek_times(VSET, FF, 1.0, n=n, seed=1, chunk_size=50)
+        peaks.append(tracemalloc.get_traced_memory()[1] / 1e6)
+        tracemalloc.stop()
+    assert peaks[1] < 1.25 * peaks[0]  # four times the plants, about the same memory
+    assert peaks[1] < res.chunk_mb + 5.0  # and below the estimate of one chunk
+
+
+def test_memory_limit_refused_before_allocating():
+    with pytest.raises(ServokitValueError, match="max-memory-mb"):
+        sweep_seek_times(VSET, FF, 1.0, n=10**9, max_memory_mb=100.0)
+
+
+def test_dask_local_cluster_matches_numpy():
+    distributed = pytest.importorskip("distributed")
+    with (
+        distributed.LocalCluster(
+            n_workers=2, threads_per_worker=1, processes=False, dashboard_address=None
+        ) as cluster,
+        distributed.Client(cluster) as client,
+    ):
+        on_dask = sweep_seek_times(VSET, FF, 1.0, n=400, seed=5, client=client)
+    in_proc = sweep_seek_times(VSET, FF, 1.0, n=400, seed=5)
+    assert on_dask.backend == "dask" and on_dask.chunk_size == 50  # 4 chunks per worker
+    np.testing.assert_array_equal(on_dask.seek_times, in_proc.seek_times)
+    assert on_dask.percentiles() == in_proc.percentiles()
+
+
+def test_missing_dask_extra_is_one_clear_error(monkeypatch):
+    monkeypatch.setitem(sys.modules, "distributed", None)
+    with pytest.raises(ServokitValueError, match=r"servokit\[dask\]"):
+        connect_dask(workers=1)
+
+
+# ------------------------------------------------------------------ CLI
+def _cli(monkeypatch, capsys, *args: str) -> tuple[int, str, str]:
+    monkeypatch.setattr(sys, "argv", ["servokit", "sweep", *args])
+    try:
+        main()
+        code = 0
+    except SystemExit as exc:
+        code = int(exc.code or 0)
+    out = capsys.readouterr()
+    return code, out.out, out.err
+
+
+def test_cli_json_plot_and_design_file(monkeypatch, capsys, tmp_path: Path):
+    design = tmp_path / "d.json"
+    design.write_text(json.dumps({"input": FF.u.tolist(), "dt": FF.dt}))
+    png = tmp_path / "sweep.png"
+    code, out, err = _cli(
+        monkeypatch,
+        capsys,
+        "--design",
+        str(design),
+        "--n-variants",
+        "300",
+        "--seed",
+        "4",
+        "--json",
+        "--plot",
+        str(png),
+    )
+    assert code == 0, err
+    data = json.loads(out)
+    direct = seek_time(VSET.monte_carlo(300, seed=4), FF, 1.0, band=0.1)
+    assert data["worst_seek_time_s"] == direct.max()
+    assert data["percentiles_s"]["p100"] == direct.max()
+    assert data["backend"] == "numpy" and data["n_unsettled"] == 0
+    assert png.stat().st_size > 10_000 and f"wrote {png}" in err
+
+
+def test_cli_human_output_method(monkeypatch, capsys):
+    code, out, err = _cli(
+        monkeypatch,
+        capsys,
+        "--method",
+        "fsc",
+        "--n-samples",
+        "12",
+        "--n-variants",
+        "200",
+        "--no-delay",
+    )
+    assert code == 0, err
+    assert "FSC (N = 12): 200 plants" in out and "p99" in out
+
+
+@pytest.mark.parametrize(
+    ("args", "flag"),
+    [
+        (("--n-variants", "0"), "--n-variants"),
+        (("--design", "missing.json"), "--design"),
+        (("--scheduler", "tcp://127.0.0.1:1", "--workers", "2"), "not both"),
+        (("--n-variants", "100000000", "--max-memory-mb", "10"), "--max-memory-mb"),
+        (("--method", "robust"), "--u-max"),
+        (("--method", "lqr"), "--method"),
+        (("--plot", "out.pdf"), "--plot"),
+    ],
+)
+def test_cli_bad_input_one_line_exit_2(monkeypatch, capsys, args, flag):
+    code, out, err = _cli(monkeypatch, capsys, *args)
+    assert code == 2 and out == ""
+    assert err.count("\n") == 1 and err.startswith("servokit: error:") and flag in err
+
+
+@pytest.mark.slow
+def test_cli_on_a_dask_scheduler_with_worker_processes(monkeypatch, capsys):
+    """`--scheduler ADDRESS`: worker processes give the in-process percentiles."""
+    distributed = pytest.importorskip("distributed")
+    with distributed.LocalCluster(
+        n_workers=2, threads_per_worker=1, processes=True, dashboard_address=None
+    ) as cluster:
+        args = ("--method", "fsc", "--n-samples", "12", "--n-variants", "600", "--json")
+        code, out, err = _cli(monkeypatch, capsys, *args, "--scheduler", cluster.scheduler_address)
+        assert code == 0, err
+    on_dask = json.loads(out)
+    code, out, err = _cli(monkeypatch, capsys, *args)
+    in_proc = json.loads(out)
+    assert on_dask["backend"] == "dask" and in_proc["backend"] == "numpy"
+    assert on_dask["percentiles_s"] == in_proc["percentiles_s"]
+    assert on_dask["worst_index"] == in_proc["worst_index"]
