@@ -50,6 +50,20 @@ def peak_filtered_controller(
 
     The zero placement uses the discrete pseudo plant at ``freq_hz``; F is sampled by
     Tustin prewarped at ``freq_hz``, so its response there is exact.
+
+    Parameters
+    ----------
+    controller : discrete TransferFunction
+        Baseline ``C(z)``.
+    plant_d : LTI
+        Plant discretised at the controller's ``dt``.
+    spec : PeakFilterSpec
+        Centre [Hz], damping and attenuation depth [dB].
+
+    Returns
+    -------
+    TransferFunction
+        ``C (1 + F)``.
     """
     from servokit.feedback import discretize_filter, peak_filter, peak_filter_phase
 
@@ -71,6 +85,18 @@ def disturbance_magnitude(disturbances, plant_d: control.LTI):
     ``|D|^2 = (flutter + sensor + force-through-plant PSDs) / (2 Ts)``: a discrete shaping
     filter of unit-variance white noise.  The force noise is taken through the Ts-rate
     plant ``plant_d`` (its aliasing at the plant-input rate is neglected).
+
+    Parameters
+    ----------
+    disturbances : BenchmarkDisturbances
+        The disturbance model (its ``dt`` is the PES period).
+    plant_d : LTI
+        The plant discretised at ``dt`` (force-noise path).
+
+    Returns
+    -------
+    callable
+        ``freq_hz -> |D(e^{j w Ts})|``.
     """
     dt = disturbances.dt
 
@@ -105,7 +131,20 @@ class LoopReport:
 
 
 def loop_report(controller: control.TransferFunction, record) -> LoopReport:
-    """NRPE on the nominal plant and margins / stability on the 18 plants of Table 2.3."""
+    """NRPE on the nominal plant and margins / stability on the 18 plants of Table 2.3.
+
+    Parameters
+    ----------
+    controller : discrete TransferFunction
+        ``C(z)`` at the benchmark's Ts.
+    record : DisturbanceRecord
+        Disturbances of the nominal-plant run.
+
+    Returns
+    -------
+    LoopReport
+        NRPE 3 sigma, RPE p-p, worst margins over the 18 plants and their stability.
+    """
     from servokit.feedback import stability_margins
     from servokit.models import HDD_BENCHMARK_TS, hdd_benchmark, hdd_benchmark_variants
     from servokit.simulate.pes import track_following_pes
@@ -182,7 +221,18 @@ def _flag(quantity: str, ok: bool, source: str, note: str) -> Comparison:
 
 @register("hdd-pes", order=430)
 def run(outdir: Path) -> CaseResult:
-    """Baseline vs peak-filtered loop on the benchmark disturbances (Figs. 6.2-6.5)."""
+    """Baseline vs peak-filtered loop on the benchmark disturbances (Figs. 6.2-6.5).
+
+    Parameters
+    ----------
+    outdir : Path
+        Directory for the figures.
+
+    Returns
+    -------
+    CaseResult
+        Rows, figures (Figs. 6.2-6.5 analogues) and numbers in ``extra``.
+    """
     from servokit.models import (
         HDD_BENCHMARK_TS,
         BenchmarkDisturbances,

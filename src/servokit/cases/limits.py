@@ -63,7 +63,18 @@ def _benchmark_variance_row() -> Comparison:
 
 @register("limits", order=420)
 def run(outdir: Path) -> CaseResult:
-    """Waterbed bound (6.20), Corollary 2 on a real loop, dynamic range (§6.1.1)."""
+    """Waterbed bound (6.20), Corollary 2 on a real loop, dynamic range (§6.1.1).
+
+    Parameters
+    ----------
+    outdir : Path
+        Directory for the figures.
+
+    Returns
+    -------
+    CaseResult
+        Rows and figures of the case.
+    """
     t0 = time.perf_counter()
     fs, fb, alpha = 25_000.0, 1_000.0, 10 ** (-40 / 20)
     bound_db = 20 * np.log10(waterbed_lower_bound(alpha, waterbed_phi1(fb, fs)))

@@ -55,7 +55,18 @@ def _fig_6_9(responses, path: Path) -> Path:
 
 @register("svm-settling", order=410)
 def run(outdir: Path) -> CaseResult:
-    """Train, validate and compare the settling judgements of §6.2.3."""
+    """Train, validate and compare the settling judgements of §6.2.3.
+
+    Parameters
+    ----------
+    outdir : Path
+        Directory for the figures.
+
+    Returns
+    -------
+    CaseResult
+        Qualitative rows (failures, mean delay), histograms, per-method numbers in ``extra``.
+    """
     t0 = time.perf_counter()
     data = training_set(simulate_seeks(training_seeks()))
     judge = SettlingJudge(C=JUDGE_C, coef0=JUDGE_COEF0).fit(data.X, data.labels)

@@ -16,7 +16,21 @@ __all__ = ["bode_integral_plot", "waterbed_plot"]
 def bode_integral_plot(
     loop: control.TransferFunction | control.StateSpace, path: str | Path, *, n_freq: int = 4000
 ) -> Path:
-    """``ln|S|`` against frequency with the negative and positive areas shaded (§6.3.2)."""
+    """``ln|S|`` against frequency with the negative and positive areas shaded (§6.3.2).
+
+    Parameters
+    ----------
+    loop : SISO LTI
+        Open loop.
+    path : str or Path
+        Figure file.
+    n_freq : int
+        Grid points.
+
+    Returns
+    -------
+    Path
+    """
     import matplotlib.pyplot as plt
 
     if loop.isdtime():
@@ -41,7 +55,23 @@ def bode_integral_plot(
 
 
 def waterbed_plot(alpha: float, sampling_hz: float, path: str | Path, *, mark_hz: float) -> Path:
-    """Lower bound (6.20) of ``||S||inf`` [dB] against the sensitivity bandwidth."""
+    """Lower bound (6.20) of ``||S||inf`` [dB] against the sensitivity bandwidth.
+
+    Parameters
+    ----------
+    alpha : float
+        Bound of ``|S|`` below the bandwidth (linear).
+    sampling_hz : float
+        Sampling frequency [Hz].
+    path : str or Path
+        Figure file.
+    mark_hz : float
+        Bandwidth to mark [Hz].
+
+    Returns
+    -------
+    Path
+    """
     import matplotlib.pyplot as plt
 
     fb = np.linspace(sampling_hz * 1e-3, sampling_hz * 0.3, 400)

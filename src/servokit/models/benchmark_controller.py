@@ -57,6 +57,11 @@ def benchmark_controller(
     notches : tuple of (freq_hz, zero_damping, pole_damping)
         Notch sections ``(s^2 + 2 z w s + w^2) / (s^2 + 2 zd w s + w^2)``, eq. (5.14) with
         ``fD = fR``.
+
+    Returns
+    -------
+    TransferFunction
+        Discrete ``C(z)`` at ``dt``.
     """
     fc = check_positive("crossover_hz", crossover_hz, "Hz")
     h = check_positive("dt", dt, "s")

@@ -79,6 +79,19 @@ def lifted_plant(plant: ModalPlant, dt: float, force_rate: int = 2) -> tuple[np.
     """``(A, Bu, Bw, C)`` of the plant over one PES period (module docstring).
 
     ``Bw`` has one column per plant-input sample of force noise within the period.
+
+    Parameters
+    ----------
+    plant : ModalPlant
+        Plant.
+    dt : float
+        PES period [s].
+    force_rate : int
+        Plant-input samples per PES sample.
+
+    Returns
+    -------
+    tuple of ndarray
     """
     r = check_count("force_rate", force_rate, lo=1, hi=64)
     sd = plant.discretize(dt / r)
@@ -92,7 +105,24 @@ def closed_loop_matrices(
     plant: ModalPlant, controller: control.LTI, dt: float, force_rate: int = 2
 ) -> control.StateSpace:
     """Closed loop at ``dt`` with inputs ``[w_1..w_r, d]`` (force [A], ``d = flutter + rro +
-    sensor`` [track]) and outputs ``[PES, u]``."""
+    sensor`` [track]) and outputs ``[PES, u]``.
+
+    Parameters
+    ----------
+    plant : ModalPlant
+        Plant.
+    controller : discrete LTI
+        ``C(z)`` at ``dt``.
+    dt : float
+        PES period [s].
+    force_rate : int
+        Plant-input samples per PES sample.
+
+    Returns
+    -------
+    StateSpace
+        Raises if the loop is unstable.
+    """
     ap, bu, bw, cp = lifted_plant(plant, dt, force_rate)
     cs = control.ss(controller)
     if cs.dt is None or cs.dt is True or not np.isclose(float(cs.dt), dt, rtol=1e-9):
@@ -135,6 +165,10 @@ def track_following_pes(
         Sectors per revolution (for RPE / NRPE).
     discard_revolutions : int
         Leading revolutions dropped (start-up transient).
+
+    Returns
+    -------
+    PesResult
     """
     spr = check_count("samples_per_rev", samples_per_rev, lo=4)
     drop = check_count("discard_revolutions", discard_revolutions, lo=0)
