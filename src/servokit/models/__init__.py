@@ -29,7 +29,7 @@ from servokit.models.controllers import (
     vcm_controller_table_5_2,
     zpk,
 )
-from servokit.models.disturbances import BenchmarkDisturbances, DisturbanceRecord
+from servokit.models.disturbances import BenchmarkDisturbances, DisturbanceRecord, band_powers
 from servokit.models.files import (
     PlantFileError,
     load_controller,
@@ -44,6 +44,7 @@ __all__ = [
     "BENCHMARK_NOTCHES",
     "BenchmarkDisturbances",
     "DisturbanceRecord",
+    "band_powers",
     "benchmark_controller",
     "CATALOGUE",
     "CONTROLLERS",

@@ -34,11 +34,39 @@ from scipy import signal
 
 from servokit.errors import ServokitValueError, check_count, check_positive
 
-__all__ = ["BenchmarkDisturbances", "DisturbanceRecord"]
+__all__ = ["BenchmarkDisturbances", "DisturbanceRecord", "band_powers"]
 
 _FLUTTER_HZ = (750.0, 780.0, 900.0, 1020.0, 1080.0, 1230.0, 1800.0, 3000.0, 5000.0)
 _FLUTTER_ZETA = (0.01, 0.01, 0.01, 0.01, 0.005, 0.01, 0.005, 0.002, 0.002)
 _FLUTTER_PK = (0.09, 0.17, 0.20, 0.17, 0.06, 0.09, 0.06, 0.06, 0.12)
+
+
+def band_powers(freq_hz: np.ndarray, psd: np.ndarray, edges_hz: np.ndarray) -> np.ndarray:
+    """Power of a one-sided PSD in each band ``[edges[i], edges[i+1])`` (trapezoid).
+
+    Comparing band powers rather than single bins makes a Welch estimate comparable with a
+    model PSD at sharp resonances (leakage stays inside the band).
+
+    Parameters
+    ----------
+    freq_hz : ndarray
+        Frequencies of ``psd`` [Hz], increasing.
+    psd : ndarray
+        One-sided PSD [unit^2/Hz].
+    edges_hz : ndarray
+        Band edges [Hz].
+
+    Returns
+    -------
+    ndarray
+        Band powers [unit^2], one per band.
+    """
+    f, p = np.asarray(freq_hz, dtype=float), np.asarray(psd, dtype=float)
+    out = []
+    for lo, hi in zip(edges_hz[:-1], edges_hz[1:], strict=True):
+        sel = (f >= lo) & (f < hi)
+        out.append(np.trapezoid(p[sel], f[sel]))
+    return np.array(out)
 
 
 @dataclass(frozen=True)
