@@ -5,7 +5,7 @@ from __future__ import annotations
 import control
 import numpy as np
 import pytest
-from hypothesis import assume, given, settings
+from hypothesis import HealthCheck, assume, given, settings
 from hypothesis import strategies as st
 
 from servokit.errors import ServokitError
@@ -68,7 +68,7 @@ def stable_discrete_loops(draw):
     return control.tf(num, den, 1.0)
 
 
-@settings(max_examples=40, deadline=None)
+@settings(max_examples=40, deadline=None, suppress_health_check=[HealthCheck.filter_too_much])
 @given(stable_discrete_loops())
 def test_discrete_integral_and_corollaries(loop):
     assume(abs(1 + high_frequency_gain(loop)) > 1e-3)  # Kz = -1 is ill-posed (tested below)
