@@ -189,7 +189,27 @@ def _freq_figures(c0, c1, pd, outdir: Path) -> list[Path]:
         ax.grid(True, which="both", alpha=0.3)
         ax.legend()
         out.append(save_figure(fig, outdir / f"hdd_pes_fig_{fig_no.replace('.', '_')}.png"))
+    out.append(_nyquist_figure([c * p for c in cs], styles, outdir))
     return out
+
+
+def _nyquist_figure(loops, styles, outdir: Path) -> Path:
+    """Fig. 6.3(b): open-loop Nyquist plots near -1 with the unit sensitivity disc."""
+    import matplotlib.pyplot as plt
+
+    from servokit._figures import save_figure
+
+    fig, ax = plt.subplots(figsize=(5, 5))
+    t = np.linspace(0, 2 * np.pi, 400)
+    ax.plot(-1 + np.cos(t), np.sin(t), "k:", lw=1, label="|S| = 1 (sensitivity disc)")
+    for loop, (ls, label) in zip(loops, styles, strict=True):
+        ax.plot(loop.real, loop.imag, ls, label=label)
+    ax.plot([-1], [0], "r+", ms=10)
+    ax.set(xlim=(-3, 1.5), ylim=(-3, 1.5), xlabel="Re L", ylabel="Im L", aspect="equal")
+    ax.set_title("Fig. 6.3(b) (benchmark analogue): Nyquist plot")
+    ax.grid(True, alpha=0.3)
+    ax.legend(fontsize=8, loc="lower right")
+    return save_figure(fig, outdir / "hdd_pes_fig_6_3b_nyquist.png")
 
 
 def _pes_figure(reports, outdir: Path) -> Path:
