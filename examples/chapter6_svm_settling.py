@@ -49,9 +49,7 @@ for s in stats:
     print(f"{s.method:>28}: failures {s.failures}, mean N_judge - N0 {s.mean_delay:.2f} samples")
 path = judge.save(outdir / "settling_judge.skops")
 print(f"wrote {path}")
-same = SettlingJudge.load(path).judge(
-    responses[0].states, responses[0].output, start=responses[0].n_input
-)
+same = SettlingJudge.load(path).judge(responses[0].states, responses[0].output)
 print(f"reloaded judge decides seek 0 at sample {same} (N0 = {responses[0].n0()})")
 fig = judgement_plot(
     [stats[1], stats[0], stats[2]],

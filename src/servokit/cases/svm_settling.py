@@ -80,7 +80,7 @@ def run(outdir: Path) -> CaseResult:
     _, svm_w = evaluate_judgements(validation, weighted.fit(data.X, data.labels), levels=(0.0,))
     note = (
         f"training: {len(data.X)} states ({data.counts[0]} class 1, {data.counts[1]} class 2); "
-        "judging starts at the end of the FSC input"
+        "states collected and judged from the first sample (the book states no start)"
     )
     rows = [
         Comparison(

@@ -186,7 +186,7 @@ def judge_cmd(
         states, output, start = table[:, :6], table[:, 6], 0
     else:
         (r,) = _simulate([(target, n_samples)], "simulating")
-        states, output, start = r.states, r.output, r.n_input
+        states, output, start = r.states, r.output, 0
     res = {
         "n_judge": judge.judge(states, output, level, start=start),
         "n_conventional": conventional_judgement(output, judge.bound, start=start),

@@ -92,7 +92,7 @@ def evaluate_judgements(
     *,
     levels: Sequence[float] = (0.0, -0.8),
     n_in_row: int = 5,
-    from_input_end: bool = True,
+    from_input_end: bool = False,
 ) -> list[JudgementStats]:
     """Judge every seek by the conventional rule and by the SVM at each level.
 
