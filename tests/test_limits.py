@@ -155,3 +155,12 @@ def test_discrete_integral_with_integrators_is_zero():
     loop = control.ss(controller_eq_4_69()) * hdd_sampled_data().discretize(HDD_SAMPLED_DATA_TS)
     res = discrete_bode_integral(loop)
     assert abs(res.integral) < 1e-9 and res.limit_gain == 0.0
+
+
+def test_public_api_contract():
+    import servokit as sk
+
+    assert sk.limits.waterbed_lower_bound(0.01, 2 * np.pi / 25) == pytest.approx(
+        100 ** ((2 / 25) / (1 - 2 / 25))
+    )
+    assert sk.learn.SettlingJudge is not None
