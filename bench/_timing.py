@@ -24,6 +24,16 @@ def best_time(fn: Callable[[], Any], repeat: int = 5) -> float:
     return best
 
 
+def interleaved_best(fns: dict[str, Callable[[], Any]], rounds: int = 3) -> dict[str, float]:
+    """Best wall time [s] of each function, the functions run in turn ``rounds`` times:
+    a burst of load on the shared machine then hits all of them alike."""
+    best = dict.fromkeys(fns, float("inf"))
+    for _ in range(rounds):
+        for name, fn in fns.items():
+            best[name] = min(best[name], best_time(fn, 1))
+    return best
+
+
 def dgemm_peak_flops(n: int = 1000, repeat: int = 7) -> float:
     """Single-call DGEMM rate [flop/s] of an n x n product (the machine's arithmetic peak)."""
     rng = np.random.default_rng(0)

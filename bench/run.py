@@ -66,16 +66,12 @@ def main() -> None:
     q = args.quick
     sections = {
         "open_loop": lambda: simulator.open_loop(200 if q else 1000, 5 if q else 20),
-        "many_variants": lambda: simulator.many_variants(
-            10_000 if q else 100_000, results["open_loop"]["ns_per_variant_step"]
-        ),
+        "many_variants": lambda: simulator.many_variants(10_000 if q else 100_000),
         "closed_loop": lambda: simulator.closed_loop(200 if q else 1000, 10 if q else 40),
         "qp": lambda: qp.constrained_fsc(300 if q else 1000),
         "sensitivity": lambda: sensitivity.sensitivity(2000 if q else 10_000),
     }
     wanted = args.only or list(sections)
-    if "many_variants" in wanted and "open_loop" not in wanted:
-        wanted.insert(0, "open_loop")
     results: dict = {
         "machine": {
             "python": platform.python_version(),

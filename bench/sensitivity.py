@@ -6,10 +6,11 @@ from __future__ import annotations
 
 import control
 import numpy as np
-from _timing import best_time
+from _timing import best_time, interleaved_best
 
 from servokit.models import HDD_SAMPLED_DATA_TS as TS
 from servokit.models import controller_eq_4_69, hdd_sampled_data
+from servokit.sampled import _alias
 from servokit.sampled import sensitivity as sens
 
 
@@ -21,14 +22,18 @@ def sensitivity(n_freq: int) -> dict:
         return sens.sampled_data_sensitivity(plant, C, TS, f)
 
     new = run()
-    t_new = best_time(run, 3)
-    fast, cells = sens._path_terms, sens._MAX_CELLS
-    sens._path_terms, sens._MAX_CELLS = sens._per_cell_path_terms, 2_000_000  # as before issue 8
-    try:
-        old = run()
-        t_old = best_time(run, 2)
-    finally:
-        sens._path_terms, sens._MAX_CELLS = fast, cells
+
+    def run_old():
+        fast, cells = sens._path_terms, sens._MAX_CELLS
+        sens._path_terms, sens._MAX_CELLS = _alias._per_cell_path_terms, 2_000_000  # pre-issue 8
+        try:
+            return run()
+        finally:
+            sens._path_terms, sens._MAX_CELLS = fast, cells
+
+    old = run_old()
+    best = interleaved_best({"new": run, "old": run_old}, 3)
+    t_new, t_old = best["new"], best["old"]
     pd = plant.discretize(TS)
     w = 2 * np.pi * f
 

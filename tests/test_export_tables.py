@@ -151,15 +151,42 @@ def test_cli_table_from_json_file(monkeypatch, capsys, tmp_path: Path) -> None:
         (("controller", "--controller", "nope"), "--controller"),
         (("controller", "--controller", "eq-4.69", "--realization", "tf"), "--realization"),
         (("table", "--input", "missing.json"), "--input"),
+        (("feedforward", "--name", "1bad"), "--name"),
+        (("ivc", "--method", "lqr"), "--method"),
+        (("ivc", "--method", "jmin", "--velocity-weight", "-1"), "--velocity-weight"),
+        (("controller", "--controller", "eq-4.69", "--format", "xml"), "--format"),
     ],
 )
 def test_cli_bad_input_one_line_exit_2(
     monkeypatch, capsys, tmp_path: Path, args: tuple[str, ...], flag: str
 ) -> None:
-    code, out, err = _cli(monkeypatch, capsys, *args, "--out", str(tmp_path))
+    code, out, err = _cli(monkeypatch, capsys, *args, "--out", str(tmp_path / "fw"))
     assert code == 2
+    assert not (tmp_path / "fw").exists()  # refused before writing anything
     lines = err.strip().splitlines()
     assert len(lines) == 1 and flag in lines[0]
+
+
+@pytest.mark.parametrize("method", ["pole-zero", "jmin"])
+def test_cli_ivc_gain_equals_the_switching_design(
+    monkeypatch, capsys, tmp_path: Path, method: str
+) -> None:
+    from servokit.export.designs import book_ivc_gain
+
+    code, _, err = _cli(
+        monkeypatch, capsys, "ivc", "--method", method, "--format", "json", "--out",
+        str(tmp_path),
+    )  # fmt: skip
+    assert code == 0, err
+    table = json.loads((tmp_path / "ivc.json").read_text())["tables"][0]
+    np.testing.assert_array_equal(table["values"], book_ivc_gain(method)[0])
+    assert table["name"] == "K" and "xc[0] = K xp[0]" in table["description"]
+
+
+def test_cli_out_is_a_file(monkeypatch, capsys, tmp_path: Path) -> None:
+    (tmp_path / "f").write_text("x")
+    code, _, err = _cli(monkeypatch, capsys, "feedforward", "--out", str(tmp_path / "f"))
+    assert code == 2 and "--out" in err and len(err.strip().splitlines()) == 1
 
 
 def test_cli_bad_table_file(monkeypatch, capsys, tmp_path: Path) -> None:

@@ -260,3 +260,51 @@ def test_seek_time_in_chunks_equals_one_shot():
     ref = settling_time(res.t, res.yc, target, 0.05 * abs(target))
     got = seek_time(plants, ff, target, band=0.05 * abs(target), max_memory_mb=0.2)
     assert np.array_equal(got, ref)
+
+
+@settings(max_examples=40, deadline=None)
+@given(S=st.integers(1, 6), K=st.integers(1, 12), dd=st.integers(0, 7), seed=st.integers(0, 999))
+def test_active_periods_match_their_windows(S, K, dd, seed):
+    from servokit.simulate._core import _active, _windows
+
+    rng = np.random.default_rng(seed)
+    ubuf = np.zeros((2, K * S + dd + 1))
+    for _ in range(rng.integers(0, 3)):
+        ubuf[rng.integers(0, 2), rng.integers(0, ubuf.shape[1])] = 1.0
+    W = _windows(ubuf, S, 0, K)
+    nz = np.flatnonzero(np.any(W != 0, axis=(0, 2)))
+    expected = slice(0, 0) if nz.size == 0 else slice(int(nz[0]), int(nz[-1]) + 1)
+    assert _active(ubuf, S, K) == expected
+
+
+@settings(max_examples=15, deadline=None)
+@given(V=st.integers(1, 5), N=st.integers(1, 6), K=st.integers(1, 70), seed=st.integers(0, 999))
+def test_matrix_scan_doubling_equals_serial(V, N, K, seed):
+    from servokit.simulate._scan import matrix_scan
+
+    rng = np.random.default_rng(seed)
+    A = rng.standard_normal((V, N, N))
+    A *= 0.95 / np.abs(np.linalg.eigvals(A)).max(axis=-1)[:, None, None]  # stable
+    d = rng.standard_normal((K, V, N))
+    serial = matrix_scan(A, d, "serial")
+    ref = np.zeros((V, N))
+    for k in range(K):  # the recursion written out
+        assert np.allclose(serial[:, k], ref, rtol=1e-12, atol=1e-12)
+        ref = np.einsum("vij,vj->vi", A, ref) + d[k]
+    doubling = matrix_scan(A, d, "doubling")
+    assert np.max(np.abs(doubling - serial)) <= 1e-12 * max(np.max(np.abs(serial)), 1.0)
+
+
+def test_sample_rate_closed_loop_matches_python_control():
+    nominal = sk.models.hdd_sampled_data()
+    plants = [nominal.replace(gain=g * nominal.gain) for g in (0.9, 1.0, 1.15)] * 4  # > 8
+    C = sk.models.controller_eq_4_69()
+    K = 200
+    for subset in (plants[:1], plants):  # doubling scan, serial scan
+        res = simulate(subset, dt=HDD_SAMPLED_DATA_TS, n_samples=K, substeps=1, controller=C,
+                       reference=np.ones(K), output_disturbance=np.full(K, 0.01))  # fmt: skip
+        assert np.array_equal(res.yc - 0.01, res.yd - 0.01)
+        for p, yd in zip(subset, res.yd, strict=True):
+            cl = control.feedback(p.discretize(HDD_SAMPLED_DATA_TS) * C, 1)
+            ref = control.forced_response(cl, U=np.full(K, 0.99)).outputs + 0.01
+            assert np.max(np.abs(yd - ref)) < 1e-12

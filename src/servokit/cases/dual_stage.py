@@ -83,7 +83,20 @@ _ABS_TOL = {"Hz": 0.05, "dB": 1.0, "deg": 5.0}
 
 
 def fitted_unknowns(method: str) -> Unknowns:
-    """The :class:`Unknowns` of ``method`` with the fitted values of :data:`FITTED`."""
+    """The :class:`Unknowns` of ``method`` with the fitted values of :data:`FITTED`.
+
+    Parameters
+    ----------
+    method : {"gain", "inverse", "phase"}
+        Design method (a key of :data:`FITTED`).
+
+    Returns
+    -------
+    Unknowns
+        The values of ``FITTED[method]`` (dampings, notch pole frequency ratio,
+        phase-method gains, plant delays [s]; the gain and phase columns reuse the
+        inverse column's delays); the other unknowns keep their defaults.
+    """
     return Unknowns(**FITTED[method])
 
 
@@ -145,7 +158,25 @@ def _bode_axes(title: str):
 
 
 def bode_figure(responses: dict[str, DesignResponses], attr: str, title: str, path: Path) -> Path:
-    """Bode plot of one response (``vcm_loop``, ``pzt_loop`` or ``open_loop``) per method."""
+    """Bode plot of one response (``vcm_loop``, ``pzt_loop`` or ``open_loop``) per method.
+
+    Parameters
+    ----------
+    responses : dict of str to DesignResponses
+        Frequency responses keyed by method (``"gain"``, ``"inverse"``, ``"phase"``).
+    attr : {"vcm_loop", "pzt_loop", "open_loop"}
+        The response plotted: ``CV PV``, ``CM PM`` or the dual-stage ``LD``.
+    title : str
+        Figure title (with the book's figure number).
+    path : pathlib.Path
+        Image file to write (its directory must exist).
+
+    Returns
+    -------
+    pathlib.Path
+        ``path``.  Magnitude [dB] and phase [deg, wrapped to (-360, 0]] against frequency
+        [Hz], one curve per method.
+    """
     fig, ax_m, ax_p = _bode_axes(title)
     for method, r in responses.items():
         h = getattr(r, attr)
@@ -165,7 +196,20 @@ def _finish(fig, ax, ylabel: str, title: str, path: Path) -> Path:
 
 
 def sensitivity_figure(responses: dict[str, DesignResponses], path: Path) -> Path:
-    """|SD| of the DMS loops (Fig. 5.41)."""
+    """|SD| of the DMS loops (Fig. 5.41).
+
+    Parameters
+    ----------
+    responses : dict of str to DesignResponses
+        Frequency responses keyed by method; their ``sensitivity`` is plotted.
+    path : pathlib.Path
+        Image file to write (its directory must exist).
+
+    Returns
+    -------
+    pathlib.Path
+        ``path``: ``|SD|`` [dB] against frequency [Hz], one curve per method.
+    """
     import matplotlib.pyplot as plt
 
     fig, ax = plt.subplots(figsize=(7.5, 4.5))
@@ -186,7 +230,21 @@ def figures(responses: dict[str, DesignResponses], outdir: Path) -> list[Path]:
 
 @register("dual-stage", order=350)
 def run(outdir: Path) -> CaseResult:
-    """Table 5.4 book vs servokit and Figs. 5.38-5.41."""
+    """Table 5.4 book vs servokit and Figs. 5.38-5.41.
+
+    Parameters
+    ----------
+    outdir : pathlib.Path
+        Directory for the figures (must exist; :func:`servokit.cases.run_all` creates it).
+
+    Returns
+    -------
+    CaseResult
+        Per method, the controller orders (reproduced) and the Table 5.4 rows (for the
+        phase method also the §5.5.2 peak-filter phases) computed with the :data:`FITTED`
+        unknowns on the DMS structure with refined margins (fitted); Figs. 5.38-5.41;
+        extras ``rows``, ``fitted_unknowns`` and ``runtime_s``.
+    """
     import time
 
     t0 = time.perf_counter()

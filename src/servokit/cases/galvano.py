@@ -452,6 +452,14 @@ def run(outdir: Path) -> CaseResult:
     figures = _plot_galvano_i(g1, outdir) + _plot_galvano_ii(g2, outdir)
     nominal = int(np.flatnonzero(g1.percents == 0)[0])
     extra = {
+        # shown as a note in report.html: what the figures rest on
+        "assumptions": (
+            f"the book omits the galvano data: illustrative model (R = "
+            f"{GALVANO_MOTOR.resistance:g} ohm, L = {GALVANO_MOTOR.inductance * 1e3:g} mH, "
+            f"Kt = {_KT:g} N m/A, J = {_J:g} kg m^2, lens {GALVANO_LENS:g} m/rad, Ts = "
+            f"{GALVANO_TS * 1e6:g} us / {GALVANO_II_TS * 1e6:g} us); the figures show the "
+            "book's qualitative results, no printed number is compared"
+        ),
         "illustrative": {
             "sampling_period_galvano_I_s": GALVANO_TS,
             "sampling_period_galvano_II_s": GALVANO_II_TS,

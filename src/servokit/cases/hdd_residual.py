@@ -277,6 +277,19 @@ def _section_4_5_4(outdir: Path) -> tuple[list[Comparison], list[Path], dict]:
             for r in runs
         ],
     }
+    spec = {"kind": "spec", "rel_tol": 0.0, "bound": "min", "source": "§4.5.4.1"}
+    rows += [
+        Comparison(
+            "phase margin at 1 kHz", 40.0, extra["phase_margin_at_1kHz_deg"], "deg",
+            book_text="40", note="book: 'more than 40 deg phase margin at 1 kHz'; the loop "
+            "gain is normalised to cross 0 dB at 1 kHz (fitted)", **spec,
+        ),
+        Comparison(
+            "gain margin", 5.0, extra["gain_margin_db"], "dB", book_text="5",
+            note="book: 'a gain margin of more than 5 dB' (python-control stability_margins)",
+            **spec,
+        ),
+    ]  # fmt: skip
     f = np.linspace(100.0, 10e3, 2000)
     spectra = [
         shock_response_spectrum(r.accel * setup.plant.gain, r.tau_ff, f, SRS_DAMPING) for r in runs

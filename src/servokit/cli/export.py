@@ -6,7 +6,6 @@ import json
 from pathlib import Path
 from typing import Annotated
 
-import numpy as np
 import typer
 
 from servokit.cli._app import JsonOpt, emit_json, example, sub_app, wrote
@@ -30,6 +29,22 @@ PrecisionOpt = Annotated[
 ]
 OutOpt = Annotated[Path, typer.Option("--out", help="output directory")]
 NameOpt = Annotated[str, typer.Option("--name", help="C prefix and file stem (a C identifier)")]
+
+
+def _check_common(out: Path, name: str, fmt: str, precision: str) -> Path:
+    """Refuse bad --out/--name/--format/--precision before any work."""
+    import re
+
+    from servokit.errors import ServokitValueError, check_out_dir
+    from servokit.export import FILE_FORMATS, FORMATS
+
+    if fmt not in FILE_FORMATS:
+        raise ServokitValueError(f"--format {fmt!r}: choose one of {', '.join(FILE_FORMATS)}")
+    if precision not in FORMATS:
+        raise ServokitValueError(f"--precision {precision!r}: choose one of {', '.join(FORMATS)}")
+    if not re.fullmatch(r"[A-Za-z_][A-Za-z0-9_]*", name):
+        raise ServokitValueError(f"--name {name!r}: use a C identifier (letters, digits, _)")
+    return check_out_dir(out)
 
 
 def _finish(tables: list, out: Path, name: str, fmt: str, precision: str, step: str | None,
@@ -86,6 +101,7 @@ def feedforward_cmd(
     from servokit.export import feedforward_tables
     from servokit.export.designs import hdd_feedforward
 
+    out = _check_common(out, name, fmt, precision)
     ff = hdd_feedforward(design, target, n_samples)
     tables = feedforward_tables(ff.u, ff.dt, name="u")
     title = f"HDD benchmark Design {design}, {target:g} track(s), N = {ff.N} (book §2.4.2)"
@@ -117,6 +133,7 @@ def controller_cmd(
     from servokit.export import sos_tables, statespace_tables
     from servokit.models.controllers import get_discrete_controller
 
+    out = _check_common(out, name, fmt, precision)
     if realization not in ("ss", "sos"):
         raise ServokitValueError(f"--realization {realization!r}: choose ss or sos")
     try:
@@ -127,6 +144,36 @@ def controller_cmd(
     tables = make(ctrl, "ss" if realization == "ss" else "sos")
     step = realization if fmt == "c" and precision in ("float", "double") else None
     _finish(tables, out, name, fmt, precision, step, f"controller {controller}", json_out)
+
+
+@export_app.command(
+    "ivc",
+    epilog=example("servokit export ivc --method pole-zero --precision q15 --format c"),
+)
+def ivc_cmd(
+    method: str = typer.Option(
+        "pole-zero", "--method", help="pole-zero (§3.3.2 loop) or jmin (§3.3.1 loop)"
+    ),
+    velocity_weight: float = typer.Option(
+        1.55e-7, "--velocity-weight", help="J-min weight q_v on the velocity [s^2] (jmin)"
+    ),
+    fmt: FormatOpt = "c",
+    precision: PrecisionOpt = "float",
+    out: OutOpt = Path("firmware"),
+    name: NameOpt = "ivc",
+    json_out: JsonOpt = False,
+) -> None:
+    """IVC gain matrix K of a chapter 3 book loop: load xc[0] = K xp[0] at the switch.
+
+    JSON keys: files, precision, tables (table, shape, scale, error_bound, max_error).
+    """
+    from servokit.export import FirmwareTable
+    from servokit.export.designs import book_ivc_gain
+
+    out = _check_common(out, name, fmt, precision)
+    K, desc = book_ivc_gain(method, velocity_weight)
+    tables = [FirmwareTable("K", K, f"xc[0] = K xp[0]: {desc}")]
+    _finish(tables, out, name, fmt, precision, None, desc, json_out)
 
 
 @export_app.command(
@@ -147,16 +194,18 @@ def table_cmd(
 
     JSON keys: files, precision, tables (table, shape, scale, error_bound, max_error).
     """
+    out = _check_common(out, name, fmt, precision)
     tables = _read_tables(input_file)
     _finish(tables, out, name, fmt, precision, None, f"tables of {input_file.name}", json_out)
 
 
 def _read_tables(path: Path) -> list:
-    from servokit.errors import ServokitValueError
+    import numpy as np  # here, not at the top: `servokit --help` stays fast
+
+    from servokit.errors import ServokitValueError, check_input_file
     from servokit.export import FirmwareTable
 
-    if not path.is_file():
-        raise ServokitValueError(f"--input {path}: no such file; give a .json or .csv file")
+    path = check_input_file(path, "--input")
     if path.suffix.lower() == ".json":
         try:
             data = json.loads(path.read_text(encoding="utf-8"))

@@ -55,13 +55,13 @@ def reproduce(
     """Reproduce the book's published numbers and figures; write report.html and results.json.
 
     results.json: servokit_version, generated_utc, cases (name, title, chapter, runtime_s,
-    figures), rows (case, chapter, source, quantity, unit, book, book_text, servokit,
+    figures, notes), rows (case, chapter, source, quantity, unit, book, book_text, servokit,
     ratio, tolerance, within_tolerance, kind, note, bound) and summary (counts per chapter).
     """
     from servokit.report.output import clear_report, run_cases, select_cases, write_report
 
     out = check_out_dir(out)
-    names = select_cases(case, chapter)
+    names = select_cases(case, chapter)  # before any file is written
     out.mkdir(parents=True, exist_ok=True)
     clear_report(out)
     results, runtimes = [], {}

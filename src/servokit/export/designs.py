@@ -1,15 +1,17 @@
-"""Designs the export knows by name (the book's HDD benchmark feedforward inputs)."""
+"""Designs the export knows by name: the book's HDD feedforward inputs and IVC gains."""
 
 from __future__ import annotations
 
 from typing import TYPE_CHECKING
+
+import numpy as np
 
 from servokit.errors import ServokitValueError, check_count, check_positive
 
 if TYPE_CHECKING:
     from servokit.feedforward import FeedforwardInput
 
-__all__ = ["hdd_feedforward"]
+__all__ = ["book_ivc_gain", "hdd_feedforward"]
 
 
 def hdd_feedforward(design: int, target: float, n_samples: int | None = None) -> FeedforwardInput:
@@ -39,3 +41,35 @@ def hdd_feedforward(design: int, target: float, n_samples: int | None = None) ->
     book = next(d for d in DESIGNS if d.shaped == shaped and (d.tracks > 3) == (target > 3))
     n = book.N if n_samples is None else check_count("--n-samples", n_samples, lo=2, hi=100_000)
     return SeekDesign("export", book.label, target, n, shaped).design(hdd_benchmark())
+
+
+def book_ivc_gain(method: str, velocity_weight: float = 1.55e-7) -> tuple[np.ndarray, str]:
+    """The IVC gain ``K`` of a chapter 3 book loop, loaded as ``xc[0] = K xp[0]``.
+
+    Parameters
+    ----------
+    method : str
+        ``"pole-zero"``: the §3.3.2 loop with the closed-loop poles 0.905 and 0.954
+        cancelled (3.37); ``"jmin"``: the §3.3.1 rigid-body loop, J-min IVC (3.22) with
+        ``Q = diag(1, velocity_weight, 0, 0)`` (Fig. 3.6).
+    velocity_weight : float
+        ``q_v`` of the J-min weight (only for ``"jmin"``).
+
+    Returns
+    -------
+    K : ndarray, shape (m, n)
+        Controller states per plant state.
+    description : str
+        What the gain is, for the export's comment.
+    """
+    from servokit.cases.switching_ivc import book_loop, jmin_loop
+    from servokit.switching import ivc_jmin, ivc_pole_zero
+
+    if method == "pole-zero":
+        K = ivc_pole_zero(book_loop(), None, [0.905, 0.954])
+        return K, "pole-zero IVC (3.37) of the §3.3.2 loop, poles 0.905 and 0.954 cancelled"
+    if method == "jmin":
+        qv = check_positive("--velocity-weight", velocity_weight)
+        K = ivc_jmin(jmin_loop(), None, np.diag([1.0, qv, 0.0, 0.0]))
+        return K, f"J-min IVC (3.22) of the §3.3.1 loop, Q = diag(1, {qv:g}, 0, 0)"
+    raise ServokitValueError(f"--method {method!r}: choose pole-zero or jmin")

@@ -57,7 +57,25 @@ class BeamModel:
 
 
 def cantilever_beam(n_modes: int = 3, first_hz: float = 5400.0, damping: float = 0.01) -> BeamModel:
-    """Uniform clamped-free beam, ``n_modes`` <= 4 modes (see the module docstring)."""
+    """Uniform clamped-free beam, ``n_modes`` <= 4 modes (see the module docstring).
+
+    Parameters
+    ----------
+    n_modes : int
+        Number of bending modes, 1 to 4.
+    first_hz : float
+        Frequency of the first mode [Hz] (5.4 kHz as in Fig. 5.33); mode ``i`` is at
+        ``first_hz (beta_i L / beta_1 L)^2``.
+    damping : float
+        Modal damping ratio, the same for every mode.
+
+    Returns
+    -------
+    BeamModel
+        ``freq_hz`` [Hz], ``damping``, collocated tip weights ``tip = 2 (-1)^(i+1)`` (also
+        the input weights ``b``) and root-curvature strain weights
+        ``strain = (beta_i L / beta_1 L)^2`` (1 for the first mode).
+    """
     if not 1 <= int(n_modes) <= 4:
         raise ServokitValueError(f"n_modes must be 1..4 (got {n_modes})")
     check_positive("first_hz", first_hz, "Hz")
@@ -158,6 +176,38 @@ def simulate_adaptive(
 
     Integrated by :func:`scipy.integrate.solve_ivp` (DOP853); ``V`` of (5.76) is
     evaluated on ``n_out`` output points.
+
+    Parameters
+    ----------
+    beam : BeamModel
+        Modal cantilever, e.g. from :func:`cantilever_beam`.
+    gains : AdaptiveGains
+        ``kp``, ``alpha``, ``beta``, ``gamma`` and the initial ``Ys``, ``k0``; with
+        ``adaptive=False`` the strain term is off (``kf = 0``, ``Ys`` frozen) and only the
+        PI part with adaptive ``k0`` acts.
+    tip0 : float
+        Initial static tip deflection [m] (non-zero; the modes start in the static shape
+        under a tip load, at rest, with zero integrator states).
+    duration : float
+        Simulated time [s].
+    n_out : int
+        Number of output points, evenly spaced on ``[0, duration]``.
+    rtol : float
+        Relative tolerance of the integrator.
+
+    Returns
+    -------
+    AdaptiveRun
+        On the ``n_out`` points: ``t`` [s], tip displacement ``y`` [m], control ``u``
+        (5.73), Lyapunov function ``V`` (5.76), adaptive gains ``Ys`` and ``k0``, and
+        ``dissipation``, the ``-V'`` that (5.78) predicts with modal damping
+        (``beta Ys^2 / alpha + sum 2 zeta_i w_i q_i'^2``, the first term only when
+        ``gains.adaptive``).
+
+    Raises
+    ------
+    ServokitValueError
+        If the integration fails or gives non-finite values (gains too high).
     """
     check_positive("duration", duration, "s")
     check_positive("tip0", abs(tip0), "m")

@@ -178,6 +178,21 @@ def loop_margins(freq_hz: np.ndarray, L: np.ndarray) -> LoopMargins:
         Ascending grid [Hz], dense enough to resolve the resonances (log-spaced).
     L : ndarray of complex
         Open-loop response on the grid.
+
+    Returns
+    -------
+    LoopMargins
+        First gain crossover [Hz] and its phase margin [deg], every gain crossover
+        (``crossovers_hz``, ``phase_margins_deg``; the second is the book's second phase
+        margin), and the smallest gain margin [dB] over the phase crossovers above the
+        first gain crossover with its frequency [Hz] (NaN if there is none).  Crossings
+        are interpolated linearly in log-frequency between grid points.
+
+    Raises
+    ------
+    ServokitValueError
+        If the grid is not ascending and positive, ``L`` is not finite, or ``|L|`` never
+        crosses 0 dB on the grid.
     """
     f = np.asarray(freq_hz, dtype=float)
     L = np.asarray(L, dtype=complex)
@@ -223,6 +238,25 @@ def handoff(freq_hz: np.ndarray, a: np.ndarray, b: np.ndarray) -> Handoff:
     """First frequency where ``|a| = |b|`` and the phase difference there (book §5.5.2).
 
     For Table 5.4 ``a = CV PV`` (VCM path) and ``b = CM PM`` (PZT path).
+
+    Parameters
+    ----------
+    freq_hz : ndarray
+        Ascending positive grid [Hz].
+    a, b : ndarray of complex
+        Frequency responses of the two paths on the grid.
+
+    Returns
+    -------
+    Handoff
+        ``freq_hz``, the lowest frequency where ``|a / b|`` crosses 1 (interpolated in
+        log-frequency) [Hz], and ``phase_difference_deg``, ``|angle(a) - angle(b)|``
+        there, wrapped to [0, 180] deg.
+
+    Raises
+    ------
+    ServokitValueError
+        If the two magnitudes never cross on the grid.
     """
     f = np.asarray(freq_hz, dtype=float)
     a, b = np.asarray(a, dtype=complex), np.asarray(b, dtype=complex)

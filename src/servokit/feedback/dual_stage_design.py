@@ -195,6 +195,19 @@ def zero_pole_pair(
     ``KCV = 5`` (the book: gains chosen "to ensure that the gain crossover frequencies are
     identical"); unit-DC-gain pairs (:func:`~servokit.feedback.filters.inverse_pair`)
     would not.
+
+    Parameters
+    ----------
+    zero_hz, pole_hz : float
+        Natural frequencies of the zeros and of the poles [Hz].
+    zero_damping, pole_damping : float
+        Their damping ratios (pole damping > 0).
+
+    Returns
+    -------
+    control.TransferFunction
+        ``(s^2 + 2 zeta_z wz s + wz^2) / (s^2 + 2 zeta_p wp s + wp^2)``, continuous, DC
+        gain ``(f_z / f_p)^2``.
     """
     pair = inverse_pair(zero_hz, pole_hz, zero_damping=zero_damping, pole_damping=pole_damping)
     return pair * (zero_hz / pole_hz) ** 2
@@ -203,7 +216,24 @@ def zero_pole_pair(
 def peak_filter_addon(
     freq_hz: float, damping: float, gain: float, phi: float
 ) -> control.TransferFunction:
-    """``1 + F(s)`` with the peak filter ``F`` of (5.17): the add-on factor of (5.22)."""
+    """``1 + F(s)`` with the peak filter ``F`` of (5.17): the add-on factor of (5.22).
+
+    Parameters
+    ----------
+    freq_hz : float
+        Centre frequency ``f1`` of the peak filter [Hz].
+    damping : float
+        ``zeta1`` (> 0).
+    gain : float
+        ``K`` (> 0).
+    phi : float
+        Zero-placement phase ``phi`` [rad].
+
+    Returns
+    -------
+    control.TransferFunction
+        The continuous factor ``1 + F(s)``, multiplying the baseline controller.
+    """
     return 1 + peak_filter(freq_hz, damping, gain, phi)
 
 
@@ -292,7 +322,27 @@ def _check_method(method: str) -> str:
 
 def vcm_controller(method: str, u: Unknowns = Unknowns(), *, baseline: bool = False) -> Cascade:
     """VCM loop controller ``CV`` of §5.5.2.1 (``baseline``: phase method without
-    peak filter and lag, KCV = 4.9175, the loop the peak-filter phase phi is read on)."""
+    peak filter and lag, KCV = 4.9175, the loop the peak-filter phase phi is read on).
+
+    Parameters
+    ----------
+    method : {"gain", "inverse", "phase"}
+        Gain stabilisation (lead-lag (5.91), KCV = 5, notches (5.14)), inverse compensation
+        (KCV = 3.3302, monic zero/pole pairs) or phase stabilisation (notches at 3800 and
+        4449 Hz, ``KCV = u.kcv_phase``, peak-filter add-on (5.22) and complex lag
+        (5.92)-(5.94)); see the module docstring for the printed parameters.
+    u : Unknowns
+        The unstated notch and pair dampings, notch pole frequency ratio and phase-method
+        gain.
+    baseline : bool
+        For ``method="phase"`` only: the lead-lag with KCV = 4.9175 and the two notches,
+        without peak filter and lag.  Ignored by the other methods.
+
+    Returns
+    -------
+    Cascade
+        The continuous controller as a product of factors.
+    """
     pv = vcm_dual_stage()
     if _check_method(method) == "gain":
         return Cascade((lead_lag(5.0), *_notches(pv, (4449, 6412, 7141, 8600), u)))
@@ -314,7 +364,28 @@ def vcm_controller(method: str, u: Unknowns = Unknowns(), *, baseline: bool = Fa
 
 def pzt_controller(method: str, u: Unknowns = Unknowns(), *, baseline: bool = False) -> Cascade:
     """PZT loop controller ``CM`` of §5.5.2.2 (``baseline`` as in :func:`vcm_controller`,
-    KCM = 0.1737 with the (2484, 2751) Hz pair)."""
+    KCM = 0.1737 with the (2484, 2751) Hz pair).
+
+    Parameters
+    ----------
+    method : {"gain", "inverse", "phase"}
+        Gain stabilisation (lag (5.96), KCM = 0.18, notches (5.14)), inverse compensation
+        (KCM = 0.2473, monic zero/pole pairs) or phase stabilisation (``KCM = u.kcm_phase``,
+        the (2484, 2751) Hz pair, peak-filter add-on (5.22), the (4600, 8000) and
+        (6074, 6646) Hz pairs, a first-order lag and notches at 9103 and 13120 Hz); see
+        the module docstring for the printed parameters.
+    u : Unknowns
+        The unstated notch and pair dampings, notch pole frequency ratio and phase-method
+        gain.
+    baseline : bool
+        For ``method="phase"`` only: the lag with KCM = 0.1737 and the (2484, 2751) Hz
+        pair.  Ignored by the other methods.
+
+    Returns
+    -------
+    Cascade
+        The continuous controller as a product of factors.
+    """
     pm = pzt_active_suspension()
     if _check_method(method) == "gain":
         return Cascade((lag(0.18), *_notches(pm, (2484, 5461, 6074, 9103, 12000), u)))
@@ -406,6 +477,35 @@ def evaluate_design(
     fast, used by the search) or, with ``refine``, by
     :func:`~servokit.feedback.margins.stability_margins` (root-refined crossings on
     60000 log-spaced points over the same band; agrees to ~1e-4 dB / 1e-6 deg).
+
+    Parameters
+    ----------
+    method : {"gain", "inverse", "phase"}
+        Design method of :func:`vcm_controller` and :func:`pzt_controller`.
+    u : Unknowns
+        The unstated parameters, including the plant input delays, applied exactly.
+    freq_hz : ndarray
+        Ascending frequency grid [Hz] for the responses, the hand-off and the grid margins.
+    structure : {"parallel", "cms", "dms"}
+        Dual-stage structure of the open loop ``LD`` (perfect estimator ``PM* = PM``).
+    refine : bool
+        Read the crossover and margins with
+        :func:`~servokit.feedback.margins.stability_margins` instead of on the grid.
+
+    Returns
+    -------
+    DesignRow
+        ``method``; controller orders ``order_cv``, ``order_cm``; hand-off of ``CV PV`` and
+        ``CM PM`` (``handoff_hz`` [Hz], ``phase_difference_deg``); first gain crossover of
+        ``LD`` (``crossover_hz`` [Hz]), ``gain_margin_db``, ``phase_margin_deg`` and
+        ``second_phase_margin_deg`` (NaN without a second crossover); ``s_inf_db``, the
+        peak of ``|SD|`` on the grid [dB]; and, for ``method="phase"``, the peak-filter
+        phases ``phi_vcm_deg``, ``phi_pzt_deg`` of the baseline loops (NaN otherwise).
+
+    Raises
+    ------
+    ServokitValueError
+        If ``method`` is unknown or ``LD`` never crosses 0 dB on the grid.
     """
     cv, cm = vcm_controller(method, u), pzt_controller(method, u)
     r = _responses(cv, cm, u, freq_hz, structure)

@@ -102,6 +102,15 @@ def ddssa_bridge(
     rtol : float
         Relative tolerance of the balance test ``CPZT C3 = C1 C2`` (and
         ``CPZT / R3 = C2 / R1``).
+
+    Returns
+    -------
+    DDSSABridge
+        ``from_um = Y2/(Y2+Y3) - YP/(YP+Y1)`` (the corrected uM coefficient of (5.61)),
+        ``from_vm = YP/(YP+Y1)`` (dimensionless transfer functions to ``vs``) and
+        ``balanced``, whether the balance conditions hold within ``rtol`` (then
+        ``from_um`` is zero at all frequencies and, with ``C1 = C2 = C3 = CPZT``,
+        ``vs = vM / 2`` (5.62)).
     """
     cp, c1, c2, c3 = (
         check_positive(n, v, "F") for n, v in (("c_pzt", c_pzt), ("c1", c1), ("c2", c2), ("c3", c3))
@@ -147,6 +156,29 @@ def idssa_bridge(
 
     ``c_pzt`` is the PZT capacitance, ``c_pzt_ref`` the reference ``C'PZT``.  ``fc_hz``,
     ``damping`` and ``gain`` are those of (5.66) (meaningful at balance (5.65)).
+
+    Parameters
+    ----------
+    c : tuple of 4 float
+        Capacitances ``(C1, C2, C3, C4)`` [F]; ``C1, C2`` are in the PZT arm ``v1``,
+        ``C3, C4`` in the reference arm ``v2``.
+    c_pzt : float
+        PZT capacitance ``CPZT`` [F].
+    c_pzt_ref : float
+        Reference capacitance ``C'PZT`` [F] of the ``v2`` arm.
+    r : tuple of 8 float
+        Resistances ``(R1, ..., R8)`` [ohm]: ``R1, R2`` in the ``v1`` arm, ``R3, R4`` in
+        the ``v2`` arm, ``R5 ... R8`` the differential amplifier of (5.64).
+
+    Returns
+    -------
+    IDSSABridge
+        ``from_um`` and ``from_vm``, the transfer functions from ``uM`` and ``vM`` to
+        ``vS = a2 v2 - a1 v1`` with ``a2 = R6 (R7 + R8) / ((R5 + R6) R8)`` and
+        ``a1 = R7 / R8`` (5.64); ``fc_hz = 1 / (2 pi sqrt(C1 C2 R1 R2))`` [Hz],
+        ``damping = sqrt(C1 C2 R1 R2) (C1 + C2 + CPZT) / (2 C1 C2 R2)`` and
+        ``gain = R6 / R5``, the parameters of the high-pass (5.66) that ``from_vm`` equals
+        at balance (5.65), where ``from_um`` vanishes.
     """
     c1, c2, c3, c4 = (check_positive(f"C{i + 1}", v, "F") for i, v in enumerate(c))
     cp, cpr = check_positive("c_pzt", c_pzt, "F"), check_positive("c_pzt_ref", c_pzt_ref, "F")
@@ -172,6 +204,24 @@ def amd_mode(freq_hz: float, eps: float, kappa: float, gain: float | None = None
     """One AMD factor ``CD,i`` (5.67) as read in the module docstring (``KD,i = eps`` default).
 
     ``1 < eps <= P`` (frequency uncertainty, P < 3) and ``5 < kappa < 15`` in the book.
+
+    Parameters
+    ----------
+    freq_hz : float
+        Natural frequency ``fn = wn / 2 pi`` of the mode to damp [Hz].
+    eps : float
+        ``eps`` (> 0): zeros at ``wn / eps`` and ``wn``; the high-frequency gain over the
+        DC gain.
+    kappa : float
+        ``kappa`` (> ``eps``): real poles at ``kappa wn / eps`` and ``eps wn / kappa``, a
+        pair of natural frequency ``wn`` and damping ``(kappa/eps + eps/kappa) / 2``.
+    gain : float, optional
+        ``KD,i`` (> 0); ``eps`` by default, which gives unit DC gain.
+
+    Returns
+    -------
+    control.TransferFunction
+        The continuous ``CD,i(s)``, DC gain ``KD,i / eps``, high-frequency gain ``KD,i``.
     """
     wn = 2 * np.pi * check_positive("freq_hz", freq_hz, "Hz")
     eps, kappa = check_positive("eps", eps), check_positive("kappa", kappa)
@@ -184,7 +234,19 @@ def amd_mode(freq_hz: float, eps: float, kappa: float, gain: float | None = None
 
 
 def amd_controller(modes: list[tuple[float, float, float]]) -> control.TransferFunction:
-    """``CD = prod_i CD,i`` for ``modes = [(freq_hz, eps, kappa), ...]`` (§5.4.3)."""
+    """``CD = prod_i CD,i`` for ``modes = [(freq_hz, eps, kappa), ...]`` (§5.4.3).
+
+    Parameters
+    ----------
+    modes : list of tuple of (float, float, float)
+        One ``(freq_hz, eps, kappa)`` per mode, passed to :func:`amd_mode` (frequency
+        [Hz], dimensionless ``eps`` and ``kappa``; ``KD,i = eps``).  Not empty.
+
+    Returns
+    -------
+    control.TransferFunction
+        The continuous product of the factors (5.67).
+    """
     if not modes:
         raise ServokitValueError("modes is empty; give at least one (freq_hz, eps, kappa)")
     out = amd_mode(*modes[0])
@@ -209,7 +271,30 @@ class ModeDamping:
 def mode_damping(
     plant: control.LTI, cd: control.LTI, freq_hz: np.ndarray, *, band: float = 0.1
 ) -> ModeDamping:
-    """Effect of the AMD loop (5.68) on the modes at ``freq_hz`` (peak within +-``band``)."""
+    """Effect of the AMD loop (5.68) on the modes at ``freq_hz`` (peak within +-``band``).
+
+    Parameters
+    ----------
+    plant : control.LTI
+        Continuous PZT plant ``PM`` (input ``uM``, output ``yM``).
+    cd : control.LTI
+        Continuous AMD controller ``CD`` (e.g. from :func:`amd_controller`) in negative
+        feedback around ``plant``.
+    freq_hz : array_like
+        Mode frequencies [Hz] (a scalar is taken as one mode).
+    band : float
+        Relative half-width of the search for each peak: ``|PM|`` and the damped
+        response are maximised over 2001 points in ``[(1 - band) f, (1 + band) f]``.
+
+    Returns
+    -------
+    ModeDamping
+        Per mode: ``freq_hz`` [Hz], the peaks ``open_db`` of ``|PM|`` and ``damped_db`` of
+        ``|PM / (1 + CD PM)|`` [dB], ``attenuation_db = open_db - damped_db`` [dB], and
+        ``estimate_db = 20 log10 (1 / |CD(j wn)|)`` [dB], the (5.69) approximation
+        ``PM / (1 + CD PM) ~ 1 / CD`` valid where ``|CD PM| >> 1``; ``stable`` is whether
+        every closed-loop pole has a negative real part.
+    """
     closed = control.feedback(plant, cd)
     stable = bool(np.all(np.real(control.poles(closed)) < 0))
     centres = np.atleast_1d(np.asarray(freq_hz, dtype=float))

@@ -2,6 +2,11 @@
 
 A case study (:mod:`servokit.cases`) returns a :class:`CaseResult` holding
 :class:`Comparison` rows and the paths of the figures it wrote.
+
+* :mod:`servokit.report.results` — ``results.json`` (rows, summary, shipped JSON schema);
+* :mod:`servokit.report.html` — ``report.html`` (jinja2 template, embedded figures);
+* :mod:`servokit.report.output` — running the cases and writing both atomically;
+* :mod:`servokit.report.pairing` — one-to-one pairing of computed lists with the book's.
 """
 
 from __future__ import annotations

@@ -87,7 +87,24 @@ class SweepResult:
 
 def chunk_bytes(n_plants: int, n_modes: int, n_samples: int, substeps: int) -> float:
     """Estimated peak bytes of simulating ``n_plants`` together (the simulator's arrays:
-    outputs and their deviation on the fine grid, sample states, block powers)."""
+    outputs and their deviation on the fine grid, sample states, block powers).
+
+    Parameters
+    ----------
+    n_plants : int
+        Plants simulated together.
+    n_modes : int
+        Modes of each plant.
+    n_samples : int
+        Held-input samples of the simulated record.
+    substeps : int
+        Read-out points per sample (``dt / grid``).
+
+    Returns
+    -------
+    float
+        Estimated bytes (8-byte floats).
+    """
     fine = n_samples * substeps
     per_plant = 8.0 * (5 * fine + 6 * n_samples * n_modes + 12 * n_modes * (substeps + 1))
     return n_plants * per_plant
@@ -119,6 +136,26 @@ def connect_dask(scheduler: str | None = None, workers: int | None = None) -> An
     """A ``distributed.Client``: to ``scheduler`` (an address) or a local cluster.
 
     Raises a one-line error naming the optional extra when Dask is not installed.
+
+    Parameters
+    ----------
+    scheduler : str, optional
+        Address of a running Dask scheduler (e.g. ``"tcp://host:8786"``, 10 s connection
+        timeout); if omitted, a local cluster is started.
+    workers : int, optional
+        Single-threaded workers of the local cluster (1 to 256, default 1); ignored with
+        ``scheduler``.
+
+    Returns
+    -------
+    distributed.Client
+        The client, to pass as ``client`` to :func:`sweep_seek_times`.
+
+    Raises
+    ------
+    ServokitValueError
+        If ``distributed`` is not installed (extra ``servokit[dask]``) or ``workers`` is
+        out of range.
     """
     try:
         from distributed import Client, LocalCluster
@@ -145,7 +182,41 @@ def plan_chunks(
     n_workers: int = 1,
 ) -> tuple[int, float]:
     """Chunk size and estimated bytes per plant of a sweep; refuses it, before anything
-    is allocated, when the draws plus one chunk per worker exceed ``max_memory_mb``."""
+    is allocated, when the draws plus one chunk per worker exceed ``max_memory_mb``.
+
+    Parameters
+    ----------
+    vset : VariationSet
+        Nominal plant (its number of modes) and ranges (the draws' width).
+    ff : object with ``u`` (held samples) and ``dt`` [s]
+        The feedforward design; its length and ``horizon`` set the record.
+    n : int
+        Number of plants of the sweep.
+    grid, horizon : float, optional
+        Read-out step and record length [s], as in :func:`servokit.simulate.seek_time`
+        (defaults ``ff.dt / 10`` and ``max(3 T, T + 2 ms)`` for an input of length ``T``).
+    chunk_size : int, optional
+        Plants per chunk; by default as many as fit in 200 MB and in the limit left after
+        the draws, shared by ``n_workers`` (at most ``ceil(n / (4 n_workers))`` with
+        several workers, so that each gets a few chunks).
+    max_memory_mb : float, optional
+        Limit on the draws, gains and seek times of all plants plus one chunk per worker
+        [MB]; 2000 by default.
+    n_workers : int
+        Chunks simulated at the same time.
+
+    Returns
+    -------
+    chunk_size : int
+        Plants per chunk (at least 1).
+    per_plant : float
+        Estimated bytes of simulating one plant (:func:`chunk_bytes`).
+
+    Raises
+    ------
+    ServokitValueError
+        If the estimate exceeds ``max_memory_mb``.
+    """
     dt = check_positive("ff.dt", ff.dt, "s")
     S = 10 if grid is None else int(round(dt / check_positive("grid", grid, "s")))
     K = _record(_Held(np.asarray(ff.u), dt), horizon)

@@ -115,7 +115,10 @@ class PlantBank:
         ``Phi = 0`` so that they add only poles at ``z = 0``.
         """
         V, M = self.shape
-        Phi, Gnew, Gold, d = modal_delayed_zoh(self.w, self.zeta, self.r, dt, self.delay)
+        if dt == self.h:  # a sample-rate bank (substeps=1): already discretised
+            Phi, Gnew, Gold, d = self.Phi, self.Gnew, self.Gold, self.dd
+        else:
+            Phi, Gnew, Gold, d = modal_delayed_zoh(self.w, self.zeta, self.r, dt, self.delay)
         Phi = np.where(self.real[..., None, None], Phi, 0.0)
         n = 2 * M
         has_old = bool(np.any(Gold != 0.0))

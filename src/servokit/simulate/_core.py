@@ -52,10 +52,17 @@ def _windows(ubuf: np.ndarray, S: int, lo: int, hi: int) -> np.ndarray:
     return np.concatenate([w_new, w_old], axis=2)
 
 
-def _active(W: np.ndarray) -> slice:
-    """The periods from the first to the last whose input window (Vu, n, 2S) is non-zero."""
-    nz = np.flatnonzero(np.any(W != 0.0, axis=(0, 2)))
-    return slice(0, 0) if nz.size == 0 else slice(int(nz[0]), int(nz[-1]) + 1)
+def _active(ubuf: np.ndarray, S: int, K: int) -> slice:
+    """Periods from the first to the last whose input window is not all zero.
+
+    Period ``k`` reads ``ubuf[:, kS : kS + S + 1]`` (see :func:`_windows`).
+    """
+    nz = np.flatnonzero(np.any(ubuf[:, : K * S + 1] != 0.0, axis=0))
+    if nz.size == 0:
+        return slice(0, 0)
+    first = max(0, -(-int(nz[0]) // S) - 1)
+    last = min(K - 1, int(nz[-1]) // S)
+    return slice(first, last + 1)
 
 
 def _forced_output(H2: np.ndarray, W: np.ndarray, S: int) -> np.ndarray:
@@ -104,27 +111,26 @@ def run_chunk(
     dd = bank.dd
     ubuf = np.zeros((Vu, Nt + dd + 1))
     ubuf[:, dd + 1 :] = u_open
-    x0_ = (np.zeros((V, M)), np.zeros((V, M))) if x0 is None else (x0[..., 0], x0[..., 1])
     W = _windows(ubuf, S, 0, K)
-    act = _active(W)
+    act = _active(ubuf, S, K)
     if states is None:
+        x0_ = (np.zeros((V, M)), np.zeros((V, M))) if x0 is None else (x0[..., 0], x0[..., 1])
         drive = np.zeros((K, V, M, 2))
         if Vu == 1:  # one GEMM for all variants
             drive[act] = (W[0, act] @ B2.reshape(2 * S, -1)).reshape(-1, V, M, 2)
         else:  # one small GEMM per variant
             per = W[:, act] @ B2.transpose(1, 0, 2)  # (V, n, 2M)
             drive[act] = per.transpose(1, 0, 2).reshape(-1, V, M, 2)
-        xs = modal_scan(tuple(rows[:, S]), drive, x0_)  # (V, K, M, 2)
-    else:
-        xs = states
-    yd = xs[..., 0].sum(axis=-1)
-    if dc_samples is not None:
-        yd = yd + dc_samples
+        states = modal_scan(tuple(rows[:, S]), drive, x0_)  # (V, K, M, 2)
+    y0 = states[..., 0].sum(axis=-1)
+    yd = y0 if dc_samples is None else y0 + dc_samples
+    if S == 1:  # the inputs of a period act after its sample: the samples are the output
+        return y0, yd
     # outputs between the samples: free response of the stored states + forced response
     CPt = np.empty((V, M, 2, S))  # C Phi^i, contiguous so that matmul runs in BLAS
     CPt[:, :, 0] = rows[0, :S].transpose(1, 2, 0)
     CPt[:, :, 1] = rows[1, :S].transpose(1, 2, 0)
-    y = np.ascontiguousarray(xs).reshape(V, K, 2 * M) @ CPt.reshape(V, 2 * M, S)
+    y = np.ascontiguousarray(states).reshape(V, K, 2 * M) @ CPt.reshape(V, 2 * M, S)
     # impulse responses C Phi^l G (l = 0..S-1) summed over modes: the reversed first
     # state component of the block maps
     H2 = B2.reshape(2, S, V, M, 2)[:, ::-1, :, :, 0].sum(axis=-1)  # (2, S, V)

@@ -27,10 +27,6 @@ __all__ = ["DOUBLING_MAX_VARIANTS", "matrix_scan", "modal_scan"]
 DOUBLING_MAX_VARIANTS = 8
 
 
-def _use_doubling(V: int, doubling: bool | None) -> bool:
-    return V <= DOUBLING_MAX_VARIANTS if doubling is None else doubling
-
-
 def modal_scan(
     P: tuple[np.ndarray, ...], drive: np.ndarray, x0: tuple[np.ndarray, np.ndarray]
 ) -> np.ndarray:
@@ -49,20 +45,24 @@ def modal_scan(
     return xs
 
 
-def matrix_scan(A: np.ndarray, drive: np.ndarray, doubling: bool | None = None) -> np.ndarray:
+def matrix_scan(A: np.ndarray, drive: np.ndarray, method: str | None = None) -> np.ndarray:
     """States ``z[0..K-1]`` (V, K, N) of ``z[k+1] = A z[k] + drive[k]``, ``z[0] = 0``.
 
-    ``A`` is (V, N, N) and ``drive`` (K, V, N).
+    ``A`` is (V, N, N) and ``drive`` (K, V, N).  ``method``: "serial" or "doubling";
+    by default doubling for at most :data:`DOUBLING_MAX_VARIANTS` variants.
     """
     K, V, N = drive.shape
-    if not _use_doubling(V, doubling):
-        zs = np.empty((V, K, N))
-        z, tmp = np.zeros((V, N, 1)), np.empty((V, N, 1))
-        for k in range(K):
-            zs[:, k] = z[..., 0]
-            np.matmul(A, z, out=tmp)  # in place: no fresh (page-faulting) buffer per step
-            np.add(tmp, drive[k, :, :, None], out=z)
-        return zs
+    if method is None:
+        method = "doubling" if V <= DOUBLING_MAX_VARIANTS else "serial"
+    if method == "serial":
+        # rows times A^T, written in place: no fresh (page-faulting) buffer per step
+        AT = np.ascontiguousarray(A.transpose(0, 2, 1))
+        zs = np.empty((K, V, 1, N))
+        zs[0] = 0.0
+        for k in range(K - 1):
+            np.matmul(zs[k], AT, out=zs[k + 1])
+            zs[k + 1, :, 0] += drive[k]
+        return zs[:, :, 0].transpose(1, 0, 2)
     s = np.zeros((V, N, K))
     s[:, :, 1:] = drive[: K - 1].transpose(1, 2, 0)
     off, Ap = 1, A

@@ -147,6 +147,11 @@ class _Job:
         S, K, Nt = self.S, self.K, self.K * self.S
         per = n_modes * (S + 1) * 4 + 8 * S * n_modes + 6 * K * n_modes + 3 * Nt
         per += 2 * Nt if self.loop is not None or self.u_open.shape[0] > 1 else 0
+        if self.loop is not None:
+            # closed-loop states (K x N) and a few stacked N x N matrices; N is the modal
+            # order plus the delay line, the filter and the controller (about 2M + 8)
+            n = 2 * n_modes + 8 + self.loop.controller[0].shape[0]
+            per += 3 * K * n + 4 * n * n
         return 8.0 * per
 
     def rows(self, arr: np.ndarray | None, lo: int, hi: int) -> np.ndarray | None:
@@ -318,9 +323,22 @@ def iter_simulate(
 ) -> Iterator[tuple[slice, SimulationResult]]:
     """Simulate plant variants chunk by chunk; yields ``(variants, result)`` per chunk.
 
-    Same arguments as :func:`simulate`; ``variants`` is the slice of ``plants`` the
-    chunk holds.  Only one chunk's trajectories live at a time, so the memory stays
-    within ``max_memory_mb`` (default 256 MB) for any number of variants.
+    Only one chunk's trajectories live at a time, so the memory stays within
+    ``max_memory_mb`` (default 256 MB: half for the working set, half for the chunk's
+    result) for any number of variants.
+
+    Parameters
+    ----------
+    plants : ModalPlant or sequence of ModalPlant
+    check_stability, max_memory_mb
+        As in :func:`simulate`.
+    **kwargs
+        The other arguments of :func:`simulate`.
+
+    Yields
+    ------
+    (slice, SimulationResult)
+        The slice of ``plants`` the chunk holds and its result.
     """
     job = _prepare(plants, kwargs)
     budget = CHUNK_MEMORY_MB if max_memory_mb is None else float(max_memory_mb)
@@ -335,9 +353,20 @@ def simulate_metrics(
 ) -> np.ndarray:
     """Per-variant metrics of a simulation too large to keep: ``metric`` runs on each chunk.
 
-    ``metric(result)`` must return an array whose first axis has one entry per variant
-    of the chunk (a seek time, a peak error...); the chunks' arrays are concatenated.
-    Other arguments as :func:`iter_simulate`.
+    Parameters
+    ----------
+    plants : ModalPlant or sequence of ModalPlant
+        Variants (any number; they must share one delay).
+    metric : callable
+        ``metric(result)`` returns an array whose first axis has one entry per variant
+        of the chunk ``result`` (a seek time, a peak error...).
+    **kwargs
+        Arguments of :func:`simulate`, and ``max_memory_mb`` (default 256 MB).
+
+    Returns
+    -------
+    ndarray
+        The chunks' metric arrays concatenated along the first axis (one row per plant).
     """
     parts = []
     for sl, res in iter_simulate(plants, **kwargs):  # type: ignore[arg-type]
@@ -405,11 +434,13 @@ def simulate(
         Initial modal state, shape (2M,) or (V, 2M) in ``ModalPlant.to_statespace`` order.
     check_stability : bool
         With a controller, refuse a loop that is unstable for any variant (closed-loop
-        poles of the exact discrete loop, lifted over ``dt`` with a multirate path; one
-        batched eigenvalue call per chunk).  ``False`` skips the check.
+        poles of the exact discrete loop, lifted over ``dt`` with a multirate path;
+        certified for all variants at once by repeated squaring, eigenvalues only for
+        the uncertified ones, see :mod:`servokit.simulate.stability`).  ``False``
+        skips the check.
     max_memory_mb : float, optional
-        Memory budget [MB]; variants are simulated in chunks whose working set fits in
-        it (at most 256 MB per chunk).
+        Memory budget [MB] (default 2000): the result must fit in it, and variants are
+        simulated in chunks whose working set fits in what remains (at most 256 MB).
 
     Returns
     -------
