@@ -42,30 +42,49 @@ def _python_blocks() -> list[tuple[int, str]]:
     return [(line, body) for lang, line, body in _blocks() if lang == "python"]
 
 
-def _command_lines() -> list[tuple[int, list[list[str]]]]:
-    """Every `servokit ...` line of the sh/bash/console blocks (continuations joined,
-    ``$`` prompts and trailing comments removed) as its ``&&``-chained argv lists; a
-    ``> FILE`` redirection stays in the argv as ``>``, ``FILE``."""
+def _shell_lines() -> list[tuple[int, int, list[str]]]:
+    """(line of the block, line, words) of every line of the sh/bash/console blocks, with
+    continuations joined and ``$`` prompts and trailing comments removed."""
     out = []
     for lang, line, body in _blocks():
         if lang not in ("sh", "bash", "console"):
             continue
         for offset, cmd in _logical_lines(body):
-            cmd = re.sub(r"^\$ ", "", cmd.strip())
-            words = shlex.split(cmd, comments=True)
-            if not words or words[0] != "servokit":
-                continue
-            chain, cur = [], []
-            for w in words:
-                if w == "&&":
-                    chain.append(cur)
-                    cur = []
-                else:
-                    cur.append(w)
-            chain.append(cur)
-            assert all(c and c[0] == "servokit" for c in chain), cmd
-            out.append((line + 1 + offset, [c[1:] for c in chain]))
+            words = shlex.split(re.sub(r"^\$ ", "", cmd.strip()), comments=True)
+            if words:
+                out.append((line, line + 1 + offset, words))
     return out
+
+
+def _chain(words: list[str]) -> list[list[str]]:
+    """A ``&&`` chain of `servokit` commands as argv lists without the program name; a
+    ``> FILE`` redirection stays in the argv as ``>``, ``FILE``."""
+    chain, cur = [], []
+    for w in words:
+        if w == "&&":
+            chain.append(cur)
+            cur = []
+        else:
+            cur.append(w)
+    chain.append(cur)
+    assert all(c and c[0] == "servokit" for c in chain), " ".join(words)
+    return [c[1:] for c in chain]
+
+
+def _command_lines() -> list[tuple[int, list[list[str]]]]:
+    """Every `servokit ...` line of the README's shell blocks as (line, chain)."""
+    return [(n, _chain(w)) for _, n, w in _shell_lines() if w[0] == "servokit"]
+
+
+def _block_scripts() -> list[tuple[int, list[tuple[int, list[str]]]]]:
+    """Per shell block with a `servokit` line: its `servokit` and ``echo ... > FILE``
+    lines in order (``make``, ``cd bench`` and the example scripts are left out: the
+    examples run in test_examples.py)."""
+    blocks: dict[int, list[tuple[int, list[str]]]] = {}
+    for block, n, words in _shell_lines():
+        if words[0] == "servokit" or (words[0] == "echo" and ">" in words):
+            blocks.setdefault(block, []).append((n, words))
+    return [(b, lines) for b, lines in blocks.items() if any(w[0] == "servokit" for _, w in lines)]
 
 
 def _logical_lines(body: str) -> list[tuple[int, str]]:
@@ -83,6 +102,7 @@ def _logical_lines(body: str) -> list[tuple[int, str]]:
 
 PYTHON_BLOCKS = _python_blocks()
 COMMANDS = _command_lines()
+SCRIPTS = _block_scripts()
 
 
 def _split_redirect(argv: list[str]) -> tuple[list[str], str | None]:
@@ -156,27 +176,35 @@ def _smaller(argv: list[str]) -> list[str]:
 
 
 @pytest.mark.slow
-@pytest.mark.parametrize("chain", [c for _, c in COMMANDS], ids=[f"line{n}" for n, _ in COMMANDS])
-def test_readme_command_runs(chain: list[list[str]], tmp_path: Path) -> None:
-    for argv in chain:
-        argv, target = _split_redirect(argv)
-        r = subprocess.run(
-            [*EXE, *_smaller(argv)], capture_output=True, text=True, timeout=600, cwd=tmp_path
-        )
-        assert r.returncode == 0, f"servokit {' '.join(argv)}\n{r.stderr}"
-        if target:
-            (tmp_path / target).write_text(r.stdout, encoding="utf-8")
+@pytest.mark.parametrize("script", [s for _, s in SCRIPTS], ids=[f"line{b}" for b, _ in SCRIPTS])
+def test_readme_commands_run(script: list[tuple[int, list[str]]], tmp_path: Path) -> None:
+    """The lines of one shell block, in order, in one directory."""
+    for n, words in script:
+        if words[0] == "echo":
+            argv, target = _split_redirect(words)
+            (tmp_path / target).write_text(" ".join(argv[1:]) + "\n", encoding="utf-8")
+            continue
+        for argv in _chain(words):
+            argv, target = _split_redirect(argv)
+            r = subprocess.run(
+                [*EXE, *_smaller(argv)], capture_output=True, text=True, timeout=600, cwd=tmp_path
+            )
+            assert r.returncode == 0, f"README.md:{n}: servokit {' '.join(argv)}\n{r.stderr}"
+            if target:
+                (tmp_path / target).write_text(r.stdout, encoding="utf-8")
 
 
 @pytest.mark.slow
-@pytest.mark.parametrize(
-    "source", [b for _, b in PYTHON_BLOCKS], ids=[f"line{n}" for n, _ in PYTHON_BLOCKS]
-)
-def test_readme_python_block_runs(source: str, tmp_path: Path, monkeypatch) -> None:
+@pytest.mark.parametrize("line_source", PYTHON_BLOCKS, ids=[f"line{n}" for n, _ in PYTHON_BLOCKS])
+def test_readme_python_block_runs(
+    line_source: tuple[int, str], tmp_path: Path, monkeypatch
+) -> None:
     import matplotlib.pyplot as plt
 
     monkeypatch.chdir(tmp_path)
     try:
-        exec(compile(source, str(README), "exec"), {"__name__": "__readme__"})
+        line, source = line_source
+        # padded so that a traceback names the README's own line numbers
+        exec(compile("\n" * line + source, str(README), "exec"), {"__name__": "__readme__"})
     finally:
         plt.close("all")
