@@ -48,7 +48,13 @@ def test_banded_equals_dense_rigid_body(N, umax, vmax):
         plant = ModalPlant(1.0, (Mode(0.0, 0.0, 1.0),), name="rigid")
         cons = [InputLimit(umax), VelocityLimit(vmax)]
         fast, dense = _both(mp, plant, 3.0 / N, N, constraints=cons)
-    assert _rel(fast.jerk, dense.jerk) < 1e-6
+    # "same optimum": the optimal cost (the sum of squared jerk the FSC minimises) agrees
+    # to the solvers' tolerance; the minimiser itself is fixed only to about the square
+    # root of it along weakly curved directions (seen: N=126, umax=1, vmax=0.5 gives cost
+    # 3e-11 apart, jerk 8e-6 apart, u 1e-6 apart)
+    cost_fast, cost_dense = np.sum(fast.jerk**2), np.sum(dense.jerk**2)
+    assert abs(cost_fast - cost_dense) < 1e-9 * cost_dense
+    assert _rel(fast.u, dense.u) < 1e-5
     assert np.abs(fast.u).max() <= umax * (1 + 1e-6)
 
 
