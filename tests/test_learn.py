@@ -139,3 +139,16 @@ def test_svm_beats_conventional_rule():
     conv, svm0, svm8 = evaluate_judgements(simulate_seeks(validation_seeks()), judge)
     assert svm0.failures <= conv.failures and svm0.mean_delay < conv.mean_delay
     assert svm8.failures < svm0.failures
+
+
+def test_class1_weight_makes_the_judge_more_cautious(tmp_path):
+    rng = np.random.default_rng(1)
+    X = rng.uniform(-1, 1, (400, 2))
+    labels = np.where(np.hypot(X[:, 0], X[:, 1]) < 0.6, 2, 1)
+    plain = SettlingJudge(C=1.0, coef0=1.0).fit(X, labels)
+    cautious = SettlingJudge(C=1.0, coef0=1.0, class1_weight=10.0).fit(X, labels)
+    settled_plain = np.sum(plain.decision_function(X) < 0)
+    settled_cautious = np.sum(cautious.decision_function(X) < 0)
+    assert settled_cautious <= settled_plain
+    back = SettlingJudge.load(cautious.save(tmp_path / "c.skops"))
+    assert back.class1_weight == 10.0

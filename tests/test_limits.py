@@ -5,7 +5,7 @@ from __future__ import annotations
 import control
 import numpy as np
 import pytest
-from hypothesis import assume, given, settings
+from hypothesis import HealthCheck, assume, given, settings
 from hypothesis import strategies as st
 
 from servokit.errors import ServokitError
@@ -68,7 +68,7 @@ def stable_discrete_loops(draw):
     return control.tf(num, den, 1.0)
 
 
-@settings(max_examples=40, deadline=None)
+@settings(max_examples=40, deadline=None, suppress_health_check=[HealthCheck.filter_too_much])
 @given(stable_discrete_loops())
 def test_discrete_integral_and_corollaries(loop):
     assume(abs(1 + high_frequency_gain(loop)) > 1e-3)  # Kz = -1 is ill-posed (tested below)
@@ -155,3 +155,12 @@ def test_discrete_integral_with_integrators_is_zero():
     loop = control.ss(controller_eq_4_69()) * hdd_sampled_data().discretize(HDD_SAMPLED_DATA_TS)
     res = discrete_bode_integral(loop)
     assert abs(res.integral) < 1e-9 and res.limit_gain == 0.0
+
+
+def test_public_api_contract():
+    import servokit as sk
+
+    assert sk.limits.waterbed_lower_bound(0.01, 2 * np.pi / 25) == pytest.approx(
+        100 ** ((2 / 25) / (1 - 2 / 25))
+    )
+    assert sk.learn.SettlingJudge is not None

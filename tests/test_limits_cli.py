@@ -47,7 +47,8 @@ def test_bode_integral_text_and_json(tmp_path):
     assert cont.exit_code == 0 and "Theorem 1" in cont.stdout
 
 
-def test_variance_and_dynamic_range():
+def test_variance_and_dynamic_range(tmp_path):
+    png = tmp_path / "v.png"
     out = runner.invoke(
         app,
         [
@@ -62,11 +63,14 @@ def test_variance_and_dynamic_range():
             "--dist-den",
             "0.01,1",
             "--json",
+            "--plot",
+            str(png),
         ],
     )
     assert out.exit_code == 0, out.output
     data = json.loads(out.stdout)
     assert data["bound"] <= data["variance"] <= data["printed_bound"]
+    assert png.stat().st_size > 5000
     out = runner.invoke(
         app, ["limits", "dynamic-range", "--stroke-m", "0.03", "--accuracy-m", "3e-9", "--json"]
     )

@@ -9,7 +9,18 @@ from importlib import import_module
 from typing import Any
 
 __version__ = "0.1.0"
-__all__ = ["models", "simulate", "feedforward", "feedback", "sampled", "cases", "report", "errors"]
+__all__ = [
+    "models",
+    "simulate",
+    "feedforward",
+    "feedback",
+    "sampled",
+    "cases",
+    "report",
+    "errors",
+    "learn",
+    "limits",
+]
 
 
 def __getattr__(name: str) -> Any:

@@ -138,6 +138,7 @@ def variance_cmd(
     dt: DtOpt = None,
     delta: float = typer.Option(0.5, "--delta", help="roll-off constant delta of (6.14)"),
     k: int = typer.Option(1, "--k", help="roll-off order k of (6.14)", min=1),
+    plot: PlotOpt = None,
     json_out: JsonOpt = False,
 ) -> None:
     """Output variance (6.13) against its lower bound (6.16, corrected).
@@ -146,9 +147,14 @@ def variance_cmd(
     """
     from servokit.limits import output_variance, rolloff_bandwidth, variance_lower_bound
 
+    plot = plot_target(plot)
     loop = _loop(num, den, dt)
     dist = _loop(dist_num, dist_den, dt, ("--dist-num", "--dist-den"))
     omega_hz = rolloff_bandwidth(loop, delta=delta, k=k)
+    if plot is not None:
+        from servokit.limits.plots import variance_plot
+
+        wrote(variance_plot(loop, dist, omega_hz, plot))
     vb = variance_lower_bound(dist, omega_hz, delta=delta, k=k, dt=dt)
     var = output_variance(loop, dist)
     data = {

@@ -64,8 +64,15 @@ def reproduce(
     names = select_cases(case, chapter)  # before any file is written
     out.mkdir(parents=True, exist_ok=True)
     clear_report(out)
+    results, runtimes = [], {}
     with progress(len(names), "reproducing") as advance:
-        results, runtimes = run_cases(out, names, advance=advance)
+        for i, name in enumerate(names, start=1):
+            # one line per case as it starts (stderr: --json output stays clean)
+            typer.echo(f"[{i}/{len(names)}] {name} ...", err=True)
+            done, seconds = run_cases(out, [name])
+            results += done
+            runtimes |= seconds
+            advance()
     json_path, html_path = write_report(results, out, runtimes)
     wrote(json_path)
     wrote(html_path)

@@ -66,6 +66,9 @@ def train_cmd(
     settle_band: BandOpt = 0.03,
     c: float = typer.Option(10.0, "--c", help="SVM soft-margin weight C"),
     coef0: float = typer.Option(0.5, "--coef0", help="polynomial kernel offset"),
+    class1_weight: float = typer.Option(
+        1.0, "--class1-weight", help="weight of class-1 errors (> 1: judge later, safer)"
+    ),
     cv: bool = typer.Option(False, "--cv", help="choose C and the offset by 3-fold CV (slower)"),
     json_out: JsonOpt = False,
 ) -> None:
@@ -77,7 +80,7 @@ def train_cmd(
         raise ServokitValueError(f"--out {out}: use a file name ending .skops")
     seeks = training_seeks(n_distances, n_lengths)
     data = training_set(_simulate(seeks, "simulating seeks"), bound=settle_band)
-    judge = SettlingJudge(bound=settle_band, C=c, coef0=coef0)
+    judge = SettlingJudge(bound=settle_band, C=c, coef0=coef0, class1_weight=class1_weight)
     judge = judge.tune(data.X, data.labels) if cv else judge.fit(data.X, data.labels)
     judge.save(out)
     wrote(out)
@@ -183,7 +186,7 @@ def judge_cmd(
         states, output, start = table[:, :6], table[:, 6], 0
     else:
         (r,) = _simulate([(target, n_samples)], "simulating")
-        states, output, start = r.states, r.output, r.n_input
+        states, output, start = r.states, r.output, 0
     res = {
         "n_judge": judge.judge(states, output, level, start=start),
         "n_conventional": conventional_judgement(output, judge.bound, start=start),

@@ -276,8 +276,23 @@ def constraint_rows(
 ) -> tuple[np.ndarray, np.ndarray, list[tuple[str, int]]]:
     """Stack the rows of several constraints: ``(G, h, groups)``.
 
-    ``groups`` lists ``(name, n_rows)`` in order; pass it to :func:`solve_fsc_qp` so that
-    an infeasible problem names its binding constraint.
+    Parameters
+    ----------
+    constraints : iterable
+        Constraint objects of this module, each with a ``rows(model)`` method returning
+        ``(G, h)`` for ``G U <= h``.
+    model : LiftedModel
+        The lifted FSC model (input samples ``U`` as variables).
+
+    Returns
+    -------
+    G : numpy.ndarray
+        Stacked inequality matrix, shape (rows, N).
+    h : numpy.ndarray
+        Stacked right-hand side, shape (rows,).
+    groups : list of (str, int)
+        ``(name, n_rows)`` in order; pass it to :func:`solve_fsc_qp` so that an infeasible
+        problem names its binding constraint.
     """
     G_parts, h_parts, groups = [], [], []
     for i, con in enumerate(constraints):

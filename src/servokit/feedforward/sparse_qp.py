@@ -113,7 +113,28 @@ def limit_violation(
     A: np.ndarray, B: np.ndarray, x0: np.ndarray, U: np.ndarray, *, dt: float,
     input_row: np.ndarray, limits: Sequence[SparseRow],
 ) -> float:  # fmt: skip
-    """Largest ``(|z[k]| - zmax) / zmax`` over all limits (<= 0 when all hold)."""
+    """Largest ``(|z[k]| - zmax) / zmax`` over all limits (<= 0 when all hold).
+
+    Parameters
+    ----------
+    A, B : numpy.ndarray
+        Discrete design model ``x[k+1] = A x[k] + B u[k]``.
+    x0 : numpy.ndarray
+        Initial state.
+    U : numpy.ndarray
+        Input samples, shape (N,).
+    dt : float
+        Hold period [s] (the rate term ``b du/dt`` of a limit).
+    input_row : numpy.ndarray
+        Row giving the continuous input (e.g. the current) from the state.
+    limits : sequence of SparseRow
+        ``(Cz, a, b, zmax)``: limit ``|Cz x + a u + b du/dt| <= zmax``.
+
+    Returns
+    -------
+    float
+        The largest relative violation; ``<= 0`` when every limit holds.
+    """
     xs = _states(A, B, x0, U)
     uc = np.append(xs[:-1] @ input_row, 0.0)
     worst = -np.inf

@@ -54,7 +54,24 @@ def conventional_judgement(
     output: np.ndarray, bound: float = SETTLE_BOUND, n_in_row: int = 5, *, start: int = 0
 ) -> int:
     """Sample at which the output has been inside ``+-bound`` ``n_in_row`` times in a row
-    (counting from ``start``); -1 if never."""
+    (counting from ``start``); -1 if never.
+
+    Parameters
+    ----------
+    output : ndarray
+        Output sequence [track] (target at 0).
+    bound : float
+        Allowable bound [track].
+    n_in_row : int
+        Consecutive in-bound samples required.
+    start : int
+        First sample counted.
+
+    Returns
+    -------
+    int
+        The judged sample, or -1.
+    """
     bound = check_positive("bound", bound, "track")
     n = check_count("n_in_row", n_in_row, lo=1)
     inside = (np.abs(np.asarray(output)[start:]) <= bound).astype(int)
@@ -75,11 +92,29 @@ def evaluate_judgements(
     *,
     levels: Sequence[float] = (0.0, -0.8),
     n_in_row: int = 5,
-    from_input_end: bool = True,
+    from_input_end: bool = False,
 ) -> list[JudgementStats]:
     """Judge every seek by the conventional rule and by the SVM at each level.
 
     With ``from_input_end`` every method starts judging at the end of the FSC input.
+
+    Parameters
+    ----------
+    responses : sequence of SeekResponse
+        Validation seeks.
+    judge : SettlingJudge
+        Fitted judge (its ``bound`` is used by every method).
+    levels : sequence of float
+        SVM decision levels to evaluate.
+    n_in_row : int
+        Samples in a row of the conventional rule.
+    from_input_end : bool
+        Start judging at the end of the FSC input.
+
+    Returns
+    -------
+    list of JudgementStats
+        Conventional rule first, then one entry per level.
     """
     n0 = [r.n0(judge.bound) for r in responses]
     start = [r.n_input if from_input_end else 0 for r in responses]
@@ -100,7 +135,22 @@ def evaluate_judgements(
 def judgement_plot(
     stats: Sequence[JudgementStats], path: str | Path, *, figures: Sequence[str]
 ) -> Path:
-    """Histograms of ``N_judge - N0`` per method, failures in red (Figs. 6.10-6.12)."""
+    """Histograms of ``N_judge - N0`` per method, failures in red (Figs. 6.10-6.12).
+
+    Parameters
+    ----------
+    stats : sequence of JudgementStats
+        One panel each.
+    path : str or Path
+        Figure file (.png / .svg).
+    figures : sequence of str
+        Book figure number of each panel.
+
+    Returns
+    -------
+    Path
+        The file written.
+    """
     import matplotlib.pyplot as plt
 
     from servokit._figures import save_figure

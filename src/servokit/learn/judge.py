@@ -61,6 +61,9 @@ class SettlingJudge:
         Polynomial kernel offset ``(gamma <x, x'> + coef0)^degree``.
     level : float
         Decision level: settled when ``f(x) < level`` (0 or the book's -0.8).
+    class1_weight : float
+        Weight of class-1 errors in the SVM (scikit-learn ``class_weight``); above 1 it
+        penalises judging "settled" too early, an alternative to a negative ``level``.
 
     Attributes
     ----------
@@ -78,12 +81,14 @@ class SettlingJudge:
         C: float = 10.0,
         coef0: float = 1.0,
         level: float = 0.0,
+        class1_weight: float = 1.0,
     ) -> None:
         self.bound = check_positive("bound", bound, "track")
         self.degree = int(degree)
         self.C = check_positive("C", C)
         self.coef0 = float(check_finite("coef0", coef0))
         self.level = float(check_finite("level", level))
+        self.class1_weight = check_positive("class1_weight", class1_weight)
         self.cv_scores_: dict[tuple[float, float], float] = {}
 
     # ------------------------------------------------------------ training
@@ -92,7 +97,14 @@ class SettlingJudge:
         from sklearn.preprocessing import StandardScaler
         from sklearn.svm import SVC
 
-        svc = SVC(kernel="poly", degree=self.degree, C=C, coef0=coef0, gamma="scale")
+        svc = SVC(
+            kernel="poly",
+            degree=self.degree,
+            C=C,
+            coef0=coef0,
+            gamma="scale",
+            class_weight={1: self.class1_weight, 2: 1.0},
+        )
         return Pipeline([("scale", StandardScaler()), ("svc", svc)])
 
     @staticmethod
@@ -186,6 +198,7 @@ class SettlingJudge:
             "C": self.C,
             "coef0": self.coef0,
             "level": self.level,
+            "class1_weight": self.class1_weight,
         }
         sio.dump({"pipeline": self._fitted(), "settings": settings}, Path(path))
         return Path(path)
@@ -226,6 +239,7 @@ class SettlingJudge:
         judge = cls(
             **{k: data["settings"][k] for k in ("bound", "C", "coef0", "level")},
             degree=int(data["settings"]["degree"]),
+            class1_weight=float(data["settings"].get("class1_weight", 1.0)),
         )
         judge.pipeline_ = data["pipeline"]
         return judge

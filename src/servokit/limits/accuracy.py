@@ -128,6 +128,10 @@ def variance_lower_bound(
         Sampling period [s] of a discrete loop; integrals then stop at Nyquist.
     breakpoints_hz : tuple of float
         Frequencies of sharp disturbance peaks, to guide the quadrature [Hz].
+
+    Returns
+    -------
+    VarianceBound
     """
     f_b = check_positive("bandwidth_hz", bandwidth_hz, "Hz")
     d = check_positive("delta", delta)
@@ -169,6 +173,20 @@ def output_variance(
 
     ``loop`` and ``disturbance`` are both continuous, or both discrete with the loop's
     ``dt`` (unit-variance white input; the integral then runs over ``phi`` in ``[0, pi]``).
+
+    Parameters
+    ----------
+    loop : LTI
+        Open loop ``L``.
+    disturbance : LTI or callable
+        Shaping filter ``D`` or ``freq_hz -> D``.
+    breakpoints_hz : tuple of float
+        Sharp peaks, to guide the quadrature [Hz].
+
+    Returns
+    -------
+    float
+        ``var(y)`` [output unit^2].
     """
     dt = float(loop.dt) if loop.isdtime() else None
     d_resp, l_resp = _response(disturbance, dt), _response(loop, dt)
@@ -193,6 +211,20 @@ def rolloff_bandwidth(
 
     On a logarithmic grid: with ``g(w) = w (|L|/delta)^(1/(k+1))`` the condition reads
     ``sup_{w >= Omega} g <= Omega``, so ``Omega = min_i max(w_i, max_{j >= i} g_j)``.
+
+    Parameters
+    ----------
+    loop : LTI
+        Open loop ``L`` (continuous or discrete).
+    delta, k : float, int
+        Constants of (6.14).
+    n_freq : int
+        Grid points.
+
+    Returns
+    -------
+    float
+        ``Omega / (2 pi)`` [Hz].
     """
     d = check_positive("delta", delta)
     kk = check_count("k", k, lo=1, hi=50)
@@ -207,7 +239,19 @@ def rolloff_bandwidth(
 
 
 def dynamic_range(stroke_m: float, accuracy_m: float) -> float:
-    """Dynamic range of §6.1.1: ``accuracy / stroke`` (Fig. 6.1; about 1e-7 for an HDD)."""
+    """Dynamic range of §6.1.1: ``accuracy / stroke`` (Fig. 6.1; about 1e-7 for an HDD).
+
+    Parameters
+    ----------
+    stroke_m : float
+        Actuator stroke [m].
+    accuracy_m : float
+        Positioning accuracy [m].
+
+    Returns
+    -------
+    float
+    """
     s = check_positive("stroke_m", stroke_m, "m")
     a = check_positive("accuracy_m", accuracy_m, "m")
     if a > s:

@@ -86,6 +86,15 @@ def high_frequency_gain(loop: control.TransferFunction | control.StateSpace) -> 
     """``Kz = lim_{z->inf} L(z)`` (discrete) or ``Ks = lim_{s->inf} s L(s)`` (continuous).
 
     Raises for a continuous loop that is not strictly proper (``Ks`` infinite).
+
+    Parameters
+    ----------
+    loop : SISO LTI
+        Open loop.
+
+    Returns
+    -------
+    float
     """
     tf = _as_tf(loop)
     num, den = _trimmed(tf.num[0][0]), _trimmed(tf.den[0][0])
@@ -146,6 +155,10 @@ def discrete_bode_integral(
         Open loop ``L(z) = C(z) P(z)``; stable, with a stable closed loop.
     n_freq : int
         Number of grid points on ``[-pi, pi)``.
+
+    Returns
+    -------
+    BodeIntegral
     """
     tf = _as_tf(loop)
     if not tf.isdtime():
@@ -183,6 +196,17 @@ def continuous_bode_integral(
     Trapezoidal rule on a logarithmic grid spanning six decades beyond the loop's poles
     and zeros; below the grid ``ln|S|`` is taken constant, above it the ``1/w^2`` tail of a
     strictly proper loop is added analytically (``w_max |ln S(j w_max)|``).
+
+    Parameters
+    ----------
+    loop : continuous SISO LTI
+        Strictly proper, stable open loop with a stable closed loop.
+    n_freq : int
+        Grid points.
+
+    Returns
+    -------
+    BodeIntegral
     """
     tf = _as_tf(loop)
     if tf.isdtime():
@@ -201,7 +225,19 @@ def continuous_bode_integral(
 
 
 def waterbed_phi1(bandwidth_hz: float, sampling_hz: float) -> float:
-    """Normalised frequency ``phi1 = 2 pi f_b / f_s`` [rad] of a sensitivity bandwidth."""
+    """Normalised frequency ``phi1 = 2 pi f_b / f_s`` [rad] of a sensitivity bandwidth.
+
+    Parameters
+    ----------
+    bandwidth_hz : float
+        Sensitivity bandwidth [Hz].
+    sampling_hz : float
+        Sampling frequency [Hz].
+
+    Returns
+    -------
+    float
+    """
     fb = check_positive("bandwidth_hz", bandwidth_hz, "Hz")
     fs = check_positive("sampling_hz", sampling_hz, "Hz")
     if fb >= fs / 2:

@@ -10,13 +10,27 @@ import numpy as np
 from servokit._figures import save_figure
 from servokit.limits.bode import waterbed_lower_bound
 
-__all__ = ["bode_integral_plot", "waterbed_plot"]
+__all__ = ["bode_integral_plot", "variance_plot", "waterbed_plot"]
 
 
 def bode_integral_plot(
     loop: control.TransferFunction | control.StateSpace, path: str | Path, *, n_freq: int = 4000
 ) -> Path:
-    """``ln|S|`` against frequency with the negative and positive areas shaded (§6.3.2)."""
+    """``ln|S|`` against frequency with the negative and positive areas shaded (§6.3.2).
+
+    Parameters
+    ----------
+    loop : SISO LTI
+        Open loop.
+    path : str or Path
+        Figure file.
+    n_freq : int
+        Grid points.
+
+    Returns
+    -------
+    Path
+    """
     import matplotlib.pyplot as plt
 
     if loop.isdtime():
@@ -41,7 +55,23 @@ def bode_integral_plot(
 
 
 def waterbed_plot(alpha: float, sampling_hz: float, path: str | Path, *, mark_hz: float) -> Path:
-    """Lower bound (6.20) of ``||S||inf`` [dB] against the sensitivity bandwidth."""
+    """Lower bound (6.20) of ``||S||inf`` [dB] against the sensitivity bandwidth.
+
+    Parameters
+    ----------
+    alpha : float
+        Bound of ``|S|`` below the bandwidth (linear).
+    sampling_hz : float
+        Sampling frequency [Hz].
+    path : str or Path
+        Figure file.
+    mark_hz : float
+        Bandwidth to mark [Hz].
+
+    Returns
+    -------
+    Path
+    """
     import matplotlib.pyplot as plt
 
     fb = np.linspace(sampling_hz * 1e-3, sampling_hz * 0.3, 400)
@@ -53,5 +83,51 @@ def waterbed_plot(alpha: float, sampling_hz: float, path: str | Path, *, mark_hz
     ax.set(xlabel="sensitivity bandwidth [Hz]", ylabel="lower bound of ||S||inf [dB]")
     ax.set_title(f"Waterbed bound (book eq. 6.20), sampling {sampling_hz:g} Hz")
     ax.grid(True, alpha=0.3)
+    ax.legend()
+    return save_figure(fig, path)
+
+
+def variance_plot(
+    loop: control.TransferFunction | control.StateSpace,
+    disturbance: control.TransferFunction | control.StateSpace,
+    bandwidth_hz: float,
+    path: str | Path,
+    *,
+    n_freq: int = 2000,
+) -> Path:
+    """``|D|^2`` and ``|S D|^2`` (the integrand of 6.13) with the bandwidth of (6.14) marked.
+
+    Parameters
+    ----------
+    loop, disturbance : LTI
+        Open loop and disturbance shaping filter (both continuous, or both discrete).
+    bandwidth_hz : float
+        ``Omega / (2 pi)`` [Hz] to mark.
+    path : str or Path
+        Figure file.
+    n_freq : int
+        Grid points.
+
+    Returns
+    -------
+    Path
+    """
+    import matplotlib.pyplot as plt
+
+    if loop.isdtime():
+        f = np.geomspace(1e-4 / loop.dt, 0.5 / loop.dt, n_freq)
+        x = np.exp(2j * np.pi * f * loop.dt)
+    else:
+        f = np.geomspace(bandwidth_hz * 1e-3, bandwidth_hz * 1e3, n_freq)
+        x = 2j * np.pi * f
+    d2 = np.abs(np.asarray(disturbance(x)).ravel()) ** 2
+    s2 = np.abs(1.0 / (1.0 + np.asarray(loop(x)).ravel())) ** 2
+    fig, ax = plt.subplots(figsize=(7, 3.6))
+    ax.loglog(f, d2, "--", label="|D|^2 (open loop)")
+    ax.loglog(f, s2 * d2, label="|S D|^2 (closed loop)")
+    ax.axvline(bandwidth_hz, color="k", ls=":", label=f"Omega = {bandwidth_hz:.3g} Hz (6.14)")
+    ax.set(xlabel="frequency [Hz]", ylabel="power density [unit^2 s/rad]")
+    ax.set_title("Output variance integrand (book eqs. 6.13-6.16)")
+    ax.grid(True, which="both", alpha=0.3)
     ax.legend()
     return save_figure(fig, path)

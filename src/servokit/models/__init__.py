@@ -1,6 +1,7 @@
 """Plants and controllers: modal plants with delay, exact discretisation, variation
 sets, the built-in catalogue, the book's controllers and TOML plant/controller files."""
 
+from servokit.models.benchmark_controller import BENCHMARK_NOTCHES, benchmark_controller
 from servokit.models.catalogue import (
     CATALOGUE,
     HDD_BENCHMARK_TS,
@@ -28,6 +29,7 @@ from servokit.models.controllers import (
     vcm_controller_table_5_2,
     zpk,
 )
+from servokit.models.disturbances import BenchmarkDisturbances, DisturbanceRecord, band_powers
 from servokit.models.files import (
     PlantFileError,
     load_controller,
@@ -39,6 +41,11 @@ from servokit.models.modal import ModalPlant, Mode, modal_matrices
 from servokit.models.variations import Perturbation, VariationSet
 
 __all__ = [
+    "BENCHMARK_NOTCHES",
+    "BenchmarkDisturbances",
+    "DisturbanceRecord",
+    "band_powers",
+    "benchmark_controller",
     "CATALOGUE",
     "CONTROLLERS",
     "get_discrete_controller",

@@ -9,10 +9,13 @@ from servokit.simulate.metrics import (
     settling_time,
     step_metrics,
 )
+from servokit.simulate.pes import PesResult, track_following_pes
 from servokit.simulate.search import NSearchResult, choose_N
 from servokit.simulate.tdof import TdofResult, tdof_response
 
 __all__ = [
+    "PesResult",
+    "track_following_pes",
     "HeldInput",
     "NSearchResult",
     "SimulationResult",

@@ -89,7 +89,26 @@ class StepMetrics:
 
 
 def step_metrics(t: np.ndarray, y: np.ndarray, target: float, band: float) -> StepMetrics:
-    """Settling time, overshoot and peak of each row of ``y`` for a move to ``target``."""
+    """Settling time, overshoot and peak of each row of ``y`` for a move to ``target``.
+
+    Parameters
+    ----------
+    t : numpy.ndarray
+        Time grid [s], shape (T,).
+    y : numpy.ndarray
+        Output, shape (T,) or (V, T) (one row per variant).
+    target : float
+        Final value of the move (plant output unit).
+    band : float
+        Settling band half-width around ``target``: the settling time is the time after
+        which the output stays within ``target +- band``.
+
+    Returns
+    -------
+    StepMetrics
+        ``settling_time`` [s] (``inf`` if never settled), ``overshoot`` beyond the target
+        in the direction of the move, and ``peak``, each of shape (V,).
+    """
     y2 = np.atleast_2d(np.asarray(y, dtype=float))
     sgn = 1.0 if target >= 0 else -1.0
     peak = sgn * np.max(sgn * y2, axis=1)
@@ -127,8 +146,23 @@ def seek_response(
 ):
     """Open-loop response of every plant to the held feedforward ``ff`` (no feedback).
 
-    ``grid`` defaults to ``ff.dt / 10``; ``horizon`` to ``max(3 T, T + 2 ms)`` with
-    ``T`` the input's duration.
+    Parameters
+    ----------
+    plants : ModalPlant or sequence of ModalPlant
+        The plant (set), each with its input delay.
+    ff : HeldInput
+        A held input with ``.u`` (samples) and ``.dt`` (hold period [s]), e.g. a
+        :class:`~servokit.feedforward.FeedforwardInput`.
+    grid : float, optional
+        Output grid [s]; must divide ``ff.dt``; default ``ff.dt / 10`` (the benchmark's
+        read-out of the position every Ts/10).
+    horizon : float, optional
+        Simulated time [s]; default ``max(3 T, T + 2 ms)`` with ``T`` the input's duration.
+
+    Returns
+    -------
+    SimulationResult
+        The result of :func:`~servokit.simulate.simulate` (``t``, ``yc`` per plant, ...).
     """
     return simulate(plants, **_seek_request(ff, grid, horizon))
 

@@ -90,7 +90,26 @@ def closed_loop(
     dt: float,
     multirate: tuple[int, StateSpace] | None = None,
 ) -> ClosedLoop:
-    """The stacked sample-rate closed loops driven by ``e0`` (see module docstring)."""
+    """The stacked sample-rate closed loops driven by ``e0`` (see module docstring).
+
+    Parameters
+    ----------
+    bank : PlantBank
+        The stacked plant variants (their exact hold/delay discretisations).
+    controller : StateSpace
+        The digital controller ``(Ac, Bc, Cc, Dc)`` acting on ``r - y`` at ``dt``.
+    dt : float
+        Sampling period of the loop [s].
+    multirate : tuple of (int, StateSpace), optional
+        ``(m, F)``: a multirate filter ``F`` with hold at ``dt / m`` (Fig. 4.2), lifted to
+        the sampling period.
+
+    Returns
+    -------
+    ClosedLoop
+        Stacked ``A_cl`` (V, N, N), input and output matrices of the loops, the
+        controller feed-through and the plant / filter state counts.
+    """
     A, B, C, nf = _lifted_plant(bank, dt, multirate)
     Ac, Bc, Cc, Dc = controller
     V, n, _ = A.shape
@@ -111,7 +130,25 @@ def closed_loop_matrices(
     dt: float,
     multirate: tuple[int, StateSpace] | None = None,
 ) -> np.ndarray:
-    """Stacked closed-loop matrices ``A_cl`` (V, N, N) of the sampled loop."""
+    """Stacked closed-loop matrices ``A_cl`` (V, N, N) of the sampled loop.
+
+    Parameters
+    ----------
+    bank : PlantBank
+        The stacked plant variants (their exact hold/delay discretisations).
+    controller : StateSpace
+        The digital controller ``(Ac, Bc, Cc, Dc)`` acting on ``r - y`` at ``dt``.
+    dt : float
+        Sampling period of the loop [s].
+    multirate : tuple of (int, StateSpace), optional
+        ``(m, F)``: a multirate filter ``F`` with hold at ``dt / m`` (Fig. 4.2), lifted to
+        the sampling period.
+
+    Returns
+    -------
+    numpy.ndarray
+        ``A_cl`` of every variant, shape (V, N, N).
+    """
     return closed_loop(bank, controller, dt, multirate).A
 
 
@@ -121,7 +158,25 @@ def spectral_radii(
     dt: float,
     multirate: tuple[int, StateSpace] | None = None,
 ) -> np.ndarray:
-    """Largest closed-loop pole magnitude ``|z|`` of every variant, shape (V,)."""
+    """Largest closed-loop pole magnitude ``|z|`` of every variant.
+
+    Parameters
+    ----------
+    bank : PlantBank
+        The stacked plant variants (their exact hold/delay discretisations).
+    controller : StateSpace
+        The digital controller ``(Ac, Bc, Cc, Dc)`` acting on ``r - y`` at ``dt``.
+    dt : float
+        Sampling period of the loop [s].
+    multirate : tuple of (int, StateSpace), optional
+        ``(m, F)``: a multirate filter ``F`` with hold at ``dt / m`` (Fig. 4.2), lifted to
+        the sampling period.
+
+    Returns
+    -------
+    numpy.ndarray
+        Spectral radius of every variant's closed loop, shape (V,); ``>= 1`` is unstable.
+    """
     Acl = closed_loop_matrices(bank, controller, dt, multirate)
     if Acl.shape[-1] == 0:
         return np.zeros(Acl.shape[0])
@@ -131,8 +186,23 @@ def spectral_radii(
 def unstable(A: np.ndarray, margin: float = 1e-10) -> tuple[np.ndarray, np.ndarray]:
     """Variants of the stack ``A`` (V, N, N) with spectral radius ``>= 1 - margin``.
 
-    Returns their indices and spectral radii.  Certified-stable variants are dropped
-    by repeated squaring; the rest get exact eigenvalues (see module docstring).
+    Certified-stable variants are dropped by repeated squaring (a power with induced
+    infinity norm below 1 proves the spectral radius below 1); the rest get exact
+    eigenvalues (see module docstring).
+
+    Parameters
+    ----------
+    A : numpy.ndarray
+        Stack of square matrices, shape (V, N, N).
+    margin : float
+        Variants with spectral radius ``>= 1 - margin`` count as unstable.
+
+    Returns
+    -------
+    indices : numpy.ndarray
+        Indices (into the stack) of the unstable variants.
+    radii : numpy.ndarray
+        Their spectral radii.
     """
     V = A.shape[0]
     if A.shape[-1] == 0:
