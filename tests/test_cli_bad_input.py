@@ -511,6 +511,22 @@ CASES: list[tuple[list[str], str]] = [
     (["export", "table", "--input", "NAN.csv"], "--input"),
     (["export", "table", "--input", "u.txt", "--out", "u.txt"], "--out"),
     (["export", "table", "--input", "u.txt", "--out", "RO"], "--out"),
+    # ---- wrong types and missing plot directories across the newer commands
+    (["sweep", "--u-max", "abc", "--method", "robust"], "--u-max"),
+    (["sweep", "--plot", "missing/fig.png"], "--plot"),
+    ([*ADM, "--t-max", "abc"], "--t-max"),
+    ([*COST, "--n-points", "abc"], "--n-points"),
+    ([*IVC, "--pole", "abc", "--method", "input"], "--pole"),
+    ([*IDENT, "--substeps", "abc"], "--substeps"),
+    ([*IDENT, "--plot", "missing/fig.svg"], "--plot"),
+    ([*NOTCH, "--dt", "abc"], "--dt"),
+    ([*MARG, "--plot", "missing/fig.png"], "--plot"),
+    (["dual-stage", "--maxiter", "abc"], "--maxiter"),
+    (["ssa", "adaptive", "--n-modes", "abc"], "--n-modes"),
+    (["ssa", "idssa", "--r", "abc"], "--r"),
+    ([*XFF, "--n-samples", "abc"], "--n-samples"),
+    (["export", "table", "--input", "u.txt", "--precision", "q7"], "--precision"),
+    (["export", "table", "--input", "u.txt", "--out", "u.txt/sub"], "--out"),
 ]
 
 # Known failures in modules another engineer owns (cli/limits.py, cli/settle.py, cli/pes.py): the
