@@ -8,6 +8,8 @@ traceback, nothing on stdout, nothing written, and done within a few seconds.
 
 from __future__ import annotations
 
+import os
+import signal
 import time
 from pathlib import Path
 
@@ -15,6 +17,7 @@ import pytest
 
 import servokit.cli
 
+HANG_S = 30  # a case still running after this long is reported as a hang
 HUGE = "1000000000"  # a count that must be refused before anything is allocated
 
 SIM = ["simulate", "--dt", "1e-4", "--duration", "0.01"]
@@ -23,9 +26,23 @@ MJ = ["feedforward", "minimum-jerk"]
 MAG = ["unobservable", "magnitude", "--freq", "4000"]
 SAMP = ["unobservable", "sampling", "--freq", "4000"]
 TIME = ["unobservable", "time", "--freq", "4000", "--dt", "25e-6"]
+IVC = ["switching", "ivc"]
+ADM = ["switching", "admissible-set"]
+COST = ["switching", "cost-map"]
+IDENT = ["identify", "--plant", "vcm-dual-stage", "--controller", "table-5.2"]
+NOTCH = ["filter", "notch", "--freq", "4449", "--damping", "0.09"]
+PEAK = ["filter", "peak", "--freq", "4449", "--damping", "0.015", "--gain", "0.1778"]
+LAG = ["filter", "lag", "--freq", "6900", "--damping", "0.1"]
+INV = ["filter", "inverse", "--zero-freq", "4449"]
+BODE = ["limits", "bode-integral", "--num", "0.5,0.1", "--den", "1,-0.5,0.1"]
+VAR = ["limits", "variance", "--num", "40000", "--den", "1,300,0", "--dist-num", "1"]
+XFF = ["export", "feedforward"]
+MARG = ["margins", "--plant", "hdd-sampled-data", "--controller", "eq-4.69"]
 
 CASES: list[tuple[list[str], str]] = [
     # ---- plant
+    (["plant", "list", "--bogus"], "--bogus"),  # no value to get wrong: an unknown flag
+    (["plant", "list", "extra"], "extra"),
     (["plant", "show", ""], "PLANT"),
     (["plant", "show", "."], "PLANT"),
     (["plant", "show", "no-such-plant"], "PLANT"),
@@ -170,31 +187,491 @@ CASES: list[tuple[list[str], str]] = [
     (["reproduce", "--out", "u.txt"], "--out"),
     (["reproduce", "--out", "u.txt/sub"], "--out"),
     (["reproduce", "--case", "no-such", "--out", "fresh"], "--case"),
+    # ---- feedforward: the flags the first rows leave out
+    ([*POLY, "--n-samples", "abc", "--dt", "1e-4"], "--n-samples"),
+    ([*POLY, "--n-samples", "40", "--dt", "-1e-4"], "--dt"),
+    ([*POLY, "--n-samples", "40", "--dt", "inf"], "--dt"),
+    ([*POLY, "--n-samples", "40", "--dt", "1e-4", "--target", "inf"], "--target"),
+    ([*POLY, "--n-samples", "40", "--dt", "1e-4", "--plot", "DIR"], "--plot"),
+    ([*POLY, "--n-samples", "40", "--dt", "1e-4", "--plot", "RO/fig.png"], "--plot"),
+    ([*POLY, "--n-samples", "40", "--dt", "1e-4", "--max-memory-mb", "0"], "--max-memory-mb"),
+    ([*MJ, "--dt", "nan"], "--dt"),
+    ([*MJ, "--dt", "-0.1"], "--dt"),
+    ([*MJ, "--dt", "abc"], "--dt"),
+    ([*MJ, "--dt", "0.1", "--move-time", "-1"], "--move-time"),
+    ([*MJ, "--dt", "0.1", "--plot", "fig.pdf"], "--plot"),
+    ([*MJ, "--dt", "0.1", "--plot", "RO/fig.svg"], "--plot"),
+    # ---- sweep
+    (["sweep", "--n-variants", "0"], "--n-variants"),
+    (["sweep", "--n-variants", "-5"], "--n-variants"),
+    (["sweep", "--n-variants", "abc"], "--n-variants"),
+    (["sweep", "--n-variants", HUGE], "--n-variants"),
+    (["sweep", "--target", "nan"], "--target"),
+    (["sweep", "--target", "0"], "--target"),
+    (["sweep", "--tracks", "inf"], "--target"),
+    (["sweep", "--settle-band", "0"], "--settle-band"),
+    (["sweep", "--settle-band", "nan"], "--settle-band"),
+    (["sweep", "--n-samples", "0"], "--n-samples"),
+    (["sweep", "--n-samples", HUGE], "--n-samples"),
+    (["sweep", "--method", "lqr"], "--method"),
+    (["sweep", "--method", "robust"], "--u-max"),
+    (["sweep", "--method", "robust", "--u-max", "0"], "--u-max"),
+    (["sweep", "--method", "robust", "--u-max", "nan"], "--u-max"),
+    (["sweep", "--chunk-size", "0"], "--chunk-size"),
+    (["sweep", "--chunk-size", HUGE], "--chunk-size"),
+    (["sweep", "--workers", "0"], "--workers"),
+    (["sweep", "--seed", "-1"], "--seed"),
+    (["sweep", "--design", "missing.json"], "--design"),
+    (["sweep", "--design", "DIR"], "--design"),
+    (["sweep", "--design", "GARBAGE.toml"], "--design"),
+    (["sweep", "--design", "EMPTY.txt"], "--design"),
+    (["sweep", "--design", "BAD.json"], "--design"),
+    (["sweep", "--plot", "DIR"], "--plot"),
+    (["sweep", "--plot", "fig.pdf"], "--plot"),
+    (["sweep", "--plot", "RO/fig.png"], "--plot"),
+    (["sweep", "--max-memory-mb", "0"], "--max-memory-mb"),
+    (["sweep", "--n-variants", "100000000", "--max-memory-mb", "1"], "--max-memory-mb"),
+    # ---- switching ivc / admissible-set / cost-map
+    ([*IVC, "--plant", "no-such"], "--plant"),
+    ([*IVC, "--plant", "DIR"], "--plant"),
+    ([*IVC, "--plant", "GARBAGE.toml"], "--plant"),
+    ([*IVC, "--controller", "no-such"], "--controller"),
+    ([*IVC, "--controller", "DIR"], "--controller"),
+    ([*IVC, "--controller", "lead-lag", "--freq", "0", "--dt", "3.7879e-5"], "--freq"),
+    ([*IVC, "--controller", "lead-lag", "--freq", "nan", "--dt", "3.7879e-5"], "--freq"),
+    ([*IVC, "--dt", "0"], "--dt"),
+    ([*IVC, "--dt", "nan"], "--dt"),
+    ([*IVC, "--dt", "-1"], "--dt"),
+    ([*IVC, "--method", "foo"], "--method"),
+    ([*IVC, "--weight", "foo"], "--weight"),
+    ([*IVC, "--weight", "1,nan"], "--weight"),
+    ([*IVC, "--method", "pole-zero", "--poles", "a,b"], "--poles"),
+    ([*IVC, "--method", "pole-zero", "--poles", "nan"], "--poles"),
+    ([*IVC, "--method", "input", "--pole", "nan"], "--pole"),
+    ([*IVC, "--method", "input", "--pole", "2"], "--pole"),
+    ([*IVC, "--method", "input", "--order", "-1"], "--order"),
+    ([*IVC, "--method", "input", "--order", HUGE], "--order"),
+    ([*IVC, "--method", "input", "--input-weight", "-1"], "--input-weight"),
+    ([*IVC, "--method", "input", "--jerk-weight", "nan"], "--jerk-weight"),
+    ([*IVC, "--n-samples", "1"], "--n-samples"),
+    ([*IVC, "--n-samples", HUGE], "--n-samples"),
+    ([*IVC, "--plot", "noext"], "--plot"),
+    ([*IVC, "--plot", "RO/fig.png"], "--plot"),
+    ([*ADM, "--u-max", "0"], "--u-max"),
+    ([*ADM, "--u-max", "nan"], "--u-max"),
+    ([*ADM, "--u-max", "-1"], "--u-max"),
+    ([*ADM, "--condition", "1"], "--condition"),
+    ([*ADM, "--condition", "a:b"], "--condition"),
+    ([*ADM, "--condition", "nan:0"], "--condition"),
+    ([*ADM, "--t-max", "0"], "--t-max"),
+    ([*ADM, "--t-max", HUGE], "--t-max"),
+    ([*ADM, "--dt", "0"], "--dt"),
+    ([*ADM, "--freq", "nan"], "--freq"),
+    ([*ADM, "--plant", "missing.toml"], "--plant"),
+    ([*ADM, "--max-memory-mb", "0"], "--max-memory-mb"),
+    ([*ADM, "--plot", "DIR"], "--plot"),
+    ([*ADM, "--plot", "RO/fig.png"], "--plot"),
+    ([*COST, "--position", "nan"], "--position"),
+    ([*COST, "--vel-range", "1:0"], "--vel-range"),
+    ([*COST, "--vel-range", "a:b"], "--vel-range"),
+    ([*COST, "--vel-range", "nan:1"], "--vel-range"),
+    ([*COST, "--acc-range", "x"], "--acc-range"),
+    ([*COST, "--n-points", "1"], "--n-points"),
+    ([*COST, "--n-points", HUGE], "--n-points"),
+    ([*COST, "--ivc", "foo"], "--ivc"),
+    ([*COST, "--dt", "nan"], "--dt"),
+    ([*COST, "--freq", "-1"], "--freq"),
+    ([*COST, "--controller", "no-such"], "--controller"),
+    # ---- identify
+    (["identify", "--plant", "no-such", "--controller", "table-5.2"], "--plant"),
+    (["identify", "--plant", "DIR", "--controller", "table-5.2"], "--plant"),
+    (["identify", "--plant", "vcm-dual-stage", "--controller", "no-such"], "--controller"),
+    (["identify", "--plant", "vcm-dual-stage", "--controller", "missing.toml"], "--controller"),
+    ([*IDENT, "--fs", "0"], "--fs"),
+    ([*IDENT, "--fs", "nan"], "--fs"),
+    ([*IDENT, "--fs", "-3e4"], "--fs"),
+    ([*IDENT, "--fmin", "0"], "--fmin"),
+    ([*IDENT, "--fmin", "100", "--fmax", "10"], "--fmin"),
+    ([*IDENT, "--fmax", "inf"], "--fmax"),
+    ([*IDENT, "--freq-step", "0"], "--freq-step"),
+    ([*IDENT, "--freq-step", "nan"], "--freq-step"),
+    ([*IDENT, "--freq-step", "1e-6"], "--freq-step"),
+    ([*IDENT, "--substeps", "0"], "--substeps"),
+    ([*IDENT, "--substeps", HUGE], "--substeps"),
+    ([*IDENT, "--loop-plant", "no-such"], "--loop-plant"),
+    ([*IDENT, "--max-memory-mb", "0"], "--max-memory-mb"),
+    ([*IDENT, "--plot", "DIR"], "--plot"),
+    ([*IDENT, "--plot", "RO/fig.png"], "--plot"),
+    # ---- filter notch / peak / lag / inverse
+    (["filter", "notch", "--freq", "0", "--damping", "0.09"], "--freq"),
+    (["filter", "notch", "--freq", "nan", "--damping", "0.09"], "--freq"),
+    (["filter", "notch", "--freq", "-1", "--damping", "0.09"], "--freq"),
+    (["filter", "notch", "--freq", "abc", "--damping", "0.09"], "--freq"),
+    (["filter", "notch", "--freq", "4449", "--damping", "-0.1"], "--damping"),
+    (["filter", "notch", "--freq", "4449", "--damping", "nan"], "--damping"),
+    ([*NOTCH, "--filter-freq", "0"], "--filter-freq"),
+    ([*NOTCH, "--filter-freq", "inf"], "--filter-freq"),
+    ([*NOTCH, "--filter-damping", "nan"], "--filter-damping"),
+    ([*NOTCH, "--filter-damping", "-1"], "--filter-damping"),
+    ([*NOTCH, "--dt", "0"], "--dt"),
+    ([*NOTCH, "--dt", "nan"], "--dt"),
+    ([*NOTCH, "--dt", "1e-3"], "--dt"),
+    ([*NOTCH, "--plot", "noext"], "--plot"),
+    ([*NOTCH, "--plot", "RO/fig.png"], "--plot"),
+    ([*PEAK, "--phi", "nan"], "--phi"),
+    ([*PEAK, "--phi", "inf"], "--phi"),
+    (
+        ["filter", "peak", "--freq", "0", "--damping", "0.015", "--gain", "1", "--phi", "1"],
+        "--freq",
+    ),
+    (
+        ["filter", "peak", "--freq", "4449", "--damping", "0.015", "--gain", "nan", "--phi", "1"],
+        "--gain",
+    ),
+    ([*PEAK, "--phi", "1", "--dt", "-1"], "--dt"),
+    ([*PEAK, "--phi", "1", "--plot", "DIR"], "--plot"),
+    ([*LAG, "--phase", "nan"], "--phase"),
+    ([*LAG, "--phase", "inf"], "--phase"),
+    (["filter", "lag", "--freq", "6900", "--damping", "-1", "--phase", "1"], "--damping"),
+    ([*LAG, "--phase", "1", "--dt", "inf"], "--dt"),
+    ([*LAG, "--phase", "1", "--plot", "fig.pdf"], "--plot"),
+    ([*INV, "--pole-freq", "0"], "--pole-freq"),
+    ([*INV, "--pole-freq", "nan"], "--pole-freq"),
+    (["filter", "inverse", "--zero-freq", "-1", "--pole-freq", "4775"], "--zero-freq"),
+    ([*INV, "--pole-freq", "4775", "--zero-damping", "-1"], "--zero-damping"),
+    ([*INV, "--pole-freq", "4775", "--pole-damping", "nan"], "--pole-damping"),
+    ([*INV, "--pole-freq", "4775", "--dt", "0"], "--dt"),
+    ([*INV, "--pole-freq", "4775", "--plot", "DIR/"], "--plot"),
+    # ---- margins
+    (["margins", "--plant", "no-such", "--controller", "eq-4.69"], "--plant"),
+    (["margins", "--plant", "DIR", "--controller", "eq-4.69"], "--plant"),
+    (["margins", "--plant", "hdd-sampled-data", "--controller", "no-such"], "--controller"),
+    (["margins", "--plant", "hdd-sampled-data", "--controller", "GARBAGE.toml"], "--controller"),
+    ([*MARG, "--filter", "notch:abc:0.1"], "--filter"),
+    ([*MARG, "--filter", "foo:1:2"], "--filter"),
+    ([*MARG, "--filter", "notch:0:0.1"], "--filter"),
+    ([*MARG, "--filter", "notch:nan:0.1"], "--filter"),
+    ([*MARG, "--filter", "notch:4000"], "--filter"),
+    ([*MARG, "--filter", "peak:4000:0.1:nan:1"], "--filter"),
+    ([*MARG, "--delay", "nan"], "--delay"),
+    ([*MARG, "--delay", "inf"], "--delay"),
+    ([*MARG, "--delay", "-1"], "--delay"),
+    ([*MARG, "--n-freq", "abc"], "--n-freq"),
+    ([*MARG, "--n-freq", "4"], "--n-freq"),
+    ([*MARG, "--n-freq", HUGE], "--n-freq"),
+    ([*MARG, "--plot", "DIR"], "--plot"),
+    ([*MARG, "--plot", "RO/fig.png"], "--plot"),
+    # ---- dual-stage
+    (["dual-stage", "--method", "foo"], "--method"),
+    (["dual-stage", "--structure", "foo"], "--structure"),
+    (["dual-stage", "--notch-damping", "nan"], "--notch-damping"),
+    (["dual-stage", "--notch-damping", "-1"], "--notch-damping"),
+    (["dual-stage", "--notch-depth-damping", "-1"], "--notch-depth-damping"),
+    (["dual-stage", "--notch-freq-ratio", "0"], "--notch-freq-ratio"),
+    (["dual-stage", "--extra-notch-depth-damping", "inf"], "--extra-notch-depth-damping"),
+    (["dual-stage", "--method", "inverse", "--pair-pole-damping", "-1"], "--pair-pole-damping"),
+    (["dual-stage", "--method", "phase", "--kcv-phase", "nan"], "--kcv-phase"),
+    (["dual-stage", "--method", "phase", "--kcm-phase", "inf"], "--kcm-phase"),
+    (["dual-stage", "--delay-vcm", "-1"], "--delay-vcm"),
+    (["dual-stage", "--delay-pzt", "nan"], "--delay-pzt"),
+    (["dual-stage", "--fit", "--maxiter", "0"], "--maxiter"),
+    (["dual-stage", "--fit", "--maxiter", HUGE], "--maxiter"),
+    (["dual-stage", "--plot", "noext"], "--plot"),
+    (["dual-stage", "--plot", "RO/fig.png"], "--plot"),
+    # ---- ssa
+    (["ssa", "ddssa", "--c-pzt", "0"], "--c-pzt"),
+    (["ssa", "ddssa", "--c-pzt", "nan"], "--c-pzt"),
+    (["ssa", "ddssa", "--c1", "-2e-9"], "--c1"),
+    (["ssa", "ddssa", "--c3", "inf"], "--c3"),
+    (["ssa", "ddssa", "--r1", "0"], "--r1"),
+    (["ssa", "ddssa", "--r3", "-1"], "--r3"),
+    (["ssa", "ddssa", "--freq", "0"], "--freq"),
+    (["ssa", "ddssa", "--freq", "nan"], "--freq"),
+    (["ssa", "ddssa", "--freq", "abc"], "--freq"),
+    (["ssa", "idssa", "--c", "0"], "--c"),
+    (["ssa", "idssa", "--r", "-1"], "--r"),
+    (["ssa", "idssa", "--k", "nan"], "--k"),
+    (["ssa", "idssa", "--k", "0"], "--k"),
+    (["ssa", "amd", "--mode", "abc"], "--mode"),
+    (["ssa", "amd", "--mode", "5461:2"], "--mode"),
+    (["ssa", "amd", "--mode", "0:2:10"], "--mode"),
+    (["ssa", "amd", "--mode", "nan:2:10"], "--mode"),
+    (["ssa", "amd", "--mode", "5461:-2:10"], "--mode"),
+    (["ssa", "adaptive", "--duration", "0"], "--duration"),
+    (["ssa", "adaptive", "--duration", "nan"], "--duration"),
+    (["ssa", "adaptive", "--duration", "1e6"], "--duration"),
+    (["ssa", "adaptive", "--n-modes", "0"], "--n-modes"),
+    (["ssa", "adaptive", "--n-modes", "5"], "--n-modes"),
+    # ---- limits
+    (["limits", "waterbed", "--alpha-db", "nan"], "--alpha-db"),
+    (["limits", "waterbed", "--alpha-db", "10"], "--alpha-db"),
+    (["limits", "waterbed", "--freq", "0"], "--freq"),
+    (["limits", "waterbed", "--freq", "2e4"], "--freq"),
+    (["limits", "waterbed", "--dt", "0"], "--dt"),
+    (["limits", "waterbed", "--dt", "inf"], "--dt"),
+    (["limits", "waterbed", "--plot", "DIR"], "--plot"),
+    (["limits", "waterbed", "--plot", "RO/fig.png"], "--plot"),
+    (["limits", "bode-integral", "--num", "a,b", "--den", "1,2"], "--num"),
+    (["limits", "bode-integral", "--num", "1", "--den", ""], "--den"),
+    (["limits", "bode-integral", "--num", "1", "--den", "0"], "--den"),
+    (["limits", "bode-integral", "--num", "nan", "--den", "1,2"], "--num"),
+    ([*BODE, "--dt", "0"], "--dt"),
+    ([*BODE, "--dt", "nan"], "--dt"),
+    ([*BODE, "--dt", "1e-4", "--n-freq", HUGE], "--n-freq"),
+    ([*BODE, "--plot", "noext"], "--plot"),
+    ([*VAR, "--dist-den", "0"], "--dist-den"),
+    ([*VAR, "--dist-den", "x"], "--dist-den"),
+    ([*VAR, "--dist-den", "0.01,1", "--delta", "nan"], "--delta"),
+    ([*VAR, "--dist-den", "0.01,1", "--dt", "-1"], "--dt"),
+    ([*VAR, "--dist-den", "0.01,1", "--k", "0"], "--k"),
+    (["limits", "dynamic-range", "--stroke-m", "0", "--accuracy-m", "3e-9"], "--stroke-m"),
+    (["limits", "dynamic-range", "--stroke-m", "0.03", "--accuracy-m", "nan"], "--accuracy-m"),
+    (["limits", "dynamic-range", "--stroke-m", "0.03", "--accuracy-m", "-1"], "--accuracy-m"),
+    # ---- settle
+    (["settle", "train", "--out", "DIR"], "--out"),
+    (["settle", "train", "--out", "missing/judge.skops"], "--out"),
+    (["settle", "train", "--out", "RO/judge.skops"], "--out"),
+    (["settle", "train", "--n-distances", "1"], "--n-distances"),
+    (["settle", "train", "--n-distances", HUGE], "--n-distances"),
+    (["settle", "train", "--n-lengths", HUGE], "--n-lengths"),
+    (["settle", "train", "--settle-band", "0"], "--settle-band"),
+    (["settle", "train", "--settle-band", "nan"], "--settle-band"),
+    (["settle", "train", "--c", "0"], "--c"),
+    (["settle", "train", "--c", "nan"], "--c"),
+    (["settle", "train", "--coef0", "inf"], "--coef0"),
+    (["settle", "evaluate", "--judge", "missing.skops"], "--judge"),
+    (["settle", "evaluate", "--judge", "DIR"], "--judge"),
+    (["settle", "evaluate", "--judge", "GARBAGE.toml"], "--judge"),
+    (["settle", "evaluate", "--n-seeks", "0"], "--n-seeks"),
+    (["settle", "evaluate", "--n-seeks", HUGE], "--n-seeks"),
+    (["settle", "evaluate", "--judge", "GARBAGE.toml", "--level", "nan"], "--level"),
+    (["settle", "evaluate", "--judge", "GARBAGE.toml", "--plot", "DIR"], "--plot"),
+    (["settle", "judge", "--judge", "missing.skops"], "--judge"),
+    (["settle", "judge", "--judge", "DIR"], "--judge"),
+    (["settle", "judge", "--judge", "GARBAGE.toml", "--target", "nan"], "--target"),
+    (["settle", "judge", "--judge", "GARBAGE.toml", "--target", "0"], "--target"),
+    (["settle", "judge", "--n-samples", "3"], "--n-samples"),
+    (["settle", "judge", "--judge", "GARBAGE.toml", "--n-samples", HUGE], "--n-samples"),
+    (["settle", "judge", "--judge", "GARBAGE.toml", "--record", "missing.csv"], "--record"),
+    (["settle", "judge", "--judge", "GARBAGE.toml", "--record", "DIR"], "--record"),
+    (["settle", "judge", "--judge", "GARBAGE.toml", "--level", "inf"], "--level"),
+    # ---- pes
+    (["pes", "--plant", "no-such"], "--plant"),
+    (["pes", "--plant", "DIR"], "--plant"),
+    (["pes", "--controller", "no-such"], "--controller"),
+    (["pes", "--controller", "DIR"], "--controller"),
+    (["pes", "--controller", "GARBAGE.toml"], "--controller"),
+    (["pes", "--peak-filter", "abc"], "--peak-filter"),
+    (["pes", "--peak-filter", "960:0.08"], "--peak-filter"),
+    (["pes", "--peak-filter", "nan:0.08:12"], "--peak-filter"),
+    (["pes", "--peak-filter", "0:0.08:12"], "--peak-filter"),
+    (["pes", "--peak-filter", "960:-1:12"], "--peak-filter"),
+    (["pes", "--peak-filter", "960:0.08:inf"], "--peak-filter"),
+    (["pes", "--n-revolutions", "5"], "--n-revolutions"),
+    (["pes", "--n-revolutions", "abc"], "--n-revolutions"),
+    (["pes", "--n-revolutions", HUGE], "--n-revolutions"),
+    (["pes", "--seed", "-1"], "--seed"),
+    (["pes", "--max-memory-mb", "0"], "--max-memory-mb"),
+    (["pes", "--plot", "DIR"], "--plot"),
+    (["pes", "--plot", "noext"], "--plot"),
+    (["pes", "--plot", "RO/fig.png"], "--plot"),
+    # ---- export
+    ([*XFF, "--design", "3"], "--design"),
+    ([*XFF, "--design", "abc"], "--design"),
+    ([*XFF, "--target", "nan"], "--target"),
+    ([*XFF, "--target", "0"], "--target"),
+    ([*XFF, "--n-samples", "0"], "--n-samples"),
+    ([*XFF, "--n-samples", HUGE], "--n-samples"),
+    ([*XFF, "--format", "pdf"], "--format"),
+    ([*XFF, "--precision", "int8"], "--precision"),
+    ([*XFF, "--out", "u.txt"], "--out"),
+    ([*XFF, "--out", "u.txt/sub"], "--out"),
+    ([*XFF, "--out", "RO"], "--out"),
+    ([*XFF, "--out", ""], "--out"),
+    ([*XFF, "--name", "1abc"], "--name"),
+    ([*XFF, "--name", "a-b"], "--name"),
+    ([*XFF, "--name", ""], "--name"),
+    (["export", "controller", "--controller", "no-such"], "--controller"),
+    (["export", "controller", "--controller", "DIR"], "--controller"),
+    (["export", "controller", "--controller", "GARBAGE.toml"], "--controller"),
+    (["export", "controller", "--controller", "eq-4.69", "--realization", "foo"], "--realization"),
+    (["export", "controller", "--controller", "eq-4.69", "--out", "u.txt"], "--out"),
+    (["export", "controller", "--controller", "eq-4.69", "--out", "RO/fw"], "--out"),
+    (["export", "controller", "--controller", "eq-4.69", "--name", "x y"], "--name"),
+    (["export", "ivc", "--method", "foo"], "--method"),
+    (["export", "ivc", "--method", "jmin", "--velocity-weight", "nan"], "--velocity-weight"),
+    (["export", "ivc", "--method", "jmin", "--velocity-weight", "-1"], "--velocity-weight"),
+    (["export", "ivc", "--out", "u.txt"], "--out"),
+    (["export", "ivc", "--name", ""], "--name"),
+    (["export", "table", "--input", "missing.json"], "--input"),
+    (["export", "table", "--input", "DIR"], "--input"),
+    (["export", "table", "--input", "GARBAGE.toml"], "--input"),
+    (["export", "table", "--input", "EMPTY.txt"], "--input"),
+    (["export", "table", "--input", "BAD.json"], "--input"),
+    (["export", "table", "--input", "NAN.csv"], "--input"),
+    (["export", "table", "--input", "u.txt", "--out", "u.txt"], "--out"),
+    (["export", "table", "--input", "u.txt", "--out", "RO"], "--out"),
+    # ---- wrong types and missing plot directories across the newer commands
+    (["sweep", "--u-max", "abc", "--method", "robust"], "--u-max"),
+    (["sweep", "--plot", "missing/fig.png"], "--plot"),
+    ([*ADM, "--t-max", "abc"], "--t-max"),
+    ([*COST, "--n-points", "abc"], "--n-points"),
+    ([*IVC, "--pole", "abc", "--method", "input"], "--pole"),
+    ([*IDENT, "--substeps", "abc"], "--substeps"),
+    ([*IDENT, "--plot", "missing/fig.svg"], "--plot"),
+    ([*NOTCH, "--dt", "abc"], "--dt"),
+    ([*MARG, "--plot", "missing/fig.png"], "--plot"),
+    (["dual-stage", "--maxiter", "abc"], "--maxiter"),
+    (["ssa", "adaptive", "--n-modes", "abc"], "--n-modes"),
+    (["ssa", "idssa", "--r", "abc"], "--r"),
+    ([*XFF, "--n-samples", "abc"], "--n-samples"),
+    (["export", "table", "--input", "u.txt", "--precision", "q7"], "--precision"),
+    (["export", "table", "--input", "u.txt", "--out", "u.txt/sub"], "--out"),
 ]
 
+# Known failures in modules another engineer owns (cli/limits.py, cli/settle.py, cli/pes.py): the
+# error names the Python parameter (bandwidth_hz, stroke_m, C, bound) instead of the flag,
+# or the judge file is loaded / the judge trained before the flags are checked. Strict
+# xfail: a row turns into an error as soon as its command is fixed, and is then moved out.
+_LIMITS_NAMES_PARAMETERS = "cli/limits.py: the error names the parameter, not the flag"
+_PES_NAMES_PARAMETERS = (
+    "cli/pes.py: get_plant/get_discrete_controller and the peak filter's parameters "
+    "(freq_hz, damping, depth_db) are not named as flags; a negative --seed is numpy's error"
+)
+_SETTLE_CHECKS_LATE = (
+    "cli/settle.py: the error names the parameter, or the flags are checked after the judge "
+    "is loaded or trained"
+)
+KNOWN_FAILURES: dict[str, str] = {
+    **dict.fromkeys(
+        [
+            "limits waterbed --freq 0",
+            "limits waterbed --freq 2e4",
+            "limits waterbed --dt inf",
+            "limits bode-integral --num 0.5,0.1 --den 1,-0.5,0.1 --dt nan",
+            "limits bode-integral --num 0.5,0.1 --den 1,-0.5,0.1 --dt 1e-4 --n-freq 1000000000",
+            "limits variance --num 40000 --den 1,300,0 --dist-num 1 --dist-den 0.01,1 --delta nan",
+            "limits dynamic-range --stroke-m 0 --accuracy-m 3e-9",
+            "limits dynamic-range --stroke-m 0.03 --accuracy-m nan",
+            "limits dynamic-range --stroke-m 0.03 --accuracy-m -1",
+        ],
+        _LIMITS_NAMES_PARAMETERS,
+    ),
+    **dict.fromkeys(
+        [
+            "settle train --out missing/judge.skops",
+            "settle train --out RO/judge.skops",
+            "settle train --n-distances 1000000000",
+            "settle train --n-lengths 1000000000",
+            "settle train --settle-band 0",
+            "settle train --settle-band nan",
+            "settle train --c 0",
+            "settle train --c nan",
+            "settle train --coef0 inf",
+            "settle evaluate --judge GARBAGE.toml",
+            "settle evaluate --judge GARBAGE.toml --level nan",
+            "settle judge --judge GARBAGE.toml --target nan",
+            "settle judge --judge GARBAGE.toml --target 0",
+            "settle judge --judge GARBAGE.toml --n-samples 1000000000",
+            "settle judge --judge GARBAGE.toml --record missing.csv",
+            "settle judge --judge GARBAGE.toml --record DIR",
+            "settle judge --judge GARBAGE.toml --level inf",
+        ],
+        _SETTLE_CHECKS_LATE,
+    ),
+    **dict.fromkeys(
+        [
+            "pes --plant no-such",
+            "pes --plant DIR",
+            "pes --controller no-such",
+            "pes --controller DIR",
+            "pes --controller GARBAGE.toml",
+            "pes --peak-filter nan:0.08:12",
+            "pes --peak-filter 0:0.08:12",
+            "pes --peak-filter 960:-1:12",
+            "pes --peak-filter 960:0.08:inf",
+            "pes --seed -1",
+        ],
+        _PES_NAMES_PARAMETERS,
+    ),
+}
+#: Known failures that train the judge (4-10 s each) before failing: run by `make test-all`.
+SLOW_FAILURES = {
+    "settle train --c 0",
+    "settle train --c nan",
+    "settle train --coef0 inf",
+    "settle train --out RO/judge.skops",
+    "settle train --out missing/judge.skops",
+    "settle train --settle-band 0",
+    "settle train --settle-band nan",
+}
 
-def _materialise(args: list[str], where: Path) -> list[str]:
-    """Placeholders: DIR an existing directory, GARBAGE.toml an unreadable plant file, ..."""
+
+def _param(args: list[str], flag: str) -> object:
+    key = " ".join(args)
+    marks = []
+    if key in KNOWN_FAILURES:
+        marks.append(pytest.mark.xfail(strict=True, reason=KNOWN_FAILURES[key]))
+    if key in SLOW_FAILURES:
+        marks.append(pytest.mark.slow)
+    return pytest.param(args, flag, marks=marks, id=key)
+
+
+def _materialise(args: list[str], where: Path, monkeypatch: pytest.MonkeyPatch) -> list[str]:
+    """Placeholders: DIR an existing directory, GARBAGE.toml an unreadable plant file, ...
+
+    RO is a read-only directory (mode 0o500). Root ignores modes, so as root ``os.access``
+    is made to deny writing under RO, as a user without the right would see it.
+    """
     (where / "DIR").mkdir(exist_ok=True)
     (where / "GARBAGE.toml").write_text("this is = = not toml [\n")
     (where / "EMPTY.txt").write_text("")
     (where / "u.txt").write_text("1e-3\n-1e-3\n")
+    (where / "BAD.json").write_text('{"input": "not numbers", "dt_s": "x"}\n')
+    (where / "NAN.csv").write_text("1,nan\n2,3\n")
+    ro = where / "RO"
+    ro.mkdir(exist_ok=True)
+    ro.chmod(0o500)
+    if hasattr(os, "geteuid") and os.geteuid() == 0:
+        real_access = os.access
+
+        def access(path: object, mode: int, *a: object, **k: object) -> bool:
+            inside = Path(os.fspath(path)).resolve().is_relative_to(ro.resolve())  # type: ignore[arg-type]
+            if mode & os.W_OK and inside:
+                return False
+            return real_access(path, mode, *a, **k)  # type: ignore[arg-type]
+
+        monkeypatch.setattr(os, "access", access)
     return args
+
+
+class _Hang(BaseException):
+    """Raised by the alarm: not an error the CLI could turn into exit 2."""
 
 
 def _snapshot(root: Path) -> set[Path]:
     return {p for p in root.rglob("*")}
 
 
-@pytest.mark.parametrize(("args", "flag"), CASES, ids=[" ".join(a) for a, _ in CASES])
+@pytest.mark.parametrize(("args", "flag"), [_param(a, f) for a, f in CASES])
 def test_bad_input_is_one_line_exit_2(args, flag, tmp_path, monkeypatch, capsys) -> None:
     monkeypatch.chdir(tmp_path)
-    _materialise(args, tmp_path)
+    _materialise(args, tmp_path, monkeypatch)
     before = _snapshot(tmp_path)
     monkeypatch.setattr("sys.argv", ["servokit", *args])
+
+    def hang(*_: object) -> None:
+        raise _Hang(f"no refusal within {HANG_S} s")
+
+    previous = signal.signal(signal.SIGALRM, hang)
+    signal.alarm(HANG_S)
     start = time.perf_counter()
-    with pytest.raises(SystemExit) as exc:
-        servokit.cli.main()
+    try:
+        with pytest.raises(SystemExit) as exc:
+            servokit.cli.main()
+    finally:
+        signal.alarm(0)
+        signal.signal(signal.SIGALRM, previous)
     elapsed = time.perf_counter() - start
     out, err = capsys.readouterr()
     assert exc.value.code == 2, (out, err)
@@ -207,11 +684,14 @@ def test_bad_input_is_one_line_exit_2(args, flag, tmp_path, monkeypatch, capsys)
     assert elapsed < 5.0, f"refusal took {elapsed:.1f} s"
 
 
+GROUPS = (
+    "plant", "feedforward", "unobservable", "switching", "filter", "ssa", "limits", "settle",
+    "export",
+)  # fmt: skip
+
+
 def test_the_table_covers_every_command() -> None:
-    commands = {
-        a[0] if a[0] not in ("plant", "feedforward", "unobservable") else " ".join(a[:2])
-        for a, _ in CASES
-    }
+    commands = {" ".join(a[:2]) if a[0] in GROUPS else a[0] for a, _ in CASES}
     assert commands >= {
         "plant show",
         "plant bode",
@@ -219,11 +699,54 @@ def test_the_table_covers_every_command() -> None:
         "feedforward polynomial",
         "feedforward minimum-jerk",
         "seek",
+        "sweep",
+        "switching ivc",
+        "switching admissible-set",
+        "switching cost-map",
         "sensitivity",
         "unobservable magnitude",
         "unobservable sampling",
         "unobservable time",
         "srs",
+        "identify",
+        "filter notch",
+        "filter peak",
+        "filter lag",
+        "filter inverse",
+        "margins",
+        "dual-stage",
+        "ssa ddssa",
+        "ssa idssa",
+        "ssa amd",
+        "ssa adaptive",
+        "limits waterbed",
+        "limits bode-integral",
+        "limits variance",
+        "limits dynamic-range",
+        "settle train",
+        "settle evaluate",
+        "settle judge",
+        "export feedforward",
+        "export controller",
+        "export ivc",
+        "export table",
+        "pes",
         "reproduce",
     }
-    assert len(CASES) >= 90
+    assert len(CASES) >= 400
+
+
+def test_every_registered_command_is_in_the_table() -> None:
+    """A new command (or sub-command) must bring its own bad-input rows."""
+    import typer.main
+
+    from servokit.cli import _discover, app
+
+    _discover()
+    root = typer.main.get_command(app)
+    registered = set()
+    for name, cmd in root.commands.items():  # type: ignore[attr-defined]
+        subs = getattr(cmd, "commands", None)
+        registered |= {f"{name} {s}" for s in subs} if subs else {name}
+    covered = {" ".join(a[:2]) if a[0] in GROUPS else a[0] for a, _ in CASES}
+    assert registered <= covered, sorted(registered - covered)

@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import re
 from dataclasses import replace
 from typing import Annotated
 
@@ -52,8 +53,8 @@ def _unknowns(method: str, overrides: dict[str, float | None]):
         return replace(fitted_unknowns(method), **chosen)
     except ServokitValueError as exc:
         msg = str(exc)
-        for field, flag in _FLAGS.items():
-            msg = msg.replace(field, flag)
+        for field, flag in _FLAGS.items():  # whole names only (notch_depth_damping in extra_...)
+            msg = re.sub(rf"(?<![\w-]){re.escape(field)}(?![\w-])", flag, msg)
         raise ServokitValueError(msg) from None
 
 

@@ -27,11 +27,12 @@ PrecisionOpt = Annotated[
         metavar="float|double|q15|q31",
     ),
 ]
-OutOpt = Annotated[Path, typer.Option("--out", help="output directory")]
+# a str, not a Path: typer turns an empty --out "" into Path("."), the working directory
+OutOpt = Annotated[str, typer.Option("--out", help="output directory")]
 NameOpt = Annotated[str, typer.Option("--name", help="C prefix and file stem (a C identifier)")]
 
 
-def _check_common(out: Path, name: str, fmt: str, precision: str) -> Path:
+def _check_common(out: str | Path, name: str, fmt: str, precision: str) -> Path:
     """Refuse bad --out/--name/--format/--precision before any work."""
     import re
 
@@ -90,7 +91,7 @@ def feedforward_cmd(
     ),
     fmt: FormatOpt = "c",
     precision: PrecisionOpt = "float",
-    out: OutOpt = Path("firmware"),
+    out: OutOpt = "firmware",
     name: NameOpt = "hdd_ff",
     json_out: JsonOpt = False,
 ) -> None:
@@ -101,11 +102,11 @@ def feedforward_cmd(
     from servokit.export import feedforward_tables
     from servokit.export.designs import hdd_feedforward
 
-    out = _check_common(out, name, fmt, precision)
+    out_dir = _check_common(out, name, fmt, precision)
     ff = hdd_feedforward(design, target, n_samples)
     tables = feedforward_tables(ff.u, ff.dt, name="u")
     title = f"HDD benchmark Design {design}, {target:g} track(s), N = {ff.N} (book §2.4.2)"
-    _finish(tables, out, name, fmt, precision, None, title, json_out)
+    _finish(tables, out_dir, name, fmt, precision, None, title, json_out)
 
 
 @export_app.command(
@@ -121,7 +122,7 @@ def controller_cmd(
     ),
     fmt: FormatOpt = "c",
     precision: PrecisionOpt = "float",
-    out: OutOpt = Path("firmware"),
+    out: OutOpt = "firmware",
     name: NameOpt = "ctrl",
     json_out: JsonOpt = False,
 ) -> None:
@@ -133,9 +134,13 @@ def controller_cmd(
     from servokit.export import sos_tables, statespace_tables
     from servokit.models.controllers import get_discrete_controller
 
-    out = _check_common(out, name, fmt, precision)
+    out_dir = _check_common(out, name, fmt, precision)
     if realization not in ("ss", "sos"):
         raise ServokitValueError(f"--realization {realization!r}: choose ss or sos")
+    if controller.strip() in ("", ".") or Path(controller).is_dir():
+        raise ServokitValueError(
+            f"--controller {controller!r}: give a book name or a .toml controller file"
+        )
     try:
         ctrl = get_discrete_controller(controller)
     except ServokitValueError as exc:
@@ -143,7 +148,7 @@ def controller_cmd(
     make = statespace_tables if realization == "ss" else sos_tables
     tables = make(ctrl, "ss" if realization == "ss" else "sos")
     step = realization if fmt == "c" and precision in ("float", "double") else None
-    _finish(tables, out, name, fmt, precision, step, f"controller {controller}", json_out)
+    _finish(tables, out_dir, name, fmt, precision, step, f"controller {controller}", json_out)
 
 
 @export_app.command(
@@ -159,7 +164,7 @@ def ivc_cmd(
     ),
     fmt: FormatOpt = "c",
     precision: PrecisionOpt = "float",
-    out: OutOpt = Path("firmware"),
+    out: OutOpt = "firmware",
     name: NameOpt = "ivc",
     json_out: JsonOpt = False,
 ) -> None:
@@ -170,10 +175,10 @@ def ivc_cmd(
     from servokit.export import FirmwareTable
     from servokit.export.designs import book_ivc_gain
 
-    out = _check_common(out, name, fmt, precision)
+    out_dir = _check_common(out, name, fmt, precision)
     K, desc = book_ivc_gain(method, velocity_weight)
     tables = [FirmwareTable("K", K, f"xc[0] = K xp[0]: {desc}")]
-    _finish(tables, out, name, fmt, precision, None, desc, json_out)
+    _finish(tables, out_dir, name, fmt, precision, None, desc, json_out)
 
 
 @export_app.command(
@@ -186,7 +191,7 @@ def table_cmd(
     ),
     fmt: FormatOpt = "c",
     precision: PrecisionOpt = "float",
-    out: OutOpt = Path("firmware"),
+    out: OutOpt = "firmware",
     name: NameOpt = "tables",
     json_out: JsonOpt = False,
 ) -> None:
@@ -194,9 +199,9 @@ def table_cmd(
 
     JSON keys: files, precision, tables (table, shape, scale, error_bound, max_error).
     """
-    out = _check_common(out, name, fmt, precision)
+    out_dir = _check_common(out, name, fmt, precision)
     tables = _read_tables(input_file)
-    _finish(tables, out, name, fmt, precision, None, f"tables of {input_file.name}", json_out)
+    _finish(tables, out_dir, name, fmt, precision, None, f"tables of {input_file.name}", json_out)
 
 
 def _read_tables(path: Path) -> list:

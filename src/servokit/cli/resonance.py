@@ -18,12 +18,20 @@ from servokit.cli._app import (
     console,
     emit_json,
     example,
+    load_controller,
+    load_plant,
     plot_target,
     progress,
     sub_app,
     wrote,
 )
-from servokit.errors import ServokitValueError, check_positive
+from servokit.errors import (
+    ServokitValueError,
+    check_count,
+    check_finite,
+    check_positive,
+    check_work,
+)
 
 if TYPE_CHECKING:
     import control
@@ -75,7 +83,7 @@ def _describe(tf: control.TransferFunction, freq: float, dt: float | None) -> di
     if dt is not None:
         from servokit.feedback import discretize_filter
 
-        with _flags(freq_hz="--freq"):
+        with _flags(freq_hz=f"--freq (with --dt {dt:g} s)"):
             fd = discretize_filter(tf, check_positive("--dt", dt, "s"), freq)
         out.update(dt_s=dt, num_z=np.asarray(fd.num[0][0]), den_z=np.asarray(fd.den[0][0]))
     return out
@@ -305,11 +313,12 @@ def margins_cmd(
     json_out: JsonOpt = False,
 ) -> None:
     from servokit.feedback import discretize_filter, stability_margins
-    from servokit.models import get_discrete_controller, get_plant
 
     target = plot_target(plot)
-    p = get_plant(plant)
-    ctrl = get_discrete_controller(controller)
+    check_finite("--delay", delay)
+    check_count("--n-freq", n_freq, lo=16, hi=_MARGINS_MAX_FREQ)
+    p = load_plant(plant)
+    ctrl = load_controller(controller)
     dt = float(ctrl.dt)
     loop: list[Any] = [p.discretize(dt), ctrl]
     for spec in filters or []:
@@ -337,6 +346,13 @@ def margins_cmd(
         console.print(f"  gain crossover {f:10.5g} Hz  phase margin {pm:8.4g} deg")
     for f, gm in zip(m.phase_crossovers_hz, m.gain_margins_db, strict=True):
         console.print(f"  phase crossover {f:9.5g} Hz  gain margin {gm:8.4g} dB")
+
+
+#: Largest --n-freq of ``margins`` (the library's limit).
+_MARGINS_MAX_FREQ = 10_000_000
+
+#: Most excitation frequencies ``identify`` accepts (~40 ms each: about an hour).
+_IDENTIFY_MAX_FREQ = 100_000
 
 
 @app.command(
@@ -373,17 +389,27 @@ def identify_cmd(
     plot: PlotOpt = None,
     json_out: JsonOpt = False,
 ) -> None:
-    from servokit.models import get_discrete_controller, get_plant
+    from servokit.models import get_discrete_controller
     from servokit.sampled.identification import identification_plot, identify_above_nyquist
 
     target = plot_target(plot)
     check_positive("--fs", fs, "Hz")
+    check_finite("--fmin/--fmax/--freq-step", [fmin, fmax, step])
     if not 0 < fmin <= fmax or step <= 0:
         raise ServokitValueError(
             f"need 0 < --fmin <= --fmax and --freq-step > 0 (got {fmin}, {fmax}, {step})"
         )
-    p = get_plant(plant)
-    lp = None if loop_plant is None else get_plant(loop_plant)
+    n_exc = np.floor((fmax - fmin) / step + 1e-9) + 1
+    # about 40 ms per frequency (1200 frequencies of the default take ~50 s)
+    check_work(
+        n_exc,
+        what=f"--fmin {fmin:g} --fmax {fmax:g} --freq-step {step:g} ({n_exc:.3g} frequencies)",
+        limit=_IDENTIFY_MAX_FREQ,
+        about="about an hour",
+    )
+    p = load_plant(plant)
+    lp = None if loop_plant is None else load_plant(loop_plant, "--loop-plant")
+    load_controller(controller)  # an unknown name or a bad file names --controller
     try:
         ctrl = get_discrete_controller(controller, dt=1.0 / fs)
     except ServokitValueError as exc:

@@ -21,11 +21,18 @@ from servokit.cli._app import (
     console,
     emit_json,
     example,
+    flag_names,
     plot_target,
     progress,
     wrote,
 )
-from servokit.errors import ServokitValueError, check_count, check_positive
+from servokit.errors import (
+    ServokitValueError,
+    check_count,
+    check_finite,
+    check_memory,
+    check_positive,
+)
 
 
 @dataclasses.dataclass(frozen=True)
@@ -43,6 +50,8 @@ def _from_file(path: Path) -> _Design:
         dt = float(data.get("dt_s", data.get("dt")))
     except FileNotFoundError:
         raise ServokitValueError(f"--design {path}: no such file") from None
+    except IsADirectoryError:
+        raise ServokitValueError(f"--design {path} is a directory; give a JSON file") from None
     except (ValueError, KeyError, TypeError, AttributeError):
         raise ServokitValueError(
             f"--design {path}: expected the JSON of `servokit seek --json` (keys 'input' and "
@@ -102,6 +111,22 @@ def _from_method(
     else:
         ff = fsc_input(plants[0], HDD_BENCHMARK_TS, n_samples, tracks, **kw)
     return _Design(ff.u, ff.dt, f"{method.upper()} (N = {ff.N})")
+
+
+def _check_design_args(
+    method: str, n_samples: int | None, u_max: float | None, max_memory_mb: float
+) -> None:
+    """Refuse bad design flags before the design (minutes for a huge --n-samples) starts."""
+    if method not in ("fsc", "ffsc", "robust"):
+        raise ServokitValueError(f"--method must be 'fsc', 'ffsc' or 'robust', got {method!r}")
+    if n_samples is not None:
+        n_s = check_count("--n-samples", n_samples, lo=1)
+        # the design solves for N samples against an N x N (and larger) system
+        check_memory(8.0 * 4 * n_s**2, what=f"--n-samples {n_s}", max_memory_mb=max_memory_mb)
+    if method == "robust":
+        if u_max is None:
+            raise ServokitValueError("--method robust needs --u-max [plant input unit]")
+        check_positive("--u-max", u_max)
 
 
 def _histogram(times: np.ndarray, pct: dict[str, float], title: str, path: Path) -> Path:
@@ -230,6 +255,12 @@ def sweep_cmd(
     band = check_positive("--settle-band", settle_band)
     if chunk_size is not None:
         check_count("--chunk-size", chunk_size, lo=1)
+    if float(check_finite("--target", tracks)) == 0:
+        raise ServokitValueError("--target must be non-zero (a seek distance)")
+    if design is None:
+        _check_design_args(method, n_samples, u_max, max_memory_mb)
+    if seed < 0:
+        raise ServokitValueError(f"--seed must be >= 0 (got {seed})")
     vset = hdd_benchmark_variation_set()
     if not gain_range:
         vset = dataclasses.replace(vset, gain=(0.0, 0.0))
@@ -240,7 +271,9 @@ def sweep_cmd(
         if design is not None
         else _from_method(method, tracks, n_samples, u_max, band, delay)
     )
-    plan_chunks(vset, d, n, chunk_size=chunk_size, max_memory_mb=max_memory_mb)  # refuse early
+    chunks = f"--n-variants {n}, --chunk-size {chunk_size if chunk_size else 'auto'}: "
+    with flag_names({}, prefix=chunks):  # refuse early, naming the flags that set the size
+        plan_chunks(vset, d, n, chunk_size=chunk_size, max_memory_mb=max_memory_mb)
     client = _client(scheduler, workers)
     t0 = time.perf_counter()
     try:

@@ -14,11 +14,20 @@ from servokit.cli._app import (
     console,
     emit_json,
     example,
+    flag_names,
+    load_controller,
+    load_plant,
     plot_target,
     sub_app,
     wrote,
 )
-from servokit.errors import ServokitValueError, check_memory, check_positive
+from servokit.errors import (
+    ServokitValueError,
+    check_count,
+    check_finite,
+    check_memory,
+    check_positive,
+)
 
 if TYPE_CHECKING:
     from servokit.switching import SwitchedLoop
@@ -49,27 +58,31 @@ DtOpt = Annotated[
 
 def _build_loop(plant: str, controller: str, freq: float, dt: float | None) -> SwitchedLoop:
     """Discretise the plant at the controller's (or --dt) period and close the loop."""
-    from servokit.models import get_discrete_controller, get_plant
     from servokit.switching import switched_loop
     from servokit.switching.design import lead_lag
 
-    p = get_plant(plant)
+    if dt is not None:
+        check_positive("--dt", dt, "s")
+    p = load_plant(plant)
     if controller == "lead-lag":
         if dt is None:
             raise ServokitValueError("--controller lead-lag needs --dt [s]")
         pd = p.discretize(check_positive("--dt", dt, "s"))
         return switched_loop(pd, lead_lag(pd, check_positive("--freq", freq, "Hz")))
-    ctrl = get_discrete_controller(controller, dt)
+    ctrl = load_controller(controller, dt)
     return switched_loop(p.discretize(float(ctrl.dt)), ctrl)
 
 
 def _parse_complex(flag: str, text: str) -> list[complex]:
     try:
-        return [complex(v.replace(" ", "")) for v in text.split(",") if v.strip()]
+        values = [complex(v.replace(" ", "")) for v in text.split(",") if v.strip()]
     except ValueError:
         raise ServokitValueError(
             f"{flag} must be comma-separated numbers such as 0.905,0.954 or 0.5+0.4j (got {text!r})"
         ) from None
+    if not all(np.isfinite(v) for v in values):
+        raise ServokitValueError(f"{flag} must be finite numbers (got {text!r})")
+    return values
 
 
 def _weight(loop: SwitchedLoop, spec: str) -> dict:
@@ -85,6 +98,14 @@ def _weight(loop: SwitchedLoop, spec: str) -> dict:
             f"states), 'position' or 'input' (got {len(diag)})"
         )
     return {"Q": np.diag(diag)}
+
+
+_INPUT_FLAGS = {
+    "pole": "--pole",
+    "order": "--order",
+    "input_weight": "--input-weight",
+    "jerk_weight": "--jerk-weight",
+}
 
 
 def _poles_json(poles: np.ndarray) -> list[dict]:
@@ -138,6 +159,10 @@ def ivc_cmd(
     from servokit.switching import ivc_additional_input, ivc_jmin, ivc_pole_zero, ivc_zeros
 
     plot = plot_target(plot)
+    check_count("--n-samples", n_samples, lo=2, hi=1_000_000)
+    for flag, w in (("--input-weight", input_weight), ("--jerk-weight", jerk_weight)):
+        if float(check_finite(flag, w)) < 0:
+            raise ServokitValueError(f"{flag} must be >= 0 (got {w})")
     if method not in ("jmin", "pole-zero", "input"):
         raise ServokitValueError(f"--method must be jmin, pole-zero or input (got {method!r})")
     if method == "pole-zero" and not poles:
@@ -158,9 +183,10 @@ def ivc_cmd(
             raise ServokitValueError(
                 "--order above n + m - 1 needs --input-weight or --jerk-weight"
             )
-        design = ivc_additional_input(
-            loop, pole, order=order, input_weight=input_weight, jerk_weight=jerk_weight
-        )
+        with flag_names(_INPUT_FLAGS):
+            design = ivc_additional_input(
+                loop, pole, order=order, input_weight=input_weight, jerk_weight=jerk_weight
+            )
         out |= {"numerators": design.num, "denominator": design.den}
         K = None
     else:
@@ -356,6 +382,7 @@ def cost_map_cmd(
         switching_cost_matrix,
     )
 
+    check_finite("--position", position)
     if ivc not in ("jmin", "none"):
         raise ServokitValueError(f"--ivc must be jmin or none (got {ivc!r})")
     vel = _parse_range("--vel-range", vel_range)
@@ -364,7 +391,7 @@ def cost_map_cmd(
     loop = _build_loop(plant, controller, freq, dt)
     K = ivc_jmin(loop, None, output_weight=loop.Cu) if ivc == "jmin" else None
     base = np.zeros(loop.n)
-    base[0] = position
+    base[0] = float(check_finite("--position", position))
     with_acc = acc[0] != acc[1]
     if with_acc and loop.n < 3:
         raise ServokitValueError("--acc-range needs a plant with a third state; use 0:0")
