@@ -10,6 +10,7 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 
 from servokit.errors import ServokitTypeError, ServokitValueError
+from servokit.sampled import unobservable
 from servokit.sampled.unobservable import (
     damped_sine_extrema,
     required_measurement_time,
@@ -165,3 +166,51 @@ def test_user_errors():
         unobservable_magnitude(1e3, 1e-4, n_samples=2.5)
     with pytest.raises(ServokitValueError, match="fs_range"):
         unacceptable_sampling_frequencies(1e3, 0.01, 5, 0.1, (10e3, 1e3))
+
+
+# --- the fast damped grid (angle addition, demo speed-up) against the direct grid -------
+
+
+def _rows(ratios, zeta):  # noqa: ANN001, ANN202
+    b = 2 * np.pi * np.asarray(ratios, dtype=float)
+    return b, b * zeta / np.sqrt(1 - zeta**2)
+
+
+@settings(max_examples=60, deadline=None)
+@given(
+    st.lists(st.floats(1e-3, 40.0), min_size=1, max_size=6),
+    st.floats(1e-6, 0.95),
+    st.integers(1, 45),
+    st.integers(0, 2**32 - 1),
+)
+def test_damped_grid_equals_direct_grid(ratios, zeta, ns, seed):
+    """Bit for bit: the fast path picks the extremal sample, then evaluates it directly."""
+    b, a = _rows(ratios, zeta)
+    rng = np.random.default_rng(seed)
+    ds = np.concatenate(
+        [np.broadcast_to(np.arange(36) / 36, (b.size, 36)), rng.uniform(0, 1, (b.size, 9))],
+        axis=1,
+    )
+    fast = unobservable._damped_yu(b, a, ns, ds)
+    np.testing.assert_array_equal(fast, unobservable._damped_yu_direct(b, a, ns, ds))
+
+
+@pytest.mark.parametrize("ns", [1, 2, 10, 40])
+def test_damped_grid_equals_direct_grid_near_ties_and_fast_decay(ns):
+    # rational ratios with tiny damping put samples within the margin of each other (the
+    # direct fallback); zeta = 0.95 at large ratios decays towards underflow (direct rows)
+    b1, a1 = _rows([1.0, 0.5, 1 / 3, 0.25, 2.0, 7 / 4], 1e-12)
+    b2, a2 = _rows([5.0, 30.0, 120.0], 0.95)
+    b, a = np.r_[b1, b2], np.r_[a1, a2]
+    ds = np.broadcast_to(np.arange(720) / 720, (b.size, 720))
+    fast = unobservable._damped_yu(b, a, ns, ds)
+    np.testing.assert_array_equal(fast, unobservable._damped_yu_direct(b, a, ns, ds))
+
+
+def test_damped_grid_blocks_match_direct(monkeypatch):
+    # several blocks of rows (small block size), the case-sized phase grid
+    monkeypatch.setattr(unobservable, "_BLOCK", 700)
+    b, a = _rows(np.geomspace(0.05, 30.0, 41), 0.01)
+    ds = np.broadcast_to(np.arange(360) / 360, (b.size, 360))
+    fast = unobservable._damped_yu(b, a, 20, ds)
+    np.testing.assert_array_equal(fast, unobservable._damped_yu_direct(b, a, 20, ds))
