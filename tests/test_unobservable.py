@@ -214,3 +214,39 @@ def test_damped_grid_blocks_match_direct(monkeypatch):
     ds = np.broadcast_to(np.arange(360) / 360, (b.size, 360))
     fast = unobservable._damped_yu(b, a, 20, ds)
     np.testing.assert_array_equal(fast, unobservable._damped_yu_direct(b, a, 20, ds))
+
+
+@settings(max_examples=40, deadline=None)
+@given(
+    st.lists(st.floats(1e-3, 40.0), min_size=1, max_size=9),
+    st.sampled_from([None, 1, 7, 30]),
+    st.integers(200, 3000),
+    st.integers(0, 2**32 - 1),
+)
+def test_undamped_grid_cache_equals_direct_search(ratios, ns, chunk, seed):
+    """The cached sorted phases give the same ``yu`` as a fresh search, bit for bit, for
+    every phase grid and chunking (a small ``_CHUNK`` splits the rows)."""
+    b = 2 * np.pi * np.asarray(ratios)
+    n = np.arange(unobservable.STEADY_STATE_SAMPLES if ns is None else ns, dtype=float)
+    n = n if ns is None else n + 1
+    rng = np.random.default_rng(seed)
+    old = unobservable._CHUNK
+    try:
+        unobservable._CHUNK = chunk
+        grid = unobservable._UndampedGrid(b, n)
+        for width in (36, 33, 5, 33):
+            ds = rng.uniform(0, 1, (b.size, width))
+            fresh = unobservable._undamped_yu(b, n, ds)
+            np.testing.assert_array_equal(grid(ds), fresh)
+    finally:
+        unobservable._CHUNK = old
+
+
+def test_undamped_grid_without_cache_room(monkeypatch):
+    monkeypatch.setattr(unobservable, "_CACHE_ELEMENTS", 10)
+    b = 2 * np.pi * np.array([0.3, 1.7, 4.2])
+    n = np.arange(1, 11, dtype=float)
+    grid = unobservable._UndampedGrid(b, n)
+    assert grid.theta is None
+    ds = np.broadcast_to(np.arange(36) / 36, (3, 36))
+    np.testing.assert_array_equal(grid(ds), unobservable._undamped_yu(b, n, ds))

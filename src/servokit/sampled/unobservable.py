@@ -122,20 +122,8 @@ def _undamped_yu(b: np.ndarray, n: np.ndarray, ds: np.ndarray) -> np.ndarray:
         return np.concatenate(
             [_undamped_yu(b[i : i + rows], n, ds[i : i + rows]) for i in range(0, b.size, rows)]
         )
-    n_rows = b.size
     theta = np.sort(np.mod(b[:, None] * n[None, :], _TWO_PI), axis=1)
-    # Sentinels make the circle wrap-around a plain neighbour lookup.
-    ext = np.concatenate([theta[:, -1:] - _TWO_PI, theta, theta[:, :1] + _TWO_PI], axis=1)
-    offset = (4.0 * _TWO_PI) * np.arange(n_rows)[:, None]
-    flat = (ext + offset).ravel()
-    dist = np.zeros(ds.shape)
-    for target in (0.5 * np.pi, -0.5 * np.pi):
-        x = np.mod(target - b[:, None] * ds, _TWO_PI) + offset
-        idx = np.searchsorted(flat, x.ravel()).reshape(x.shape)
-        idx = np.clip(idx, 1, flat.size - 1)
-        d = np.minimum(flat[idx] - x, x - flat[idx - 1])
-        dist = np.maximum(dist, d)
-    return 1.0 - np.cos(np.minimum(dist, np.pi))
+    return _undamped_yu_search(b, _search_array(theta), ds)
 
 
 def _damped_yu(b: np.ndarray, a: np.ndarray, n_samples: int, ds: np.ndarray) -> np.ndarray:
@@ -259,19 +247,81 @@ def _damped_sample_extrema(
     return ymax, ymin
 
 
-def _yu(b: np.ndarray, a: np.ndarray, n_samples: int | None, ds: np.ndarray) -> np.ndarray:
-    """Dispatch ``yu[ds]`` (rows of ``ds`` belong to the entries of ``b``, ``a``)."""
+class _UndampedGrid:
+    """``yu[ds]`` of :func:`_undamped_yu` for fixed rows ``b`` and samples ``n``, the sorted
+    sample phases computed once for all the phase grids asked for (the grid and the
+    zooms of :func:`_refine`).
+
+    Every call splits the rows into the same chunks as :func:`_undamped_yu` (they depend
+    on the number of phases) and searches each chunk's array built from the cached phases
+    exactly as it builds it, so the values are the same bit for bit; the arrays of the
+    last chunking are kept too (the four zooms share one).  Without room for the cache
+    (more than :data:`_CACHE_ELEMENTS` phases) it calls :func:`_undamped_yu`.
+    """
+
+    def __init__(self, b: np.ndarray, n: np.ndarray) -> None:
+        self.b, self.n = b, n
+        self.theta: np.ndarray | None = None
+        self.chunking: tuple[int, list[np.ndarray]] = (0, [])
+        if b.size * n.size <= _CACHE_ELEMENTS:
+            self.theta = np.empty((b.size, n.size))
+            rows = max(1, _CHUNK // (n.size + 1))
+            for lo in range(0, b.size, rows):
+                sl = slice(lo, lo + rows)
+                self.theta[sl] = np.sort(np.mod(b[sl, None] * n[None, :], _TWO_PI), axis=1)
+
+    def __call__(self, ds: np.ndarray) -> np.ndarray:
+        if self.theta is None:
+            return _undamped_yu(self.b, self.n, ds)
+        rows = max(1, _CHUNK // (self.n.size + ds.shape[1]))
+        starts = range(0, self.b.size, rows)
+        if self.chunking[0] != rows:
+            self.chunking = (rows, [_search_array(self.theta[i : i + rows]) for i in starts])
+        flats = self.chunking[1]
+        return np.concatenate(
+            [
+                _undamped_yu_search(self.b[i : i + rows], flat, ds[i : i + rows])
+                for i, flat in zip(starts, flats, strict=True)
+            ]
+        )
+
+
+#: Largest (row x sample) phase array :class:`_UndampedGrid` keeps (32 MB, and as much
+#: for the search arrays).
+_CACHE_ELEMENTS = 1 << 22
+
+
+def _search_array(theta: np.ndarray) -> np.ndarray:
+    """The rows of sorted phases ``theta`` with wrap-around sentinels, each row shifted by
+    ``4 pi`` from the previous one, flattened: one sorted array for the row-wise search."""
+    ext = np.concatenate([theta[:, -1:] - _TWO_PI, theta, theta[:, :1] + _TWO_PI], axis=1)
+    return (ext + (4.0 * _TWO_PI) * np.arange(theta.shape[0])[:, None]).ravel()
+
+
+def _undamped_yu_search(b: np.ndarray, flat: np.ndarray, ds: np.ndarray) -> np.ndarray:
+    """:func:`_undamped_yu` of one chunk of rows from its :func:`_search_array`."""
+    offset = (4.0 * _TWO_PI) * np.arange(b.size)[:, None]
+    dist = np.zeros(ds.shape)
+    for target in (0.5 * np.pi, -0.5 * np.pi):
+        x = np.mod(target - b[:, None] * ds, _TWO_PI) + offset
+        idx = np.searchsorted(flat, x.ravel()).reshape(x.shape)
+        idx = np.clip(idx, 1, flat.size - 1)
+        d = np.minimum(flat[idx] - x, x - flat[idx - 1])
+        dist = np.maximum(dist, d)
+    return 1.0 - np.cos(np.minimum(dist, np.pi))
+
+
+def _yu_of(b: np.ndarray, a: np.ndarray, n_samples: int | None):  # noqa: ANN202
+    """``ds -> yu[ds]`` for the rows ``b``, ``a`` (rows of ``ds`` belong to them)."""
     if n_samples is None:
-        return _undamped_yu(b, np.arange(STEADY_STATE_SAMPLES, dtype=float), ds)
+        return _UndampedGrid(b, np.arange(STEADY_STATE_SAMPLES, dtype=float))
     if np.all(a == 0.0):
-        return _undamped_yu(b, np.arange(1, n_samples + 1, dtype=float), ds)
-    return _damped_yu(b, a, n_samples, ds)
+        return _UndampedGrid(b, np.arange(1, n_samples + 1, dtype=float))
+    return lambda ds: _damped_yu(b, a, n_samples, ds)
 
 
 def _refine(
-    b: np.ndarray,
-    a: np.ndarray,
-    n_samples: int | None,
+    yu_of,  # noqa: ANN001 - ds -> yu[ds] of the rows (see _yu_of)
     grid: np.ndarray,
     yu: np.ndarray,
     sign: float,
@@ -284,7 +334,7 @@ def _refine(
     local = np.linspace(-1.0, 1.0, 33)
     for _ in range(2):
         ds = np.clip(best_ds[:, None] + half * local[None, :], 0.0, np.nextafter(1.0, 0.0))
-        vals = _yu(b, a, n_samples, ds)
+        vals = yu_of(ds)
         j = np.argmax(sign * vals, axis=1)
         cand = vals[np.arange(vals.shape[0]), j]
         better = sign * cand > sign * best
@@ -415,9 +465,10 @@ def unobservable_magnitude(
     # zeta * wn = zeta * wd / sqrt(1 - zeta^2) because freq_hz is the damped frequency.
     a = b * zeta / np.sqrt(1.0 - zeta**2)
     grid = np.arange(n_phases) / n_phases
-    yu = _yu(b, a, ns, np.broadcast_to(grid, (b.size, n_phases)))
-    worst, worst_ds = _refine(b, a, ns, grid, yu, 1.0)
-    minimum, minimum_ds = _refine(b, a, ns, grid, yu, -1.0)
+    yu_of = _yu_of(b, a, ns)
+    yu = yu_of(np.broadcast_to(grid, (b.size, n_phases)))
+    worst, worst_ds = _refine(yu_of, grid, yu, 1.0)
+    minimum, minimum_ds = _refine(yu_of, grid, yu, -1.0)
     rms = np.sqrt(np.mean(yu**2, axis=1))
     out = {
         "worst": worst,
