@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+from collections.abc import Iterator
+from contextlib import contextmanager
 from math import gcd
 
 import numpy as np
@@ -191,8 +193,20 @@ def test_damped_grid_equals_direct_grid(ratios, zeta, ns, seed):
         [np.broadcast_to(np.arange(36) / 36, (b.size, 36)), rng.uniform(0, 1, (b.size, 9))],
         axis=1,
     )
-    fast = unobservable._damped_yu(b, a, ns, ds)
+    with _fast_path_always():
+        fast = unobservable._damped_yu(b, a, ns, ds)
     np.testing.assert_array_equal(fast, unobservable._damped_yu_direct(b, a, ns, ds))
+
+
+@contextmanager
+def _fast_path_always() -> Iterator[None]:
+    """The angle-addition path even for grids below ``_DIRECT_PHASES``."""
+    old = unobservable._DIRECT_PHASES
+    unobservable._DIRECT_PHASES = 0
+    try:
+        yield
+    finally:
+        unobservable._DIRECT_PHASES = old
 
 
 @pytest.mark.parametrize("ns", [1, 2, 10, 40])
@@ -210,6 +224,7 @@ def test_damped_grid_equals_direct_grid_near_ties_and_fast_decay(ns):
 def test_damped_grid_blocks_match_direct(monkeypatch):
     # several blocks of rows (small block size), the case-sized phase grid
     monkeypatch.setattr(unobservable, "_BLOCK", 700)
+    monkeypatch.setattr(unobservable, "_DIRECT_PHASES", 0)
     b, a = _rows(np.geomspace(0.05, 30.0, 41), 0.01)
     ds = np.broadcast_to(np.arange(360) / 360, (b.size, 360))
     fast = unobservable._damped_yu(b, a, 20, ds)
@@ -250,3 +265,23 @@ def test_undamped_grid_without_cache_room(monkeypatch):
     assert grid.theta is None
     ds = np.broadcast_to(np.arange(36) / 36, (3, 36))
     np.testing.assert_array_equal(grid(ds), unobservable._undamped_yu(b, n, ds))
+
+
+def test_small_damped_grids_use_the_direct_evaluation(monkeypatch):
+    calls = []
+    monkeypatch.setattr(unobservable, "_damped_sample_extrema", lambda *a: calls.append(a))
+    b, a = _rows([0.3, 1.1], 0.01)
+    ds = np.broadcast_to(np.arange(33) / 33, (2, 33))
+    small = unobservable._damped_yu(b, a, 10, ds)
+    assert not calls
+    np.testing.assert_array_equal(small, unobservable._damped_yu_direct(b, a, 10, ds))
+
+
+@pytest.mark.parametrize(("zeta", "ns"), [(0.0, None), (0.0, 7), (0.01, 10)])
+def test_unobservable_rms_equals_magnitude_rms(zeta, ns):
+    f = np.geomspace(3e3, 90e3, 50)[:, None]
+    dt = np.array([25e-6, 37e-6])
+    fast = unobservable.unobservable_rms(f, dt, damping=zeta, n_samples=ns, n_phases=90)
+    full = unobservable_magnitude(f, dt, damping=zeta, n_samples=ns, n_phases=90)
+    assert fast.shape == full.rms.shape == (50, 2)
+    np.testing.assert_array_equal(fast, full.rms)

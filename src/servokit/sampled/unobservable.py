@@ -55,6 +55,7 @@ __all__ = [
     "MeasurementTimeRequirement",
     "damped_sine_extrema",
     "unobservable_magnitude",
+    "unobservable_rms",
     "unacceptable_sampling_frequencies",
     "required_measurement_time",
     "unobservable_plot",
@@ -129,14 +130,16 @@ def _undamped_yu(b: np.ndarray, n: np.ndarray, ds: np.ndarray) -> np.ndarray:
 def _damped_yu(b: np.ndarray, a: np.ndarray, n_samples: int, ds: np.ndarray) -> np.ndarray:
     """``yu`` of (4.48) for ``exp(-a s) sin(b s)``, samples ``n = 1..Ns``, window ``s >= Ns``.
 
-    The same numbers as :func:`_damped_yu_direct` (bit for bit), with two transcendental
+    The same numbers as :func:`_damped_yu_direct` (bit for bit), with six transcendental
     calls per (row, phase) instead of two per (row, phase, sample): see
-    :func:`_damped_sample_extrema`.
+    :func:`_damped_sample_extrema` (used from :data:`_DIRECT_PHASES` (row, phase) pairs).
     """
     start = float(n_samples)
     scale = np.exp(-a * start)
     cmax, cmin = damped_sine_extrema(a, b, b * start, np.inf)
     cmax, cmin = cmax * scale, cmin * scale
+    if ds.size < _DIRECT_PHASES:
+        return _damped_yu_direct(b, a, n_samples, ds)  # small: numpy call overhead wins
     ymax, ymin = _damped_sample_extrema(b, a, n_samples, ds)
     return np.maximum(0.0, np.maximum(cmax[:, None] - ymax, -(cmin[:, None] - ymin)))
 
@@ -167,6 +170,9 @@ def _damped_samples(b: np.ndarray, a: np.ndarray, s: np.ndarray) -> np.ndarray:
     return np.exp(-a[:, None] * s) * np.sin(b[:, None] * s)
 
 
+#: Below this many (row, phase) elements :func:`_damped_yu` evaluates the grid directly
+#: (fewer numpy calls; the same values).
+_DIRECT_PHASES = 1024
 #: (row, phase) elements of one block of :func:`_damped_sample_extrema` (cache-sized: a
 #: dozen simple passes per sample run over each block).
 _BLOCK = 1 << 14
@@ -416,6 +422,33 @@ def _check_damping(damping: float) -> float:
     return zeta
 
 
+def _grid_yu(freq_hz, dt, damping, n_samples, n_phases):  # noqa: ANN001, ANN202
+    """Checked arguments of :func:`unobservable_magnitude` and ``yu`` on the phase grid:
+    ``(f, tau, Ns, zeta, grid, yu_of, yu)`` (``yu_of``: ``ds -> yu`` of the rows)."""
+    f = check_finite("freq_hz", freq_hz)
+    tau = check_finite("dt", dt)
+    if np.any(f <= 0):
+        raise ServokitValueError("freq_hz must be > 0 (the damped oscillation frequency in Hz)")
+    if np.any(tau <= 0):
+        raise ServokitValueError("dt must be > 0 (the sampling period in seconds)")
+    zeta = _check_damping(damping)
+    ns = _check_samples(n_samples)
+    if ns is None and zeta > 0:
+        raise ServokitValueError(
+            "a damped oscillation (damping > 0) needs n_samples (eq. 4.48); pass n_samples=Ns"
+        )
+    if isinstance(n_phases, bool) or not isinstance(n_phases, int | np.integer) or n_phases < 4:
+        raise ServokitValueError(f"n_phases must be an integer >= 4, got {n_phases!r}")
+    f, tau = np.broadcast_arrays(f, tau)
+    b = (_TWO_PI * f * tau).ravel()
+    # zeta * wn = zeta * wd / sqrt(1 - zeta^2) because freq_hz is the damped frequency.
+    a = b * zeta / np.sqrt(1.0 - zeta**2)
+    grid = np.arange(n_phases) / n_phases
+    yu_of = _yu_of(b, a, ns)
+    yu = yu_of(np.broadcast_to(grid, (b.size, n_phases)))
+    return f, tau, ns, zeta, grid, yu_of, yu
+
+
 def unobservable_magnitude(
     freq_hz: float | np.ndarray,
     dt: float | np.ndarray,
@@ -445,28 +478,8 @@ def unobservable_magnitude(
     -------
     UnobservableMagnitude
     """
-    f = check_finite("freq_hz", freq_hz)
-    tau = check_finite("dt", dt)
-    if np.any(f <= 0):
-        raise ServokitValueError("freq_hz must be > 0 (the damped oscillation frequency in Hz)")
-    if np.any(tau <= 0):
-        raise ServokitValueError("dt must be > 0 (the sampling period in seconds)")
-    zeta = _check_damping(damping)
-    ns = _check_samples(n_samples)
-    if ns is None and zeta > 0:
-        raise ServokitValueError(
-            "a damped oscillation (damping > 0) needs n_samples (eq. 4.48); pass n_samples=Ns"
-        )
-    if isinstance(n_phases, bool) or not isinstance(n_phases, int | np.integer) or n_phases < 4:
-        raise ServokitValueError(f"n_phases must be an integer >= 4, got {n_phases!r}")
-    f, tau = np.broadcast_arrays(f, tau)
+    f, tau, ns, zeta, grid, yu_of, yu = _grid_yu(freq_hz, dt, damping, n_samples, n_phases)
     shape = f.shape
-    b = (_TWO_PI * f * tau).ravel()
-    # zeta * wn = zeta * wd / sqrt(1 - zeta^2) because freq_hz is the damped frequency.
-    a = b * zeta / np.sqrt(1.0 - zeta**2)
-    grid = np.arange(n_phases) / n_phases
-    yu_of = _yu_of(b, a, ns)
-    yu = yu_of(np.broadcast_to(grid, (b.size, n_phases)))
     worst, worst_ds = _refine(yu_of, grid, yu, 1.0)
     minimum, minimum_ds = _refine(yu_of, grid, yu, -1.0)
     rms = np.sqrt(np.mean(yu**2, axis=1))
@@ -491,6 +504,44 @@ def unobservable_magnitude(
     )
 
 
+def unobservable_rms(
+    freq_hz: float | np.ndarray,
+    dt: float | np.ndarray,
+    *,
+    damping: float = 0.0,
+    n_samples: int | None = None,
+    n_phases: int = 720,
+) -> np.ndarray:
+    """RMS unobservable magnitude ``yui`` (4.52) alone, for sweeps that need nothing else.
+
+    The same values as ``unobservable_magnitude(...).rms`` (the rectangle rule on the same
+    phase grid), without refining ``yuw`` and the minimum off the grid.
+
+    Parameters
+    ----------
+    freq_hz : float or array_like
+        Damped natural frequency of the oscillation [Hz], > 0.
+    dt : float or array_like
+        Sampling period [s], > 0; broadcasts against ``freq_hz``.
+    damping : float
+        Damping ratio in [0, 1).
+    n_samples : int, optional
+        Judgement samples ``Ns``; ``None`` is the undamped steady state.
+    n_phases : int
+        Size of the uniform sampling-phase grid.
+
+    Returns
+    -------
+    ndarray
+        ``yui`` with the broadcast shape of ``freq_hz`` and ``dt``.
+    """
+    f, _, _, _, _, _, yu = _grid_yu(freq_hz, dt, damping, n_samples, n_phases)
+    rms = np.sqrt(np.mean(yu**2, axis=1))
+    if not np.all(np.isfinite(rms)):
+        raise ServokitValueError("unobservable magnitude: non-finite rms; check the inputs")
+    return rms.reshape(f.shape)
+
+
 @dataclass(frozen=True)
 class SamplingInterval:
     """A band of sampling frequencies where ``yui`` exceeds the acceptable level (Figs 4.24, 4.54).
@@ -511,9 +562,9 @@ class SamplingInterval:
 def _rms_at_fs(
     freq_hz: float, fs: np.ndarray, damping: float, n_samples: int, n_phases: int
 ) -> np.ndarray:
-    return unobservable_magnitude(
+    return unobservable_rms(
         freq_hz, 1.0 / fs, damping=damping, n_samples=n_samples, n_phases=n_phases
-    ).rms
+    )
 
 
 def unacceptable_sampling_frequencies(
@@ -650,11 +701,7 @@ def required_measurement_time(
         raise ServokitValueError("max_samples must be a positive integer")
     rms = np.array(
         [
-            float(
-                unobservable_magnitude(
-                    freq_hz, dt, damping=damping, n_samples=ns, n_phases=n_phases
-                ).rms
-            )
+            float(unobservable_rms(freq_hz, dt, damping=damping, n_samples=ns, n_phases=n_phases))
             for ns in range(1, n_max + 1)
         ]
     )
