@@ -8,7 +8,9 @@ Sections: open-loop simulation of 1000 HDD Monte-Carlo variants (vs python-contr
 ``forced_response`` and scipy's ``dlsim`` loops, and vs the arithmetic bound: flops of
 the modal recursion / measured DGEMM peak), 10^5 variants through ``simulate_metrics``
 (peak memory), closed loops (vs python-control ``feedback`` + ``forced_response``), the
-constrained FSC QP, and ``sampled_data_sensitivity`` over 10^4 frequencies.
+constrained FSC QP, ``sampled_data_sensitivity`` over 10^4 frequencies, and ``demo``:
+the five original ``make demo`` cases in CPU seconds, against the paths the demo speed-up
+replaced (same numbers required).
 """
 
 from __future__ import annotations
@@ -26,6 +28,7 @@ from pathlib import Path  # noqa: E402
 
 sys.path.insert(0, str(Path(__file__).parent))
 
+import demo  # noqa: E402
 import numpy as np  # noqa: E402
 import qp  # noqa: E402
 import sensitivity  # noqa: E402
@@ -42,6 +45,8 @@ TARGETS = {
     "qp.max_relative_difference": ("<=", 1e-6),
     "sensitivity.speedup_vs_per_cell": (">=", 5.0),
     "sensitivity.max_relative_difference": ("<=", 1e-10),
+    "demo.total_cpu_s": ("<", 8.0),
+    "demo.max_relative_difference": ("<=", 1e-12),
 }
 
 
@@ -70,6 +75,7 @@ def main() -> None:
         "closed_loop": lambda: simulator.closed_loop(200 if q else 1000, 10 if q else 40),
         "qp": lambda: qp.constrained_fsc(300 if q else 1000),
         "sensitivity": lambda: sensitivity.sensitivity(2000 if q else 10_000),
+        "demo": lambda: demo.demo(1 if q else 2),
     }
     wanted = args.only or list(sections)
     results: dict = {

@@ -200,3 +200,31 @@ def test_registered_case_writes_figures(tmp_path: Path) -> None:
     assert all(p.exists() and p.stat().st_size > 10_000 for p in res.figures)
     assert res.comparisons == []
     assert res.extra["galvano_I"]["N"] == 79
+
+
+def test_galvano_ii_dense_qp_equals_auto_path() -> None:
+    """The case designs with ``qp="dense"``: the banded QP fails on its 8 us problems, so
+    ``"auto"`` ends on the dense QP too and both give the same input (demo speed-up)."""
+    plant = galvano_scanner().replace(gain=GALVANO_GAIN)
+    kw = {"input_weight": 1.0, "band_weights": ffsc_bands(plant)}
+    cons = [CurrentLimit(12.0), VelocityLimit(5.0)]
+    auto = fsc_input(plant, GALVANO_II_TS, 351, 1e-2, constraints=cons, **kw)
+    dense = fsc_input(plant, GALVANO_II_TS, 351, 1e-2, constraints=cons, qp="dense", **kw)
+    np.testing.assert_allclose(dense.jerk, auto.jerk, rtol=1e-12, atol=0)
+    np.testing.assert_allclose(dense.u, auto.u, rtol=1e-12, atol=0)
+
+
+@pytest.mark.slow
+def test_galvano_ii_dense_qp_equals_auto_path_voltage_limited() -> None:
+    plant = galvano_scanner().replace(gain=GALVANO_GAIN)
+    kw = {"input_weight": 1.0, "band_weights": ffsc_bands(plant)}
+    cons = [CurrentLimit(12.0), VelocityLimit(5.0), VoltageLimit(36.0, motor=GALVANO_MOTOR)]
+    auto = fsc_input(plant, GALVANO_II_TS, 351, 1e-2, constraints=cons, **kw)
+    dense = fsc_input(plant, GALVANO_II_TS, 351, 1e-2, constraints=cons, qp="dense", **kw)
+    np.testing.assert_allclose(dense.jerk, auto.jerk, rtol=1e-12, atol=0)
+
+
+def test_fsc_input_rejects_unknown_qp() -> None:
+    plant = galvano_scanner().replace(gain=GALVANO_GAIN)
+    with pytest.raises(ValueError, match="qp must be"):
+        fsc_input(plant, GALVANO_II_TS, 351, 1e-2, qp="sparse")  # type: ignore[arg-type]

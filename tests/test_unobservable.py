@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+from collections.abc import Iterator
+from contextlib import contextmanager
 from math import gcd
 
 import numpy as np
@@ -10,6 +12,7 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 
 from servokit.errors import ServokitTypeError, ServokitValueError
+from servokit.sampled import unobservable
 from servokit.sampled.unobservable import (
     damped_sine_extrema,
     required_measurement_time,
@@ -165,3 +168,120 @@ def test_user_errors():
         unobservable_magnitude(1e3, 1e-4, n_samples=2.5)
     with pytest.raises(ServokitValueError, match="fs_range"):
         unacceptable_sampling_frequencies(1e3, 0.01, 5, 0.1, (10e3, 1e3))
+
+
+# --- the fast damped grid (angle addition, demo speed-up) against the direct grid -------
+
+
+def _rows(ratios, zeta):  # noqa: ANN001, ANN202
+    b = 2 * np.pi * np.asarray(ratios, dtype=float)
+    return b, b * zeta / np.sqrt(1 - zeta**2)
+
+
+@settings(max_examples=60, deadline=None)
+@given(
+    st.lists(st.floats(1e-3, 40.0), min_size=1, max_size=6),
+    st.floats(1e-6, 0.95),
+    st.integers(1, 45),
+    st.integers(0, 2**32 - 1),
+)
+def test_damped_grid_equals_direct_grid(ratios, zeta, ns, seed):
+    """Bit for bit: the fast path picks the extremal sample, then evaluates it directly."""
+    b, a = _rows(ratios, zeta)
+    rng = np.random.default_rng(seed)
+    ds = np.concatenate(
+        [np.broadcast_to(np.arange(36) / 36, (b.size, 36)), rng.uniform(0, 1, (b.size, 9))],
+        axis=1,
+    )
+    with _fast_path_always():
+        fast = unobservable._damped_yu(b, a, ns, ds)
+    np.testing.assert_array_equal(fast, unobservable._damped_yu_direct(b, a, ns, ds))
+
+
+@contextmanager
+def _fast_path_always() -> Iterator[None]:
+    """The angle-addition path even for grids below ``_DIRECT_PHASES``."""
+    old = unobservable._DIRECT_PHASES
+    unobservable._DIRECT_PHASES = 0
+    try:
+        yield
+    finally:
+        unobservable._DIRECT_PHASES = old
+
+
+@pytest.mark.parametrize("ns", [1, 2, 10, 40])
+def test_damped_grid_equals_direct_grid_near_ties_and_fast_decay(ns):
+    # rational ratios with tiny damping put samples within the margin of each other (the
+    # direct fallback); zeta = 0.95 at large ratios decays towards underflow (direct rows)
+    b1, a1 = _rows([1.0, 0.5, 1 / 3, 0.25, 2.0, 7 / 4], 1e-12)
+    b2, a2 = _rows([5.0, 30.0, 120.0], 0.95)
+    b, a = np.r_[b1, b2], np.r_[a1, a2]
+    ds = np.broadcast_to(np.arange(720) / 720, (b.size, 720))
+    fast = unobservable._damped_yu(b, a, ns, ds)
+    np.testing.assert_array_equal(fast, unobservable._damped_yu_direct(b, a, ns, ds))
+
+
+def test_damped_grid_blocks_match_direct(monkeypatch):
+    # several blocks of rows (small block size), the case-sized phase grid
+    monkeypatch.setattr(unobservable, "_BLOCK", 700)
+    monkeypatch.setattr(unobservable, "_DIRECT_PHASES", 0)
+    b, a = _rows(np.geomspace(0.05, 30.0, 41), 0.01)
+    ds = np.broadcast_to(np.arange(360) / 360, (b.size, 360))
+    fast = unobservable._damped_yu(b, a, 20, ds)
+    np.testing.assert_array_equal(fast, unobservable._damped_yu_direct(b, a, 20, ds))
+
+
+@settings(max_examples=40, deadline=None)
+@given(
+    st.lists(st.floats(1e-3, 40.0), min_size=1, max_size=9),
+    st.sampled_from([None, 1, 7, 30]),
+    st.integers(200, 3000),
+    st.integers(0, 2**32 - 1),
+)
+def test_undamped_grid_cache_equals_direct_search(ratios, ns, chunk, seed):
+    """The cached sorted phases give the same ``yu`` as a fresh search, bit for bit, for
+    every phase grid and chunking (a small ``_CHUNK`` splits the rows)."""
+    b = 2 * np.pi * np.asarray(ratios)
+    n = np.arange(unobservable.STEADY_STATE_SAMPLES if ns is None else ns, dtype=float)
+    n = n if ns is None else n + 1
+    rng = np.random.default_rng(seed)
+    old = unobservable._CHUNK
+    try:
+        unobservable._CHUNK = chunk
+        grid = unobservable._UndampedGrid(b, n)
+        for width in (36, 33, 5, 33):
+            ds = rng.uniform(0, 1, (b.size, width))
+            fresh = unobservable._undamped_yu(b, n, ds)
+            np.testing.assert_array_equal(grid(ds), fresh)
+    finally:
+        unobservable._CHUNK = old
+
+
+def test_undamped_grid_without_cache_room(monkeypatch):
+    monkeypatch.setattr(unobservable, "_CACHE_ELEMENTS", 10)
+    b = 2 * np.pi * np.array([0.3, 1.7, 4.2])
+    n = np.arange(1, 11, dtype=float)
+    grid = unobservable._UndampedGrid(b, n)
+    assert grid.theta is None
+    ds = np.broadcast_to(np.arange(36) / 36, (3, 36))
+    np.testing.assert_array_equal(grid(ds), unobservable._undamped_yu(b, n, ds))
+
+
+def test_small_damped_grids_use_the_direct_evaluation(monkeypatch):
+    calls = []
+    monkeypatch.setattr(unobservable, "_damped_sample_extrema", lambda *a: calls.append(a))
+    b, a = _rows([0.3, 1.1], 0.01)
+    ds = np.broadcast_to(np.arange(33) / 33, (2, 33))
+    small = unobservable._damped_yu(b, a, 10, ds)
+    assert not calls
+    np.testing.assert_array_equal(small, unobservable._damped_yu_direct(b, a, 10, ds))
+
+
+@pytest.mark.parametrize(("zeta", "ns"), [(0.0, None), (0.0, 7), (0.01, 10)])
+def test_unobservable_rms_equals_magnitude_rms(zeta, ns):
+    f = np.geomspace(3e3, 90e3, 50)[:, None]
+    dt = np.array([25e-6, 37e-6])
+    fast = unobservable.unobservable_rms(f, dt, damping=zeta, n_samples=ns, n_phases=90)
+    full = unobservable_magnitude(f, dt, damping=zeta, n_samples=ns, n_phases=90)
+    assert fast.shape == full.rms.shape == (50, 2)
+    np.testing.assert_array_equal(fast, full.rms)

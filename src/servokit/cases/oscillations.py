@@ -34,6 +34,7 @@ from servokit.sampled.unobservable import (
     unacceptable_sampling_frequencies,
     unobservable_magnitude,
     unobservable_plot,
+    unobservable_rms,
 )
 
 __all__ = ["oscillations_case"]
@@ -44,9 +45,7 @@ def _yui_vs_fs_figure(
 ) -> Path:
     """yui of one mode against the sampling frequency for Ns = 5, 10, 20 (Figs. 4.24, 4.54)."""
     curves = {
-        f"Ns = {ns}": unobservable_magnitude(
-            freq_hz, 1 / fs, damping=damping, n_samples=ns, n_phases=360
-        ).rms
+        f"Ns = {ns}": unobservable_rms(freq_hz, 1 / fs, damping=damping, n_samples=ns, n_phases=360)
         for ns in (5, 10, 20)
     }
     unobservable_plot(

@@ -266,6 +266,7 @@ def fsc_input(
     constraints: Iterable[Any] = (),
     model: Literal["plant", "rigid-body"] = "plant",
     input_weight: float | None = None,
+    qp: Literal["auto", "dense"] = "auto",
 ) -> FeedforwardInput:
     """Minimum-jerk FSC / frequency-shaped FFSC input for a modal plant, eqs. (2.40)-(2.75).
 
@@ -291,6 +292,11 @@ def fsc_input(
         Design on the full plant, or on ``plant.rigid_body()`` (the book's Design 1).
     input_weight : float, optional
         Weight rho of ``sum u[k]^2``; default ``1/N`` as in (2.74).  Use 1.0 for (2.44).
+    qp : {"auto", "dense"}
+        Formulation of a constrained design: ``"auto"`` tries the banded sparse QP from
+        ``N >= 100`` steps and falls back to the dense QP when it fails; ``"dense"`` goes
+        straight to the dense QP (same result as ``"auto"`` on a problem the banded
+        solvers fail on, without the seconds they spend failing).
 
     Returns
     -------
@@ -308,6 +314,8 @@ def fsc_input(
         )
     if model not in ("plant", "rigid-body"):
         raise ServokitValueError(f"model must be 'plant' or 'rigid-body', got {model!r}")
+    if qp not in ("auto", "dense"):
+        raise ServokitValueError(f"qp must be 'auto' or 'dense', got {qp!r}")
     dt = float(check_finite("dt", dt))
     if dt <= 0:
         raise ServokitValueError(f"dt must be > 0 seconds, got {dt}")
@@ -334,7 +342,7 @@ def fsc_input(
     W = _cost_factor(dt, N, bands, rho)
     cons = list(constraints)
     if cons:
-        jerk = _constrained(A, B, N, x0, xN, W, dt, n, cons)
+        jerk = _constrained(A, B, N, x0, xN, W, dt, n, cons, banded=qp == "auto")
     else:
         jerk = final_state_control(A, B, N, x0, xN, Q_factor=W)
     u_c = np.concatenate([[0.0], np.cumsum(jerk)[:-1]])
@@ -352,8 +360,10 @@ def _constrained(
     dt: float,
     n: int,
     constraints: list[Any],
+    banded: bool = True,
 ) -> np.ndarray:
-    """Constrained FSC as the QP of (2.64)-(2.72) solved by ``solve_fsc_qp``."""
+    """Constrained FSC as the QP of (2.64)-(2.72) solved by ``solve_fsc_qp`` (the banded
+    QP first from ``SPARSE_MIN_STEPS`` steps if ``banded``)."""
     from servokit.feedforward.constraints import constraint_rows, solve_fsc_qp
     from servokit.feedforward.sparse_qp import SPARSE_MIN_STEPS, sparse_constrained_fsc
 
@@ -363,7 +373,7 @@ def _constrained(
     vel[1:n:2] = 1.0
     input_row = np.zeros(n + 1)
     input_row[n] = 1.0
-    if N >= SPARSE_MIN_STEPS:  # banded QP (issue 8); None falls through to the dense path
+    if banded and N >= SPARSE_MIN_STEPS:  # banded QP (issue 8); None: on to the dense path
         U = sparse_constrained_fsc(
             A, B, N, x0, xN, W, dt=dt, position=pos, velocity=vel, input_row=input_row,
             constraints=constraints,

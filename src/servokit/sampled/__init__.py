@@ -39,6 +39,7 @@ from servokit.sampled.unobservable import (
     unacceptable_sampling_frequencies,
     unobservable_magnitude,
     unobservable_plot,
+    unobservable_rms,
 )
 
 __all__ = [
@@ -62,6 +63,7 @@ __all__ = [
     "unacceptable_sampling_frequencies",
     "unobservable_magnitude",
     "unobservable_plot",
+    "unobservable_rms",
     # shock response spectrum (§4.4)
     "ShockResponseSpectrum",
     "amplitude_spectrum",
