@@ -533,7 +533,6 @@ CASES: list[tuple[list[str], str]] = [
 # error names the Python parameter (bandwidth_hz, stroke_m, C, bound) instead of the flag,
 # or the judge file is loaded / the judge trained before the flags are checked. Strict
 # xfail: a row turns into an error as soon as its command is fixed, and is then moved out.
-_LIMITS_NAMES_PARAMETERS = "cli/limits.py: the error names the parameter, not the flag"
 _PES_NAMES_PARAMETERS = (
     "cli/pes.py: get_plant/get_discrete_controller and the peak filter's parameters "
     "(freq_hz, damping, depth_db) are not named as flags; a negative --seed is numpy's error"
@@ -543,20 +542,6 @@ _SETTLE_CHECKS_LATE = (
     "is loaded or trained"
 )
 KNOWN_FAILURES: dict[str, str] = {
-    **dict.fromkeys(
-        [
-            "limits waterbed --freq 0",
-            "limits waterbed --freq 2e4",
-            "limits waterbed --dt inf",
-            "limits bode-integral --num 0.5,0.1 --den 1,-0.5,0.1 --dt nan",
-            "limits bode-integral --num 0.5,0.1 --den 1,-0.5,0.1 --dt 1e-4 --n-freq 1000000000",
-            "limits variance --num 40000 --den 1,300,0 --dist-num 1 --dist-den 0.01,1 --delta nan",
-            "limits dynamic-range --stroke-m 0 --accuracy-m 3e-9",
-            "limits dynamic-range --stroke-m 0.03 --accuracy-m nan",
-            "limits dynamic-range --stroke-m 0.03 --accuracy-m -1",
-        ],
-        _LIMITS_NAMES_PARAMETERS,
-    ),
     **dict.fromkeys(
         [
             "settle train --out missing/judge.skops",
