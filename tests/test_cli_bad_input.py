@@ -533,10 +533,6 @@ CASES: list[tuple[list[str], str]] = [
 # error names the Python parameter (bandwidth_hz, stroke_m, C, bound) instead of the flag,
 # or the judge file is loaded / the judge trained before the flags are checked. Strict
 # xfail: a row turns into an error as soon as its command is fixed, and is then moved out.
-_PES_NAMES_PARAMETERS = (
-    "cli/pes.py: get_plant/get_discrete_controller and the peak filter's parameters "
-    "(freq_hz, damping, depth_db) are not named as flags; a negative --seed is numpy's error"
-)
 _SETTLE_CHECKS_LATE = (
     "cli/settle.py: the error names the parameter, or the flags are checked after the judge "
     "is loaded or trained"
@@ -563,21 +559,6 @@ KNOWN_FAILURES: dict[str, str] = {
             "settle judge --judge GARBAGE.toml --level inf",
         ],
         _SETTLE_CHECKS_LATE,
-    ),
-    **dict.fromkeys(
-        [
-            "pes --plant no-such",
-            "pes --plant DIR",
-            "pes --controller no-such",
-            "pes --controller DIR",
-            "pes --controller GARBAGE.toml",
-            "pes --peak-filter nan:0.08:12",
-            "pes --peak-filter 0:0.08:12",
-            "pes --peak-filter 960:-1:12",
-            "pes --peak-filter 960:0.08:inf",
-            "pes --seed -1",
-        ],
-        _PES_NAMES_PARAMETERS,
     ),
 }
 #: Known failures that train the judge (4-10 s each) before failing: run by `make test-all`.
