@@ -529,48 +529,9 @@ CASES: list[tuple[list[str], str]] = [
     (["export", "table", "--input", "u.txt", "--out", "u.txt/sub"], "--out"),
 ]
 
-# Known failures in modules another engineer owns (cli/limits.py, cli/settle.py, cli/pes.py): the
-# error names the Python parameter (bandwidth_hz, stroke_m, C, bound) instead of the flag,
-# or the judge file is loaded / the judge trained before the flags are checked. Strict
-# xfail: a row turns into an error as soon as its command is fixed, and is then moved out.
-_SETTLE_CHECKS_LATE = (
-    "cli/settle.py: the error names the parameter, or the flags are checked after the judge "
-    "is loaded or trained"
-)
-KNOWN_FAILURES: dict[str, str] = {
-    **dict.fromkeys(
-        [
-            "settle train --out missing/judge.skops",
-            "settle train --out RO/judge.skops",
-            "settle train --n-distances 1000000000",
-            "settle train --n-lengths 1000000000",
-            "settle train --settle-band 0",
-            "settle train --settle-band nan",
-            "settle train --c 0",
-            "settle train --c nan",
-            "settle train --coef0 inf",
-            "settle evaluate --judge GARBAGE.toml",
-            "settle evaluate --judge GARBAGE.toml --level nan",
-            "settle judge --judge GARBAGE.toml --target nan",
-            "settle judge --judge GARBAGE.toml --target 0",
-            "settle judge --judge GARBAGE.toml --n-samples 1000000000",
-            "settle judge --judge GARBAGE.toml --record missing.csv",
-            "settle judge --judge GARBAGE.toml --record DIR",
-            "settle judge --judge GARBAGE.toml --level inf",
-        ],
-        _SETTLE_CHECKS_LATE,
-    ),
-}
-#: Known failures that train the judge (4-10 s each) before failing: run by `make test-all`.
-SLOW_FAILURES = {
-    "settle train --c 0",
-    "settle train --c nan",
-    "settle train --coef0 inf",
-    "settle train --out RO/judge.skops",
-    "settle train --out missing/judge.skops",
-    "settle train --settle-band 0",
-    "settle train --settle-band nan",
-}
+# Known failures: row id ("settle train --c 0") -> reason; none at present. Strict xfail: a
+# row marked here turns into an error as soon as its command is fixed, and is then moved out.
+KNOWN_FAILURES: dict[str, str] = {}
 
 
 def _param(args: list[str], flag: str) -> object:
@@ -578,8 +539,6 @@ def _param(args: list[str], flag: str) -> object:
     marks = []
     if key in KNOWN_FAILURES:
         marks.append(pytest.mark.xfail(strict=True, reason=KNOWN_FAILURES[key]))
-    if key in SLOW_FAILURES:
-        marks.append(pytest.mark.slow)
     return pytest.param(args, flag, marks=marks, id=key)
 
 
