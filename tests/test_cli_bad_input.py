@@ -529,82 +529,9 @@ CASES: list[tuple[list[str], str]] = [
     (["export", "table", "--input", "u.txt", "--out", "u.txt/sub"], "--out"),
 ]
 
-# Known failures in modules another engineer owns (cli/limits.py, cli/settle.py, cli/pes.py): the
-# error names the Python parameter (bandwidth_hz, stroke_m, C, bound) instead of the flag,
-# or the judge file is loaded / the judge trained before the flags are checked. Strict
-# xfail: a row turns into an error as soon as its command is fixed, and is then moved out.
-_LIMITS_NAMES_PARAMETERS = "cli/limits.py: the error names the parameter, not the flag"
-_PES_NAMES_PARAMETERS = (
-    "cli/pes.py: get_plant/get_discrete_controller and the peak filter's parameters "
-    "(freq_hz, damping, depth_db) are not named as flags; a negative --seed is numpy's error"
-)
-_SETTLE_CHECKS_LATE = (
-    "cli/settle.py: the error names the parameter, or the flags are checked after the judge "
-    "is loaded or trained"
-)
-KNOWN_FAILURES: dict[str, str] = {
-    **dict.fromkeys(
-        [
-            "limits waterbed --freq 0",
-            "limits waterbed --freq 2e4",
-            "limits waterbed --dt inf",
-            "limits bode-integral --num 0.5,0.1 --den 1,-0.5,0.1 --dt nan",
-            "limits bode-integral --num 0.5,0.1 --den 1,-0.5,0.1 --dt 1e-4 --n-freq 1000000000",
-            "limits variance --num 40000 --den 1,300,0 --dist-num 1 --dist-den 0.01,1 --delta nan",
-            "limits dynamic-range --stroke-m 0 --accuracy-m 3e-9",
-            "limits dynamic-range --stroke-m 0.03 --accuracy-m nan",
-            "limits dynamic-range --stroke-m 0.03 --accuracy-m -1",
-        ],
-        _LIMITS_NAMES_PARAMETERS,
-    ),
-    **dict.fromkeys(
-        [
-            "settle train --out missing/judge.skops",
-            "settle train --out RO/judge.skops",
-            "settle train --n-distances 1000000000",
-            "settle train --n-lengths 1000000000",
-            "settle train --settle-band 0",
-            "settle train --settle-band nan",
-            "settle train --c 0",
-            "settle train --c nan",
-            "settle train --coef0 inf",
-            "settle evaluate --judge GARBAGE.toml",
-            "settle evaluate --judge GARBAGE.toml --level nan",
-            "settle judge --judge GARBAGE.toml --target nan",
-            "settle judge --judge GARBAGE.toml --target 0",
-            "settle judge --judge GARBAGE.toml --n-samples 1000000000",
-            "settle judge --judge GARBAGE.toml --record missing.csv",
-            "settle judge --judge GARBAGE.toml --record DIR",
-            "settle judge --judge GARBAGE.toml --level inf",
-        ],
-        _SETTLE_CHECKS_LATE,
-    ),
-    **dict.fromkeys(
-        [
-            "pes --plant no-such",
-            "pes --plant DIR",
-            "pes --controller no-such",
-            "pes --controller DIR",
-            "pes --controller GARBAGE.toml",
-            "pes --peak-filter nan:0.08:12",
-            "pes --peak-filter 0:0.08:12",
-            "pes --peak-filter 960:-1:12",
-            "pes --peak-filter 960:0.08:inf",
-            "pes --seed -1",
-        ],
-        _PES_NAMES_PARAMETERS,
-    ),
-}
-#: Known failures that train the judge (4-10 s each) before failing: run by `make test-all`.
-SLOW_FAILURES = {
-    "settle train --c 0",
-    "settle train --c nan",
-    "settle train --coef0 inf",
-    "settle train --out RO/judge.skops",
-    "settle train --out missing/judge.skops",
-    "settle train --settle-band 0",
-    "settle train --settle-band nan",
-}
+# Known failures: row id ("settle train --c 0") -> reason; none at present. Strict xfail: a
+# row marked here turns into an error as soon as its command is fixed, and is then moved out.
+KNOWN_FAILURES: dict[str, str] = {}
 
 
 def _param(args: list[str], flag: str) -> object:
@@ -612,8 +539,6 @@ def _param(args: list[str], flag: str) -> object:
     marks = []
     if key in KNOWN_FAILURES:
         marks.append(pytest.mark.xfail(strict=True, reason=KNOWN_FAILURES[key]))
-    if key in SLOW_FAILURES:
-        marks.append(pytest.mark.slow)
     return pytest.param(args, flag, marks=marks, id=key)
 
 

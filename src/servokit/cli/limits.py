@@ -13,11 +13,12 @@ from servokit.cli._app import (
     console,
     emit_json,
     example,
+    flag_names,
     plot_target,
     sub_app,
     wrote,
 )
-from servokit.errors import ServokitValueError
+from servokit.errors import ServokitValueError, check_count, check_positive
 
 limits_app = sub_app("limits", "Performance limits: waterbed, Bode integrals, variance (§6.3).")
 
@@ -42,8 +43,8 @@ def _coeffs(text: str, flag: str) -> np.ndarray:
 
 def _loop(num: str, den: str, dt: float | None, flags: tuple[str, str] = ("--num", "--den")):
     n, d = _coeffs(num, flags[0]), _coeffs(den, flags[1])
-    if dt is not None and dt <= 0:
-        raise ServokitValueError(f"--dt must be > 0 s (got {dt})")
+    if dt is not None:
+        dt = check_positive("--dt", dt, "s")
     import control
 
     return control.tf(n, d) if dt is None else control.tf(n, d, dt)
@@ -68,8 +69,12 @@ def waterbed_cmd(
     plot = plot_target(plot)
     if not alpha_db < 0:
         raise ServokitValueError(f"--alpha-db must be < 0 dB (got {alpha_db})")
-    if dt <= 0:
-        raise ServokitValueError(f"--dt must be > 0 s (got {dt})")
+    dt = check_positive("--dt", dt, "s")
+    freq = check_positive("--freq", freq, "Hz")
+    if freq >= 0.5 / dt:
+        raise ServokitValueError(
+            f"--freq {freq:g} Hz must be below the Nyquist frequency {0.5 / dt:g} Hz of --dt"
+        )
     alpha = 10 ** (alpha_db / 20)
     phi1 = waterbed_phi1(freq, 1.0 / dt)
     bound = waterbed_lower_bound(alpha, phi1)
@@ -104,6 +109,8 @@ def bode_integral_cmd(
 
     plot = plot_target(plot)
     loop = _loop(num, den, dt)
+    if dt is not None:
+        n_freq = check_count("--n-freq", n_freq, lo=64, hi=1 << 24)
     res = discrete_bode_integral(loop, n_freq=n_freq) if dt else continuous_bode_integral(loop)
     if plot is not None:
         from servokit.limits.plots import bode_integral_plot
@@ -148,14 +155,20 @@ def variance_cmd(
     from servokit.limits import output_variance, rolloff_bandwidth, variance_lower_bound
 
     plot = plot_target(plot)
+    delta = check_positive("--delta", delta)
+    if delta >= 1:
+        raise ServokitValueError(f"--delta must be < 1 (got {delta:g}); the book uses 0.5")
+    k = check_count("--k", k, lo=1, hi=50)
     loop = _loop(num, den, dt)
     dist = _loop(dist_num, dist_den, dt, ("--dist-num", "--dist-den"))
-    omega_hz = rolloff_bandwidth(loop, delta=delta, k=k)
+    with flag_names({"delta": "--delta", "k": "--k"}):
+        omega_hz = rolloff_bandwidth(loop, delta=delta, k=k)
     if plot is not None:
         from servokit.limits.plots import variance_plot
 
         wrote(variance_plot(loop, dist, omega_hz, plot))
-    vb = variance_lower_bound(dist, omega_hz, delta=delta, k=k, dt=dt)
+    with flag_names({"bandwidth_hz": "the roll-off bandwidth", "delta": "--delta", "k": "--k"}):
+        vb = variance_lower_bound(dist, omega_hz, delta=delta, k=k, dt=dt)
     var = output_variance(loop, dist)
     data = {
         "bandwidth_hz": omega_hz,
@@ -188,6 +201,12 @@ def dynamic_range_cmd(
     """Dynamic range accuracy/stroke of §6.1.1 (Fig. 6.1).  JSON: dynamic_range."""
     from servokit.limits import dynamic_range
 
+    stroke_m = check_positive("--stroke-m", stroke_m, "m")
+    accuracy_m = check_positive("--accuracy-m", accuracy_m, "m")
+    if accuracy_m > stroke_m:
+        raise ServokitValueError(
+            f"--accuracy-m ({accuracy_m:g}) must not exceed --stroke-m ({stroke_m:g})"
+        )
     value = dynamic_range(stroke_m, accuracy_m)
     if json_out:
         emit_json({"dynamic_range": value})

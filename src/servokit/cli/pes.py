@@ -13,24 +13,45 @@ from servokit.cli._app import (
     console,
     emit_json,
     example,
+    load_controller,
+    load_plant,
     plot_target,
     wrote,
 )
 from servokit.errors import DEFAULT_MAX_MEMORY_MB, ServokitValueError, check_memory
 
+_PEAK_FORM = "FREQ_HZ:DAMPING:DEPTH_DB, e.g. 960:0.08:12"
 
-def _peak_spec(text: str):
+
+def _peak_spec(text: str, dt: float):
+    """The ``--peak-filter`` spec, each part finite and > 0, the centre below Nyquist."""
+    import math
+
     from servokit.cases.hdd_pes import PeakFilterSpec
 
     parts = text.split(":")
     try:
         if len(parts) != 3:
             raise ValueError
-        return PeakFilterSpec(float(parts[0]), float(parts[1]), float(parts[2]))
+        freq, damping, depth = (float(v) for v in parts)
     except ValueError:
+        raise ServokitValueError(f"--peak-filter {text!r} must be {_PEAK_FORM}") from None
+    for name, value, unit in (
+        ("FREQ_HZ", freq, " Hz"),
+        ("DAMPING", damping, ""),
+        ("DEPTH_DB", depth, " dB"),
+    ):
+        if not (math.isfinite(value) and value > 0):
+            raise ServokitValueError(
+                f"--peak-filter {text!r}: {name} must be finite and > 0{unit} "
+                f"(got {value:g}); give {_PEAK_FORM}"
+            )
+    if freq >= 0.5 / dt:
         raise ServokitValueError(
-            f"--peak-filter {text!r} must be FREQ_HZ:DAMPING:DEPTH_DB, e.g. 960:0.08:12"
-        ) from None
+            f"--peak-filter {text!r}: FREQ_HZ must be below the Nyquist frequency "
+            f"{0.5 / dt:g} Hz of the {1 / dt:g} Hz PES sampling"
+        )
+    return PeakFilterSpec(freq, damping, depth)
 
 
 def _controller(name: str, dt: float):
@@ -38,9 +59,7 @@ def _controller(name: str, dt: float):
         from servokit.models import benchmark_controller
 
         return benchmark_controller(dt=dt)
-    from servokit.models import get_discrete_controller
-
-    return get_discrete_controller(name, dt)
+    return load_controller(name, dt)
 
 
 @app.command(
@@ -73,15 +92,17 @@ def pes_cmd(
     import numpy as np
 
     from servokit.cases.hdd_pes import peak_filtered_controller
-    from servokit.models import BenchmarkDisturbances, get_plant
+    from servokit.models import BenchmarkDisturbances
     from servokit.simulate.pes import track_following_pes
 
     plot = plot_target(plot)
-    spec = _peak_spec(peak_filter) if peak_filter else None
+    if seed < 0:
+        raise ServokitValueError(f"--seed must be >= 0 (got {seed})")
     bd = BenchmarkDisturbances()
+    spec = _peak_spec(peak_filter, bd.dt) if peak_filter is not None else None
     n = n_revolutions * bd.samples_per_rev
     check_memory(8.0 * n * 60, what=f"--n-revolutions {n_revolutions}", max_memory_mb=max_memory_mb)
-    p = get_plant(plant)
+    p = load_plant(plant)
     c = _controller(controller, bd.dt)
     if spec is not None:
         c = peak_filtered_controller(c, p.discretize(bd.dt), spec)

@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import os
 from pathlib import Path
 from typing import Annotated
 
@@ -20,7 +21,14 @@ from servokit.cli._app import (
     sub_app,
     wrote,
 )
-from servokit.errors import ServokitValueError
+from servokit.errors import (
+    ServokitError,
+    ServokitValueError,
+    check_count,
+    check_finite,
+    check_input_file,
+    check_positive,
+)
 
 settle_app = sub_app("settle", "SVM settling judgement of track seeks (§6.2).")
 
@@ -33,13 +41,44 @@ BandOpt = Annotated[
 
 
 def _load(path: Path):
+    """The judge file named by ``--judge``; every error names the flag."""
     from servokit.learn import SettlingJudge
 
+    if path.is_dir():
+        raise ServokitValueError(f"--judge {path} is a directory; give a .skops judge file")
     if not path.is_file():
         raise ServokitValueError(
             f"--judge {path} does not exist; run 'servokit settle train' first"
         )
-    return SettlingJudge.load(path)
+    try:
+        return SettlingJudge.load(path)
+    except ServokitError as exc:
+        raise ServokitValueError(f"--judge {path}: {exc}") from None
+    except Exception as exc:  # a foreign file skops cannot read: one line naming the flag
+        raise ServokitValueError(
+            f"--judge {path}: not a servokit settling-judge file ({type(exc).__name__})"
+        ) from None
+
+
+def _check_out_file(out: Path) -> Path:
+    """Refuse an unusable ``--out`` judge file before training (nothing is written)."""
+    if str(out).endswith(("/", "\\")) or out.is_dir():
+        raise ServokitValueError(f"--out {out} is a directory; give a file name ending .skops")
+    if out.suffix != ".skops":
+        raise ServokitValueError(f"--out {out}: use a file name ending .skops")
+    parent = out.parent if str(out.parent) else Path(".")
+    if not parent.is_dir():
+        raise ServokitValueError(f"--out {out}: directory {parent} does not exist; create it first")
+    target = out if out.exists() else parent
+    if not os.access(target, os.W_OK):
+        raise ServokitValueError(f"--out {out}: {target} is not writable; choose another path")
+    return out
+
+
+def _check_seed(seed: int) -> int:
+    if seed < 0:
+        raise ServokitValueError(f"--seed must be >= 0 (got {seed})")
+    return seed
 
 
 def _simulate(seeks: list[tuple[float, int]], what: str):
@@ -76,11 +115,17 @@ def train_cmd(
     coef0, cv_scores, judge."""
     from servokit.learn import SettlingJudge, training_seeks, training_set
 
-    if out.suffix != ".skops":
-        raise ServokitValueError(f"--out {out}: use a file name ending .skops")
+    # every flag and the output path are checked before the seeks are simulated
+    out = _check_out_file(out)
+    n_distances = check_count("--n-distances", n_distances, lo=2, hi=1000)
+    n_lengths = check_count("--n-lengths", n_lengths, lo=2, hi=107)
+    settle_band = check_positive("--settle-band", settle_band, "track")
+    c = check_positive("--c", c)
+    coef0 = float(check_finite("--coef0", coef0))
+    class1_weight = check_positive("--class1-weight", class1_weight)
+    judge = SettlingJudge(bound=settle_band, C=c, coef0=coef0, class1_weight=class1_weight)
     seeks = training_seeks(n_distances, n_lengths)
     data = training_set(_simulate(seeks, "simulating seeks"), bound=settle_band)
-    judge = SettlingJudge(bound=settle_band, C=c, coef0=coef0, class1_weight=class1_weight)
     judge = judge.tune(data.X, data.labels) if cv else judge.fit(data.X, data.labels)
     judge.save(out)
     wrote(out)
@@ -124,6 +169,9 @@ def evaluate_cmd(
     from servokit.learn import evaluate_judgements, validation_seeks
 
     plot = plot_target(plot)
+    n_seeks = check_count("--n-seeks", n_seeks, lo=1, hi=100_000)
+    seed = _check_seed(seed)
+    level = float(check_finite("--level", level))
     judge = _load(judge_path)
     responses = _simulate(validation_seeks(n_seeks, seed), "simulating seeks")
     stats = evaluate_judgements(responses, judge, levels=(0.0, level))
@@ -173,6 +221,12 @@ def judge_cmd(
     """
     from servokit.learn import conventional_judgement, settled_index
 
+    if float(check_finite("--target", target)) == 0:
+        raise ServokitValueError("--target must be non-zero [track] (got 0)")
+    n_samples = check_count("--n-samples", n_samples, lo=4, hi=100_000)
+    if record is not None:
+        record = check_input_file(record, "--record")
+    level = float(check_finite("--level", level))
     judge = _load(judge_path)
     if record is not None:
         try:
