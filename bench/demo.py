@@ -20,7 +20,7 @@ from pathlib import Path
 import numpy as np
 
 from servokit.cases import galvano, oscillations, registry
-from servokit.sampled import unobservable
+from servokit.sampled import _unobservable_grid, unobservable
 
 CASES = ("hdd-seek", "galvano", "hdd-sensitivity", "sampled-oscillations", "hdd-residual")
 
@@ -38,8 +38,8 @@ def replaced_paths() -> Iterator[None]:
         return unpatched_fsc(*args, **kwargs)
 
     saved = [
-        (unobservable, "_DIRECT_PHASES", 2**62),  # _damped_yu -> _damped_yu_direct
-        (unobservable, "_CACHE_ELEMENTS", -1),  # _UndampedGrid -> _undamped_yu every call
+        (_unobservable_grid, "_DIRECT_PHASES", 2**62),  # _damped_yu -> _damped_yu_direct
+        (_unobservable_grid, "_CACHE_ELEMENTS", -1),  # _UndampedGrid -> _undamped_yu every call
         (unobservable, "unobservable_rms", rms_via_magnitude),
         (oscillations, "unobservable_rms", rms_via_magnitude),
         (galvano, "fsc_input", fsc_default_path),
