@@ -19,7 +19,7 @@ from pathlib import Path
 
 import numpy as np
 
-from servokit.cases import galvano, oscillations, registry
+from servokit.cases import galvano_designs, oscillations, registry
 from servokit.sampled import _unobservable_grid, unobservable
 
 CASES = ("hdd-seek", "galvano", "hdd-sensitivity", "sampled-oscillations", "hdd-residual")
@@ -29,7 +29,7 @@ CASES = ("hdd-seek", "galvano", "hdd-sensitivity", "sampled-oscillations", "hdd-
 def replaced_paths() -> Iterator[None]:
     """The unobservable grids and the galvano designs as before the demo speed-up."""
     full_rms = unobservable.unobservable_magnitude
-    unpatched_fsc = galvano.fsc_input
+    unpatched_fsc = galvano_designs.fsc_input
 
     def rms_via_magnitude(*args, **kwargs):  # noqa: ANN002, ANN003, ANN202
         return full_rms(*args, **kwargs).rms
@@ -42,7 +42,7 @@ def replaced_paths() -> Iterator[None]:
         (_unobservable_grid, "_CACHE_ELEMENTS", -1),  # _UndampedGrid -> _undamped_yu every call
         (unobservable, "unobservable_rms", rms_via_magnitude),
         (oscillations, "unobservable_rms", rms_via_magnitude),
-        (galvano, "fsc_input", fsc_default_path),
+        (galvano_designs, "fsc_input", fsc_default_path),
     ]
     old = [(mod, name, getattr(mod, name)) for mod, name, _ in saved]
     for mod, name, value in saved:
