@@ -19,8 +19,8 @@ from pathlib import Path
 
 import numpy as np
 
-from servokit.cases import galvano, oscillations, registry
-from servokit.sampled import unobservable
+from servokit.cases import galvano_designs, oscillations, registry
+from servokit.sampled import _unobservable_grid, unobservable
 
 CASES = ("hdd-seek", "galvano", "hdd-sensitivity", "sampled-oscillations", "hdd-residual")
 
@@ -29,7 +29,7 @@ CASES = ("hdd-seek", "galvano", "hdd-sensitivity", "sampled-oscillations", "hdd-
 def replaced_paths() -> Iterator[None]:
     """The unobservable grids and the galvano designs as before the demo speed-up."""
     full_rms = unobservable.unobservable_magnitude
-    unpatched_fsc = galvano.fsc_input
+    unpatched_fsc = galvano_designs.fsc_input
 
     def rms_via_magnitude(*args, **kwargs):  # noqa: ANN002, ANN003, ANN202
         return full_rms(*args, **kwargs).rms
@@ -38,11 +38,11 @@ def replaced_paths() -> Iterator[None]:
         return unpatched_fsc(*args, **kwargs)
 
     saved = [
-        (unobservable, "_DIRECT_PHASES", 2**62),  # _damped_yu -> _damped_yu_direct
-        (unobservable, "_CACHE_ELEMENTS", -1),  # _UndampedGrid -> _undamped_yu every call
+        (_unobservable_grid, "_DIRECT_PHASES", 2**62),  # _damped_yu -> _damped_yu_direct
+        (_unobservable_grid, "_CACHE_ELEMENTS", -1),  # _UndampedGrid -> _undamped_yu every call
         (unobservable, "unobservable_rms", rms_via_magnitude),
         (oscillations, "unobservable_rms", rms_via_magnitude),
-        (galvano, "fsc_input", fsc_default_path),
+        (galvano_designs, "fsc_input", fsc_default_path),
     ]
     old = [(mod, name, getattr(mod, name)) for mod, name, _ in saved]
     for mod, name, value in saved:

@@ -12,7 +12,7 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 
 from servokit.errors import ServokitTypeError, ServokitValueError
-from servokit.sampled import unobservable
+from servokit.sampled import _unobservable_grid, unobservable
 from servokit.sampled.unobservable import (
     damped_sine_extrema,
     required_measurement_time,
@@ -194,19 +194,19 @@ def test_damped_grid_equals_direct_grid(ratios, zeta, ns, seed):
         axis=1,
     )
     with _fast_path_always():
-        fast = unobservable._damped_yu(b, a, ns, ds)
-    np.testing.assert_array_equal(fast, unobservable._damped_yu_direct(b, a, ns, ds))
+        fast = _unobservable_grid._damped_yu(b, a, ns, ds)
+    np.testing.assert_array_equal(fast, _unobservable_grid._damped_yu_direct(b, a, ns, ds))
 
 
 @contextmanager
 def _fast_path_always() -> Iterator[None]:
     """The angle-addition path even for grids below ``_DIRECT_PHASES``."""
-    old = unobservable._DIRECT_PHASES
-    unobservable._DIRECT_PHASES = 0
+    old = _unobservable_grid._DIRECT_PHASES
+    _unobservable_grid._DIRECT_PHASES = 0
     try:
         yield
     finally:
-        unobservable._DIRECT_PHASES = old
+        _unobservable_grid._DIRECT_PHASES = old
 
 
 @pytest.mark.parametrize("ns", [1, 2, 10, 40])
@@ -217,18 +217,18 @@ def test_damped_grid_equals_direct_grid_near_ties_and_fast_decay(ns):
     b2, a2 = _rows([5.0, 30.0, 120.0], 0.95)
     b, a = np.r_[b1, b2], np.r_[a1, a2]
     ds = np.broadcast_to(np.arange(720) / 720, (b.size, 720))
-    fast = unobservable._damped_yu(b, a, ns, ds)
-    np.testing.assert_array_equal(fast, unobservable._damped_yu_direct(b, a, ns, ds))
+    fast = _unobservable_grid._damped_yu(b, a, ns, ds)
+    np.testing.assert_array_equal(fast, _unobservable_grid._damped_yu_direct(b, a, ns, ds))
 
 
 def test_damped_grid_blocks_match_direct(monkeypatch):
     # several blocks of rows (small block size), the case-sized phase grid
-    monkeypatch.setattr(unobservable, "_BLOCK", 700)
-    monkeypatch.setattr(unobservable, "_DIRECT_PHASES", 0)
+    monkeypatch.setattr(_unobservable_grid, "_BLOCK", 700)
+    monkeypatch.setattr(_unobservable_grid, "_DIRECT_PHASES", 0)
     b, a = _rows(np.geomspace(0.05, 30.0, 41), 0.01)
     ds = np.broadcast_to(np.arange(360) / 360, (b.size, 360))
-    fast = unobservable._damped_yu(b, a, 20, ds)
-    np.testing.assert_array_equal(fast, unobservable._damped_yu_direct(b, a, 20, ds))
+    fast = _unobservable_grid._damped_yu(b, a, 20, ds)
+    np.testing.assert_array_equal(fast, _unobservable_grid._damped_yu_direct(b, a, 20, ds))
 
 
 @settings(max_examples=40, deadline=None)
@@ -245,36 +245,36 @@ def test_undamped_grid_cache_equals_direct_search(ratios, ns, chunk, seed):
     n = np.arange(unobservable.STEADY_STATE_SAMPLES if ns is None else ns, dtype=float)
     n = n if ns is None else n + 1
     rng = np.random.default_rng(seed)
-    old = unobservable._CHUNK
+    old = _unobservable_grid._CHUNK
     try:
-        unobservable._CHUNK = chunk
-        grid = unobservable._UndampedGrid(b, n)
+        _unobservable_grid._CHUNK = chunk
+        grid = _unobservable_grid._UndampedGrid(b, n)
         for width in (36, 33, 5, 33):
             ds = rng.uniform(0, 1, (b.size, width))
-            fresh = unobservable._undamped_yu(b, n, ds)
+            fresh = _unobservable_grid._undamped_yu(b, n, ds)
             np.testing.assert_array_equal(grid(ds), fresh)
     finally:
-        unobservable._CHUNK = old
+        _unobservable_grid._CHUNK = old
 
 
 def test_undamped_grid_without_cache_room(monkeypatch):
-    monkeypatch.setattr(unobservable, "_CACHE_ELEMENTS", 10)
+    monkeypatch.setattr(_unobservable_grid, "_CACHE_ELEMENTS", 10)
     b = 2 * np.pi * np.array([0.3, 1.7, 4.2])
     n = np.arange(1, 11, dtype=float)
-    grid = unobservable._UndampedGrid(b, n)
+    grid = _unobservable_grid._UndampedGrid(b, n)
     assert grid.theta is None
     ds = np.broadcast_to(np.arange(36) / 36, (3, 36))
-    np.testing.assert_array_equal(grid(ds), unobservable._undamped_yu(b, n, ds))
+    np.testing.assert_array_equal(grid(ds), _unobservable_grid._undamped_yu(b, n, ds))
 
 
 def test_small_damped_grids_use_the_direct_evaluation(monkeypatch):
     calls = []
-    monkeypatch.setattr(unobservable, "_damped_sample_extrema", lambda *a: calls.append(a))
+    monkeypatch.setattr(_unobservable_grid, "_damped_sample_extrema", lambda *a: calls.append(a))
     b, a = _rows([0.3, 1.1], 0.01)
     ds = np.broadcast_to(np.arange(33) / 33, (2, 33))
-    small = unobservable._damped_yu(b, a, 10, ds)
+    small = _unobservable_grid._damped_yu(b, a, 10, ds)
     assert not calls
-    np.testing.assert_array_equal(small, unobservable._damped_yu_direct(b, a, 10, ds))
+    np.testing.assert_array_equal(small, _unobservable_grid._damped_yu_direct(b, a, 10, ds))
 
 
 @pytest.mark.parametrize(("zeta", "ns"), [(0.0, None), (0.0, 7), (0.01, 10)])

@@ -44,7 +44,7 @@ import numpy as np
 
 from servokit._figures import save_figure
 from servokit.errors import ServokitTypeError, ServokitValueError, check_finite, check_positive
-from servokit.sampled.unobservable import damped_sine_extrema
+from servokit.sampled.damped_sine import damped_sine_extrema
 
 if TYPE_CHECKING:
     from matplotlib.figure import Figure
