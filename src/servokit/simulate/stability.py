@@ -177,10 +177,14 @@ def spectral_radii(
     numpy.ndarray
         Spectral radius of every variant's closed loop, shape (V,); ``>= 1`` is unstable.
     """
-    Acl = closed_loop_matrices(bank, controller, dt, multirate)
-    if Acl.shape[-1] == 0:
-        return np.zeros(Acl.shape[0])
-    return np.abs(np.linalg.eigvals(Acl)).max(axis=-1)
+    return _radii(closed_loop_matrices(bank, controller, dt, multirate))
+
+
+def _radii(A: np.ndarray) -> np.ndarray:
+    """Exact spectral radius of every matrix of the stack ``A`` (V, N, N); 0 when N = 0."""
+    if A.shape[-1] == 0:
+        return np.zeros(A.shape[0])
+    return np.abs(np.linalg.eigvals(A)).max(axis=-1)
 
 
 def unstable(A: np.ndarray, margin: float = 1e-10) -> tuple[np.ndarray, np.ndarray]:
@@ -220,6 +224,6 @@ def unstable(A: np.ndarray, margin: float = 1e-10) -> tuple[np.ndarray, np.ndarr
             X = X @ X
     if todo.size == 0:
         return todo, np.zeros(0)
-    rho = np.abs(np.linalg.eigvals(A[todo])).max(axis=-1)
+    rho = _radii(A[todo])
     bad = rho >= 1.0 - margin
     return todo[bad], rho[bad]
