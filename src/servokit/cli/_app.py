@@ -178,7 +178,7 @@ def load_plant(value: str, flag: str = "--plant") -> Any:
 
     if Path(value).is_dir():
         raise ServokitValueError(f"{flag} {value} is a directory; give a .toml plant file")
-    with flag_names({}, prefix=f"{flag} {value}: "):
+    with flag_names({}, prefix=f"{flag}: "):
         return get_plant(value)
 
 
@@ -190,7 +190,7 @@ def load_controller(value: str, dt: float | None = None, flag: str = "--controll
         raise ServokitValueError(f"{flag} {value!r}: give a book name or a .toml controller file")
     from servokit.models import get_discrete_controller
 
-    with flag_names({}, prefix=f"{flag} {value}: "):
+    with flag_names({}, prefix=f"{flag}: "):
         return get_discrete_controller(value, dt)
 
 
