@@ -194,7 +194,24 @@ def _check_inputs(
 def discrete_plant(
     plant: ModalPlant, dt: float, multirate: Multirate | None = None
 ) -> control.StateSpace:
-    """Exact discrete controlled object ``Pd`` (4.4) or ``Pdm`` (4.25) as a ``StateSpace``."""
+    """Exact discrete controlled object ``Pd`` (4.4) or ``Pdm`` (4.25) as a ``StateSpace``.
+
+    Parameters
+    ----------
+    plant : ModalPlant
+        Continuous plant with its input delay.
+    dt : float
+        Sampling period Ts [s].
+    multirate : Multirate, optional
+        Multirate interpolator / filter / hold at ``dt / m`` (Fig. 4.2); ``None`` for a
+        single-rate loop.
+
+    Returns
+    -------
+    control.StateSpace
+        The zero-order-hold discretisation at ``dt`` (delay states included), or the
+        multirate controlled object seen from the controller at ``dt``.
+    """
     if multirate is None or (
         multirate.m == 1 and multirate.interpolator is None and multirate.filter is None
     ):
@@ -410,6 +427,27 @@ def gamma_terms(
 
     ``Pd`` in the denominator is exact (state-space discretisation), so
     ``sum_l Gamma(w, l) -> -Td(w)`` as more orders are included.
+
+    Parameters
+    ----------
+    plant : ModalPlant
+        Continuous plant with its input delay (python-control plants are converted).
+    controller_d : control.LTI
+        Discrete controller at ``dt`` acting on ``-yd`` (ud = -C yd).
+    dt : float
+        Sampling period Ts [s].
+    freq_hz : array_like
+        Disturbance frequencies [Hz].
+    orders : array_like of int
+        Alias orders ``l`` (``w + l ws``).
+    multirate : Multirate, optional
+        Multirate interpolator / filter / hold at ``dt / m`` (Fig. 4.2); ``None`` for a
+        single-rate loop.
+
+    Returns
+    -------
+    numpy.ndarray
+        Complex ``Gamma(w, l)``, shape ``(len(freq_hz), len(orders))``.
     """
     plant = as_modal_plant(plant)  # python-control plants too (servokit.models.convert)
     dt, f, mr = _check_inputs(plant, controller_d, dt, freq_hz, multirate)
@@ -437,9 +475,29 @@ def sinusoid_response(
 
     Parameters
     ----------
+    plant : ModalPlant
+        Continuous plant with its input delay (python-control plants are converted).
+    controller_d : control.LTI
+        Discrete controller at ``dt`` acting on ``-yd`` (ud = -C yd).
+    dt : float
+        Sampling period Ts [s].
+    freq_hz : float
+        Disturbance frequency [Hz].
     t : array_like
         Times [s] at which ``yc`` and ``yc0`` are evaluated; ``yd``, ``yd0`` are given at
         the sampling instants ``n dt`` inside ``[t.min(), t.max()]``.
+    amplitude : float
+        Disturbance amplitude (plant output unit).
+    multirate : Multirate, optional
+        Multirate interpolator / filter / hold at ``dt / m`` (Fig. 4.2); ``None`` for a
+        single-rate loop.
+    max_order : int
+        Largest alias order ``|l|`` kept in the sum.
+
+    Returns
+    -------
+    SinusoidResponse
+        ``dc``, ``yc``, ``yc0`` on ``t`` and ``yd``, ``yd0`` at the sampling instants.
     """
     t = np.asarray(check_finite("t", t), dtype=float).ravel()
     if t.size == 0:
@@ -506,6 +564,8 @@ def sensitivity_plot(
 
     Parameters
     ----------
+    result : SampledDataSensitivity
+        Output of :func:`sampled_data_sensitivity`.
     quantities : sequence of str
         Any of ``Ssd, Tsd, Sd, Td, S_delta, T_delta, gamma_sum, Pd``.
     db : bool
@@ -514,6 +574,13 @@ def sensitivity_plot(
         Save the figure as PNG there and close it.
     ax : matplotlib Axes, optional
         Draw into it instead of a new figure.
+    title : str, optional
+        Axes title (put the book's figure number in it).
+
+    Returns
+    -------
+    matplotlib.figure.Figure
+        The figure drawn into.
     """
     import matplotlib.pyplot as plt
 
