@@ -285,3 +285,15 @@ def test_unobservable_rms_equals_magnitude_rms(zeta, ns):
     full = unobservable_magnitude(f, dt, damping=zeta, n_samples=ns, n_phases=90)
     assert fast.shape == full.rms.shape == (50, 2)
     np.testing.assert_array_equal(fast, full.rms)
+
+
+def test_required_measurement_time_reports_each_ns_and_is_unchanged() -> None:
+    """The progress hook sees Ns = 1..max in order and does not change the result."""
+    seen: list[int] = []
+    plain = required_measurement_time(4100.0, 1.535e-4, 0.01, 0.1, max_samples=12)
+    hooked = required_measurement_time(
+        4100.0, 1.535e-4, 0.01, 0.1, max_samples=12, on_sample=seen.append
+    )
+    assert seen == list(range(1, 13))
+    np.testing.assert_array_equal(plain.rms, hooked.rms)
+    assert plain.n_samples == hooked.n_samples

@@ -18,6 +18,7 @@ from servokit.cli._app import (
     example,
     flag_names,
     plot_target,
+    progress,
     sub_app,
     wrote,
 )
@@ -258,8 +259,14 @@ def time_cmd(
     plot = plot_target(plot)
     from servokit.sampled.unobservable import required_measurement_time, unobservable_plot
 
-    with flag_names(_FLAGS):
-        req = required_measurement_time(freq, dt, damping, level, max_samples=n_max)
+    # Ns costs ~Ns: the bar advances by Ns so that it tracks the time left
+    with (
+        flag_names(_FLAGS),
+        progress(n_max * (n_max + 1) // 2, "Ns scan", enabled=not json_out) as advance,
+    ):
+        req = required_measurement_time(
+            freq, dt, damping, level, max_samples=n_max, on_sample=advance
+        )
     if plot is not None:
         import numpy as np
 

@@ -42,7 +42,7 @@ Sweeps over the oscillation frequency (Figs. 4.3, 4.20-4.23), the sampling frequ
 
 from __future__ import annotations
 
-from collections.abc import Sequence
+from collections.abc import Callable, Sequence
 from dataclasses import dataclass
 from pathlib import Path
 from typing import TYPE_CHECKING
@@ -393,6 +393,7 @@ def required_measurement_time(
     *,
     max_samples: int = 100,
     n_phases: int = 360,
+    on_sample: Callable[[int], object] | None = None,
 ) -> MeasurementTimeRequirement:
     """Measurement time ``tau * Ns`` needed for ``yui <= level`` (§4.3.2.3, §4.5.3).
 
@@ -410,6 +411,9 @@ def required_measurement_time(
         Largest ``Ns`` examined.
     n_phases : int
         Phase grid of :func:`unobservable_magnitude`.
+    on_sample : callable, optional
+        Called with ``Ns`` after each ``Ns`` is evaluated (the work of one is about
+        proportional to ``Ns``): a progress hook for long scans.
 
     Returns
     -------
@@ -420,12 +424,13 @@ def required_measurement_time(
     n_max = _check_samples(max_samples)
     if n_max is None:
         raise ServokitValueError("max_samples must be a positive integer")
-    rms = np.array(
-        [
-            float(unobservable_rms(freq_hz, dt, damping=damping, n_samples=ns, n_phases=n_phases))
-            for ns in range(1, n_max + 1)
-        ]
-    )
+    rms = np.empty(n_max)
+    for ns in range(1, n_max + 1):
+        rms[ns - 1] = unobservable_rms(
+            freq_hz, dt, damping=damping, n_samples=ns, n_phases=n_phases
+        )
+        if on_sample is not None:
+            on_sample(ns)
     bad = np.flatnonzero(rms > level)
     n_req: int | None
     if bad.size == 0:
