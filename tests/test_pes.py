@@ -15,7 +15,7 @@ from servokit.models import (
     hdd_benchmark,
     hdd_benchmark_variants,
 )
-from servokit.simulate.pes import closed_loop_matrices, lifted_plant, track_following_pes
+from servokit.simulate.pes import lifted_plant, pes_closed_loop, track_following_pes
 
 TS = HDD_BENCHMARK_TS
 
@@ -46,7 +46,7 @@ def test_sensor_noise_variance_matches_the_h2_norm():
     )
     rec = bd.generate(300, seed=7)
     res = track_following_pes(hdd_benchmark(), benchmark_controller(), rec)
-    cl = closed_loop_matrices(hdd_benchmark(), benchmark_controller(), TS)
+    cl = pes_closed_loop(hdd_benchmark(), benchmark_controller(), TS)
     s = cl[0, 2]  # sensor/output-disturbance input -> PES
     P = control.dlyap(np.asarray(s.A).T, np.asarray(s.C).T @ np.asarray(s.C))
     h2 = float((np.asarray(s.B).T @ P @ np.asarray(s.B))[0, 0] + np.asarray(s.D)[0, 0] ** 2)

@@ -24,7 +24,7 @@ from servokit.errors import ServokitValueError, check_count, check_memory
 from servokit.models.disturbances import DisturbanceRecord
 from servokit.models.modal import ModalPlant
 
-__all__ = ["PesResult", "lifted_plant", "track_following_pes", "closed_loop_matrices"]
+__all__ = ["PesResult", "lifted_plant", "track_following_pes", "pes_closed_loop"]
 
 
 @dataclass(frozen=True)
@@ -101,7 +101,7 @@ def lifted_plant(plant: ModalPlant, dt: float, force_rate: int = 2) -> tuple[np.
     return powers[r], bw.sum(axis=1, keepdims=True), bw, c
 
 
-def closed_loop_matrices(
+def pes_closed_loop(
     plant: ModalPlant, controller: control.LTI, dt: float, force_rate: int = 2
 ) -> control.StateSpace:
     """Closed loop at ``dt`` with inputs ``[w_1..w_r, d]`` (force [A], ``d = flutter + rro +
@@ -128,7 +128,7 @@ def closed_loop_matrices(
     if cs.dt is None or cs.dt is True or not np.isclose(float(cs.dt), dt, rtol=1e-9):
         raise ServokitValueError(f"controller must be discrete with dt = {dt:g} s")
     ac, bc, cc, dc = (np.asarray(m) for m in (cs.A, cs.B, cs.C, cs.D))
-    n, m = ap.shape[0], ac.shape[0]
+    m = ac.shape[0]
     a = np.block([[ap - bu @ dc @ cp, bu @ cc], [-bc @ cp, ac]])
     b = np.block([[bw, -bu @ dc], [np.zeros((m, bw.shape[1])), -bc]])
     c = np.block([[-cp, np.zeros((1, m))], [-dc @ cp, cc]])
@@ -138,7 +138,6 @@ def closed_loop_matrices(
     cl = control.ss(a, b, c, d, dt)
     if np.any(np.abs(cl.poles()) >= 1.0):
         raise ServokitValueError("the closed loop is unstable with this controller and plant")
-    del n
     return cl
 
 
@@ -174,7 +173,7 @@ def track_following_pes(
     drop = check_count("discard_revolutions", discard_revolutions, lo=0)
     if record.n % spr or record.n // spr <= drop:
         raise ServokitValueError("the record must hold whole revolutions, more than discarded")
-    cl = closed_loop_matrices(plant, controller, record.dt, record.force.shape[1])
+    cl = pes_closed_loop(plant, controller, record.dt, record.force.shape[1])
     check_memory(
         8.0 * record.n * (cl.nstates + cl.ninputs + 2),
         what="the PES run",
