@@ -54,6 +54,33 @@ def test_quantize_hand_case() -> None:
     assert q.integers.tolist() == [8192, -16384, 4096] and q.max_error == 0.0
 
 
+def _brute_force_exponent(values: np.ndarray, bits: int) -> int:
+    """Smallest e with every rint(v 2**(bits - e)) in [-(2**bits - 1), 2**bits - 1]."""
+    for e in range(-60, 60):
+        if np.all(np.abs(np.rint(values * 2.0 ** (bits - e))) <= 2**bits - 1):
+            return e
+    raise AssertionError("no exponent found")
+
+
+@pytest.mark.parametrize("bits", [15, 31])
+@pytest.mark.parametrize("shift", [-3, 0, 2])
+@pytest.mark.parametrize("sign", [1.0, -1.0])
+def test_quantize_rounding_up_to_full_scale_gets_one_more_bit(
+    bits: int, shift: int, sign: float
+) -> None:
+    # peak just below 2**shift: at e = shift it rounds to exactly 2**bits, one past the
+    # largest int16 / int32, so the scale must grow by one bit (the saturation edge).
+    peak = 2.0**shift * (1.0 - 2.0 ** -(bits + 2))
+    values = np.array([sign * peak, 0.3 * 2.0**shift, -0.1])
+    assert np.rint(peak * 2.0 ** (bits - shift)) == 2**bits  # the edge is really hit
+    q = quantize(values, bits)
+    assert q.exponent == shift + 1 == _brute_force_exponent(values, bits)
+    dtype = np.int16 if bits == 15 else np.int32
+    stored = q.integers.astype(dtype)  # what the C table holds: must not wrap around
+    assert stored.astype(np.int64).tolist() == q.integers.tolist()
+    assert np.all(np.abs(values - stored.astype(float) * q.scale) <= q.error_bound)
+
+
 def test_table_refuses_nan_and_bad_names() -> None:
     with pytest.raises(ServokitValueError, match="finite"):
         FirmwareTable("u", np.array([1.0, np.nan]))
