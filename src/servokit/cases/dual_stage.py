@@ -80,6 +80,7 @@ _ROWS = (
 )
 #: the issue's tolerances: 5 % for frequencies, 1 dB, 5 deg
 _ABS_TOL = {"Hz": 0.05, "dB": 1.0, "deg": 5.0}
+_TOL_TEXT = {"Hz": "5 %", "dB": "1 dB", "deg": "5 deg"}
 
 
 def fitted_unknowns(method: str) -> Unknowns:
@@ -135,7 +136,9 @@ def _comparisons(method: str, row: DesignRow) -> list[Comparison]:
                 source="§5.5.2 (printed in rad)" if key.startswith("phi") else "Table 5.4",
                 kind="fitted",
                 note=f"DMS, continuous loop; unknowns {fitted} (searched: "
-                f"{', '.join(FIT_FREE[method])}{'' if method == 'inverse' else _SHARED})",
+                f"{', '.join(FIT_FREE[method])}{'' if method == 'inverse' else _SHARED}); "
+                f"tolerance {_TOL_TEXT[unit]} as the issue states, looser than the printed "
+                "digits: the loop rests on unknowns the book omits",
                 book_text=book[key],
             )
         )
