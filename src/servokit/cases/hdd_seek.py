@@ -344,7 +344,8 @@ def hdd_seek_case(outdir: Path) -> CaseResult:
         Rows: the worst seek times over the 18 plants of Designs 1-2 for 1 and 10 tracks
         at the book's N (10 us delay not simulated, the book's convention), the FFSC
         improvements [%] (consistency), Fig. 2.15's Max(y), the seek times with the delay
-        simulated (informational: a sensitivity study) and the N minimising each worst seek time vs the book's;
+        simulated (informational: a sensitivity study) and the N minimising each worst
+        seek time vs the book's;
         one figure per design (Figs. 2.14-2.21) and the N search; extras with the seek
         times, worst plants, searched N and peaks.
     """
