@@ -212,6 +212,22 @@ def test_readme_python_block_runs(
     try:
         line, source = line_source
         # padded so that a traceback names the README's own line numbers
-        exec(compile("\n" * line + source, str(README), "exec"), {"__name__": "__readme__"})
+        namespace: dict[str, object] = {"__name__": "__readme__"}
+        exec(compile("\n" * line + source, str(README), "exec"), namespace)
+        # the block ran to its end: every name it assigns is bound, none to NaN
+        import ast
+
+        assigned = {
+            t.id
+            for node in ast.walk(ast.parse(source))
+            if isinstance(node, ast.Assign)
+            for t in node.targets
+            if isinstance(t, ast.Name)
+        }
+        assert assigned <= set(namespace), sorted(assigned - set(namespace))
+        for name in assigned:
+            value = namespace[name]
+            if isinstance(value, float):
+                assert value == value, f"README.md:{line}: {name} is NaN"
     finally:
         plt.close("all")
