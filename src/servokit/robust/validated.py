@@ -346,12 +346,11 @@ def robust_seek_over_box(
         # later rounds keep N and start above this guarantee (a superset cannot beat it)
         kw["N"], kw["settle_below"] = ff.N, ff.guaranteed_seek_time - h
         val = _validate(box, ff, target, band, z_val, n_starts, h)
-        rounds.append(
-            BoxRound(len(z_design), ff.guaranteed_seek_time, val.mc_worst, val.adv_worst)
-        )
+        rounds.append(BoxRound(len(z_design), ff.guaranteed_seek_time, val.mc_worst, val.adv_worst))
         if progress is not None:
             progress(
-                f"{time.perf_counter() - t0:.1f} s, round {len(rounds)}: {len(z_design)} design plants, guarantee "
+                f"{time.perf_counter() - t0:.1f} s, round {len(rounds)}: {len(z_design)} "
+                f"design plants, guarantee "
                 f"{ff.guaranteed_seek_time * 1e3:.4g} ms, validated worst "
                 f"{max(val.mc_worst, val.adv_worst) * 1e3:.4g} ms"
             )
