@@ -125,6 +125,18 @@ CASES: list[tuple[list[str], str]] = [
     (["seek", "--settle-band", "0"], "--settle-band"),
     (["seek", "--settle-band", "-1"], "--settle-band"),
     (["seek", "--plant", "no-such"], "--plant"),
+    (["seek", "--method", "robust", "--u-max", "1", "--variations", "missing.toml"], "missing"),
+    (["seek", "--method", "robust", "--u-max", "1", "--variations", "GARBAGE.toml"], "GARBAGE"),
+    (["seek", "--method", "robust", "--u-max", "1", "--variations", "DIR"], "DIR"),
+    (["seek", "--method", "fsc", "--variations", "GARBAGE.toml"], "--variations"),
+    (
+        ["seek", "--method", "robust", "--variations", "GARBAGE.toml", "--n-validation", "0"],
+        "--n-validation",
+    ),
+    (
+        ["seek", "--method", "robust", "--variations", "GARBAGE.toml", "--n-validation", HUGE],
+        "--n-validation",
+    ),
     (["seek", "--plant", "galvano-scanner"], "--dt"),
     (["seek", "--plot", "noext"], "--plot"),
     # ---- sensitivity

@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+from pathlib import Path
 from typing import Annotated, Any
 
 import typer
@@ -80,6 +81,14 @@ def _check_size(
     samples = max(3 * n_max, n_max + _SETTLE_RECORD_S / dt) * _SUBSTEPS
     sim = n_plants * samples * (n_states + 2) * 8
     check_memory(design + sim, what=f"{flag} {n_max}", max_memory_mb=max_mb)
+
+
+def _read_box(path: Path, nominal: Any, n_validation: int) -> Any:
+    """The ``--variations`` box (refusing bad ``--n-validation`` first)."""
+    from servokit.models import read_variations
+
+    check_count("--n-validation", n_validation, lo=1, hi=1_000_000)
+    return read_variations(path, nominal)
 
 
 @app.command(
@@ -161,6 +170,20 @@ def seek_cmd(
     objective: Annotated[
         str, typer.Option("--objective", help="robust: 'peak' or 'energy'")
     ] = "peak",
+    variations: Annotated[
+        Path | None,
+        typer.Option(
+            "--variations",
+            help="robust: variation file (TOML); the worst case is validated inside its box "
+            "(nominal: --plant if given, else the file's plant)",
+        ),
+    ] = None,
+    n_validation: Annotated[
+        int,
+        typer.Option(
+            "--n-validation", help="robust with --variations: Monte-Carlo validation plants [count]"
+        ),
+    ] = 2000,
 ) -> None:
     """Design an FSC/FFSC seek input and report the worst-case seek time over the plant set.
 
@@ -186,8 +209,14 @@ def seek_cmd(
 
     from servokit.models import HDD_BENCHMARK_TS, hdd_benchmark_variants
 
-    is_hdd = plant == "hdd-benchmark"
+    if variations is not None and method != "robust":
+        raise ServokitValueError("--variations applies to --method robust; add --method robust")
+    is_hdd = plant == "hdd-benchmark" and variations is None
     nominal = load_plant(plant)
+    vset = None
+    if variations is not None:
+        vset = _read_box(variations, None if plant == "hdd-benchmark" else nominal, n_validation)
+        nominal = vset.nominal
     plants = hdd_benchmark_variants() if is_hdd else [nominal]
     if dt is None:
         if not is_hdd:
@@ -215,11 +244,11 @@ def seek_cmd(
     )
     sim_plants = plants if delay else [p.replace(delay=0.0) for p in plants]
     if method == "robust":  # servokit.cli.robust: design over the set, verify, report
-        from servokit.cli.robust import RobustSeekRequest, robust_seek
+        from servokit.cli.robust import RobustSeekRequest, box_variations, robust_seek
 
         return robust_seek(
             RobustSeekRequest(
-                plant,
+                plant if variations is None else str(variations),
                 sim_plants,
                 dt,
                 target,
@@ -232,6 +261,8 @@ def seek_cmd(
                 objective,
                 plot,
                 json_out,
+                box_variations(vset, delay),
+                n_validation,
             )
         )
     design_kw: dict[str, Any] = {"band_weights": bands, "model": model}

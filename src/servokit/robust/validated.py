@@ -15,8 +15,9 @@ loop over plants):
 3. validate the input on ``n_validation`` fresh Monte-Carlo plants (their own seed) and
    by an adversarial search: a batched coordinate (pattern) search over the normalised
    box parameters ``z`` in ``[-1, 1]^R`` from the ``n_starts`` worst validation plants,
-   maximising the seek time (ties broken by how far the output leaves the band at its
-   last exit, a continuous score that guides the search across the seek-time plateaus);
+   maximising the seek time (ties broken by how close the output comes to leaving the
+   band again after it, a continuous score that guides the search across the seek-time
+   plateaus);
 4. if the validated worst exceeds the design guarantee by more than ``tolerance`` (one
    read-out grid step by default), add the worst violators to ``D`` and go to 2.
 
@@ -93,6 +94,8 @@ class ValidatedSeek:
         True when the validated worst is within ``tolerance`` of the design guarantee.
     worst_z : ndarray
         Normalised box coordinates of the worst plant (one per range, then the gain).
+    worst_plant : ModalPlant
+        The worst plant found.
     worst_source : str
         ``"monte-carlo"`` or ``"adversarial"``.
     validation_seek_times : ndarray
@@ -109,6 +112,7 @@ class ValidatedSeek:
     n_design: int
     converged: bool
     worst_z: np.ndarray
+    worst_plant: ModalPlant
     worst_source: str
     validation_seek_times: np.ndarray
     rounds: tuple[BoxRound, ...]
@@ -160,13 +164,15 @@ def box_seek_scores(
     band: float,
     horizon: float | None = None,
 ) -> np.ndarray:
-    """Seek time of each plant plus a sub-grid score of its last band exit.
+    """Seek time of each plant plus a sub-grid score of how close it comes to leaving again.
 
-    ``score = t_s + 0.99 h tanh(e_last)`` with ``t_s`` the seek time (first grid time after the
-    last sample outside the band), ``h`` the read-out step and ``e_last`` the excess
-    ``|y - target| / band - 1 >= 0`` at that last exit: it orders plants of equal seek
-    time by how close they are to leaving the band later, and never reaches the next
-    grid time, so ``floor`` to the grid recovers the seek time.
+    ``score = t_s + 0.99 h m`` with ``t_s`` the seek time (first grid time after the last
+    sample outside the band), ``h`` the read-out step and ``m = max |y - target| / band``
+    over the record from ``t_s`` on (``m <= 1``): among plants of equal seek time it
+    ranks first those that come closest to leaving the band later, i.e. closest to a
+    longer seek time, a continuous score that guides the search across the seek-time
+    plateaus.  It never reaches the next grid time, so ``floor`` to the grid recovers
+    the seek time.
 
     Parameters
     ----------
@@ -188,12 +194,13 @@ def box_seek_scores(
     h = req["dt"] / req["substeps"]
 
     def metric(res: Any) -> np.ndarray:
-        e = np.abs(res.yc - target) / band - 1.0
-        out = e > 0
-        last = e.shape[1] - 1 - np.argmax(out[:, ::-1], axis=1)
-        rows = np.arange(e.shape[0])
-        score = res.t[np.minimum(last + 1, e.shape[1] - 1)] + 0.99 * h * np.tanh(e[rows, last])
-        score[~out.any(axis=1)] = res.t[0]
+        e = np.abs(res.yc - target) / band
+        out = e > 1.0
+        n = e.shape[1]
+        first_in = np.where(out.any(axis=1), n - np.argmax(out[:, ::-1], axis=1), 0)
+        after = np.arange(n)[None, :] >= first_in[:, None]
+        m = np.max(np.where(after, e, 0.0), axis=1)
+        score = res.t[np.minimum(first_in, n - 1)] + 0.99 * h * np.minimum(m, 1.0)
         score[out[:, -1]] = np.inf
         return score
 
@@ -274,7 +281,7 @@ def robust_seek_over_box(
     n_corners: int = 8,
     n_samples: int = 8,
     n_validation: int = 2000,
-    n_starts: int = 3,
+    n_starts: int = 4,
     n_add: int = 4,
     max_rounds: int = 8,
     margin: float = 0.1,
@@ -368,6 +375,7 @@ def robust_seek_over_box(
         n_design=len(z_design),
         converged=bool(converged),
         worst_z=val.z[0],
+        worst_plant=box.plants(val.z[0])[0],
         worst_source="adversarial" if val.adv_worst >= val.mc_worst else "monte-carlo",
         validation_seek_times=val.mc_seek,
         rounds=tuple(rounds),
