@@ -27,7 +27,7 @@ from servokit.errors import ServokitError
 #: commands not named here follow alphabetically.
 COMMAND_ORDER = (
     # models and simulation, then the book's chapters 2-6, then output
-    "plant", "simulate",
+    "plant", "fit", "simulate",
     "feedforward", "seek", "sweep",
     "switching",
     "sensitivity", "unobservable", "srs", "identify",
