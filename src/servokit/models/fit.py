@@ -38,8 +38,8 @@ from servokit.models.modal import ModalPlant, Mode
 
 __all__ = ["BandError", "ModalFit", "fit_modal", "delay_from_phase"]
 
-#: Largest number of resonances "auto" tries.
-MAX_AUTO_MODES = 8
+#: Default largest number of resonances "auto" tries (``max_modes``).
+MAX_AUTO_MODES = 12
 
 
 @dataclass(frozen=True)
@@ -328,6 +328,7 @@ def fit_modal(
     friction: bool = False,
     band: tuple[float, float] | None = None,
     max_delay: float | None = None,
+    max_modes: int = MAX_AUTO_MODES,
     name: str = "fitted",
 ) -> ModalFit:
     """Fit a modal plant with delay (eq. 2.73) to an FRF (method in the module docstring).
@@ -339,7 +340,7 @@ def fit_modal(
     response : numpy.ndarray
         Complex FRF at ``freq_hz`` (no exact zeros).
     n_modes : int or "auto"
-        Number of resonances; "auto" chooses 0..8 by BIC.
+        Number of resonances; "auto" chooses 0..``max_modes`` by BIC.
     delay : float or "auto"
         Input delay [s]: fitted ("auto") or fixed.
     rigid_body : bool or "auto"
@@ -351,6 +352,8 @@ def fit_modal(
         Use only data with ``f_low_hz <= freq_hz <= f_high_hz``.
     max_delay : float, optional
         Upper bound of the fitted delay [s]; default ``5 / f_max``.
+    max_modes : int
+        Largest number of resonances ``n_modes="auto"`` tries.
     name : str
         Name of the fitted plant.
 
@@ -365,10 +368,10 @@ def fit_modal(
     f, H = _check(freq_hz, response, band)
     # small dense problems: BLAS threads only contend (a loaded 2-core box ran 50x slower)
     with threadpool_limits(limits=1):
-        return _fit(f, H, n_modes, delay, rigid_body, friction, max_delay, name)
+        return _fit(f, H, n_modes, delay, rigid_body, friction, max_delay, max_modes, name)
 
 
-def _fit(f, H, n_modes, delay, rigid_body, friction, max_delay, name) -> ModalFit:  # noqa: ANN001
+def _fit(f, H, n_modes, delay, rigid_body, friction, max_delay, max_modes, name) -> ModalFit:  # noqa: ANN001
     omega = 2.0 * np.pi * f
     rigid = _has_rigid_body(f, H) if rigid_body == "auto" else bool(rigid_body)
     rigid = rigid and not friction
@@ -377,7 +380,7 @@ def _fit(f, H, n_modes, delay, rigid_body, friction, max_delay, name) -> ModalFi
         raise ServokitValueError(f"delay must be >= 0 s or 'auto' (got {fixed})")
     t_max = 5.0 / f[-1] if max_delay is None else float(max_delay)
     T0 = min(delay_from_phase(f, H), t_max) if fixed is None else fixed
-    n_max = MAX_AUTO_MODES if n_modes == "auto" else int(n_modes)
+    n_max = int(max_modes) if n_modes == "auto" else int(n_modes)
     cands = _candidates(omega, H, T0, rigid or friction, n_max)
     if fixed is None and cands:
         T0 = _delay_scan(omega, H, cands[:n_max], rigid, t_max)  # friction: close enough
