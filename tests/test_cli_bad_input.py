@@ -549,6 +549,17 @@ CASES: list[tuple[list[str], str]] = [
     (["fit", "FRF.csv", "--out", "o", "--band", "1:11"], "--band"),
     (["fit", "FRF.csv", "--out", "o", "--plot", "noext"], "--plot"),
     (["fit", "FRF.csv", "--out", "o", "--plot", "DIR"], "--plot"),
+    # ---- --variations (simulate, sweep)
+    ([*SIM, "--step", "1", "--variations", "missing.toml"], "--variations"),
+    ([*SIM, "--step", "1", "--variations", "DIR"], "--variations"),
+    ([*SIM, "--step", "1", "--variations", "GARBAGE.toml"], "--variations"),
+    ([*SIM, "--step", "1", "--variations", "EMPTY.txt"], "--variations"),
+    ([*SIM, "--step", "1", "--variations", "BADVAR.toml"], "--variations"),
+    ([*SIM, "--step", "1", "--variations", "VAR.toml", "--variants"], "--variations"),
+    (["sweep", "--variations", "missing.toml"], "--variations"),
+    (["sweep", "--variations", "DIR"], "--variations"),
+    (["sweep", "--variations", "VAR.toml"], "--variations"),
+    (["sweep", "--variations", "BADVAR.toml", "--n-variants", "5"], "--variations"),
 ]
 
 # Known failures: row id ("settle train --c 0") -> reason; none at present. Strict xfail: a
@@ -581,6 +592,12 @@ def _materialise(args: list[str], where: Path, monkeypatch: pytest.MonkeyPatch) 
         "freq_hz,re,im\n" + "".join(f"{x!r},{-1 / (6.2832 * x) ** 2!r},1e-9\n" for x in f)
     )
     (where / "BADFRF.csv").write_text("freq_hz,re,im\n10,1,2\n20,x,3\n")
+    (where / "VAR.toml").write_text(
+        'kind = "variations"\nplant = "galvano-scanner"\ngain_rel = 0.1\n'
+    )
+    (where / "BADVAR.toml").write_text(
+        'kind = "variations"\nplant = "hdd-benchmark"\n[[modes]]\nfreq_hz = 3333\nfreq_rel = 0.1\n'
+    )
     ro = where / "RO"
     ro.mkdir(exist_ok=True)
     ro.chmod(0o500)

@@ -85,6 +85,15 @@ SettleBandOpt = Annotated[
     float,
     typer.Option("--settle-band", help="settling band half-width around the target [output unit]"),
 ]
+VariationsOpt = Annotated[
+    Path | None,
+    typer.Option(
+        "--variations",
+        help='variation file (TOML, kind = "variations"): the plant set; its nominal is '
+        "the file's plant, else --plant",
+        metavar="FILE",
+    ),
+]
 PlantOpt = Annotated[
     str, typer.Option("--plant", help="catalogue name or .toml plant file", metavar="NAME_OR_TOML")
 ]
@@ -192,6 +201,18 @@ def load_controller(value: str, dt: float | None = None, flag: str = "--controll
 
     with flag_names({}, prefix=f"{flag}: "):
         return get_discrete_controller(value, dt)
+
+
+def load_variations(value: Path | str, fallback: Any = None, flag: str = "--variations") -> Any:
+    """A variation file named on the command line (:func:`~servokit.models.read_variations`);
+    ``fallback`` is the nominal plant when the file names none.  Errors name ``flag``."""
+    from servokit.errors import check_input_file
+
+    path = check_input_file(value, flag)
+    from servokit.models import read_variations
+
+    with flag_names({}, prefix=f"{flag} "):
+        return read_variations(path, fallback=fallback)
 
 
 @contextmanager

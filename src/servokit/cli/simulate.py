@@ -15,6 +15,7 @@ from servokit.cli._app import (
     PlantOpt,
     PlotOpt,
     SettleBandOpt,
+    VariationsOpt,
     app,
     console,
     emit_json,
@@ -22,6 +23,7 @@ from servokit.cli._app import (
     flag_names,
     load_controller,
     load_plant,
+    load_variations,
     plot_target,
     wrote,
 )
@@ -42,6 +44,8 @@ _FLAGS = {
     "controller": "--controller",
     "band": "--settle-band",
 }
+#: Most corner plants ``--variations`` simulates (3^7 = 2187: seven ranges at three levels).
+_MAX_CORNERS = 2187
 # yc, t and the modal state history are kept per fine step and plant
 _ARRAYS_PER_FINE_STEP = 3
 
@@ -52,7 +56,9 @@ _ARRAYS_PER_FINE_STEP = 3
         "servokit simulate --plant hdd-sampled-data --dt 153.5e-6 --duration 0.02 --step 1 "
         "--controller eq-4.69 --json"
     )
-    + "  JSON: plants, final, peak, settling_time_s, worst_plant, worst_settling_time_s, plot.",
+    + "  --variations FILE simulates every corner of the file's box (nominal, low, high of "
+    "each range).  JSON: plants, final, peak, settling_time_s, worst_plant, "
+    "worst_settling_time_s, plot.",
 )
 def simulate_cmd(
     dt: DtOpt,
@@ -62,6 +68,7 @@ def simulate_cmd(
         bool,
         typer.Option("--variants", help="run the 18 HDD benchmark variants (hdd-benchmark only)"),
     ] = False,
+    variations: VariationsOpt = None,
     substeps: Annotated[
         int,
         typer.Option("--substeps", help="fine steps per period for the continuous output [count]"),
@@ -105,11 +112,13 @@ def simulate_cmd(
         )
     if variants and plant != "hdd-benchmark":
         raise ServokitValueError("--variants is only defined for --plant hdd-benchmark")
+    if variants and variations is not None:
+        raise ServokitValueError("give --variants or --variations FILE, not both")
     if input_file is not None:
         check_input_file(input_file, "--input")
     plot = plot_target(plot)
     n_periods = duration / dt
-    plants = _plants(plant, variants)
+    plants = _plants(plant, variants, variations)
     n_states = max(p.order for p in plants) + 4
     check_memory(
         n_periods * substeps * len(plants) * (n_states + _ARRAYS_PER_FINE_STEP) * 8,
@@ -149,7 +158,19 @@ def simulate_cmd(
     )
 
 
-def _plants(plant: str, variants: bool) -> list:
+def _plants(plant: str, variants: bool, variations: Path | None) -> list:
+    if variations is not None:  # every range at nominal / low / high (gain included)
+        vset = load_variations(variations, fallback=load_plant(plant))
+        n = 1
+        for p in vset.ranges:
+            n *= len({0.0, p.low, p.high})
+        n *= len({0.0, *vset.gain})
+        if n > _MAX_CORNERS:
+            raise ServokitValueError(
+                f"--variations {variations}: {n} corner plants, above {_MAX_CORNERS}; "
+                "give fewer ranges (or use servokit sweep for Monte-Carlo sets)"
+            )
+        return [p.replace(name=f"{vset.name} corner {i}") for i, p in enumerate(vset.corners())]
     if variants:
         from servokit.models import hdd_benchmark_variants
 
