@@ -59,3 +59,42 @@ def test_simulate_runs_every_corner_of_a_user_box(tmp_path, monkeypatch, capsys)
     # open loop: the output of a rigid body under a held step scales with the gain
     finals = sorted(data["final"])
     assert finals[-1] / finals[0] == pytest.approx(1.1 / 0.9, rel=0.05)
+
+
+STAGE = ModalPlant(
+    4e6,
+    (Mode(0, 0, 1.0), Mode(2130, 0.025, -0.42), Mode(5370, 0.012, 0.18)),
+    15e-6,
+    name="stage",
+)
+
+
+def test_seek_u_max_is_a_qp_constraint_over_the_box(tmp_path, monkeypatch, capsys):
+    save_plant(STAGE, tmp_path / "stage.toml")
+    (tmp_path / "box.toml").write_text(
+        'kind = "variations"\nname = "box"\n[[modes]]\nfreq_hz = 2130\nfreq_rel = 0.05\n'
+        "[[modes]]\nfreq_hz = 5370\nfreq_rel = 0.05\n"
+    )
+    common = [
+        "seek",
+        "--plant",
+        str(tmp_path / "stage.toml"),
+        "--dt",
+        "5e-5",
+        "--target",
+        "10",
+        "--method",
+        "fsc",
+        "--n-samples-max",
+        "40",
+        "--variations",
+        str(tmp_path / "box.toml"),
+    ]
+    free = _run(monkeypatch, capsys, *common)
+    limited = _run(monkeypatch, capsys, *common, "--u-max", "8")
+    assert free["n_plants"] == limited["n_plants"] == 9  # two frequencies at 3 levels
+    assert free["peak_input"] == pytest.approx(max(abs(u) for u in free["input"]))
+    assert limited["peak_input"] <= 8 * (1 + 1e-9) and limited["u_max"] == 8
+    assert free["peak_input"] > 8  # the limit binds: the unconstrained input is larger
+    # no input beats bang-bang: a move of 10 um at 8 V takes 2 sqrt(x / (K u)) = 1.12 ms
+    assert limited["n_samples"] * 5e-5 >= 2 * (10 / (4e6 * 8)) ** 0.5 - 1e-12

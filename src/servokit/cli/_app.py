@@ -203,6 +203,22 @@ def load_controller(value: str, dt: float | None = None, flag: str = "--controll
         return get_discrete_controller(value, dt)
 
 
+#: Most corner plants a command builds from ``--variations`` (3^7: seven ranges, 3 levels).
+MAX_CORNERS = 2187
+
+
+def variation_corners(vset: Any, flag: str = "--variations") -> list:
+    """Every corner of a variation set (nominal first), refused above :data:`MAX_CORNERS`."""
+    from servokit.errors import ServokitValueError
+
+    if vset.n_corners > MAX_CORNERS:
+        raise ServokitValueError(
+            f"{flag}: {vset.n_corners} corner plants, above {MAX_CORNERS}; give fewer ranges "
+            "(or use servokit sweep for Monte-Carlo sets)"
+        )
+    return [p.replace(name=f"{vset.name} corner {i}") for i, p in enumerate(vset.corners())]
+
+
 def load_variations(value: Path | str, fallback: Any = None, flag: str = "--variations") -> Any:
     """A variation file named on the command line (:func:`~servokit.models.read_variations`);
     ``fallback`` is the nominal plant when the file names none.  Errors name ``flag``."""

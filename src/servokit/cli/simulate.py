@@ -25,6 +25,7 @@ from servokit.cli._app import (
     load_plant,
     load_variations,
     plot_target,
+    variation_corners,
     wrote,
 )
 from servokit.errors import (
@@ -44,8 +45,6 @@ _FLAGS = {
     "controller": "--controller",
     "band": "--settle-band",
 }
-#: Most corner plants ``--variations`` simulates (3^7 = 2187: seven ranges at three levels).
-_MAX_CORNERS = 2187
 # yc, t and the modal state history are kept per fine step and plant
 _ARRAYS_PER_FINE_STEP = 3
 
@@ -160,17 +159,7 @@ def simulate_cmd(
 
 def _plants(plant: str, variants: bool, variations: Path | None) -> list:
     if variations is not None:  # every range at nominal / low / high (gain included)
-        vset = load_variations(variations, fallback=load_plant(plant))
-        n = 1
-        for p in vset.ranges:
-            n *= len({0.0, p.low, p.high})
-        n *= len({0.0, *vset.gain})
-        if n > _MAX_CORNERS:
-            raise ServokitValueError(
-                f"--variations {variations}: {n} corner plants, above {_MAX_CORNERS}; "
-                "give fewer ranges (or use servokit sweep for Monte-Carlo sets)"
-            )
-        return [p.replace(name=f"{vset.name} corner {i}") for i, p in enumerate(vset.corners())]
+        return variation_corners(load_variations(variations, fallback=load_plant(plant)))
     if variants:
         from servokit.models import hdd_benchmark_variants
 
