@@ -37,8 +37,10 @@ from servokit.models.files import (
     save_controller,
     save_plant,
 )
+from servokit.models.fit import BandError, ModalFit, delay_from_phase, fit_modal
 from servokit.models.frf import FRF_MAX_BYTES, FrfFileError, read_frf, save_frf
 from servokit.models.modal import ModalPlant, Mode, modal_matrices
+from servokit.models.plots import fit_plot
 from servokit.models.variation_file import (
     HDD_BENCHMARK_VARIATIONS,
     VariationFileError,
@@ -59,6 +61,11 @@ __all__ = [
     "HDD_BENCHMARK_TS",
     "HDD_SAMPLED_DATA_TS",
     "VCM_PES_TS",
+    "BandError",
+    "ModalFit",
+    "delay_from_phase",
+    "fit_modal",
+    "fit_plot",
     "FRF_MAX_BYTES",
     "FrfFileError",
     "read_frf",

@@ -146,9 +146,13 @@ def _mode_ranges(path: Path, k: int, table: Any, nominal: ModalPlant) -> list[Pe
     return out
 
 
-def _nominal(path: Path, data: dict[str, Any], nominal: ModalPlant | None) -> ModalPlant:
+def _nominal(
+    path: Path, data: dict[str, Any], nominal: ModalPlant | None, fallback: ModalPlant | None
+) -> ModalPlant:
     if nominal is not None:
         return nominal
+    if "plant" not in data and fallback is not None:
+        return fallback
     if "plant" not in data:
         raise VariationFileError(
             f'{path}: no nominal plant; add plant = "NAME_OR_FILE" or pass the plant'
@@ -176,7 +180,12 @@ def _check_overlap(path: Path, ranges: list[Perturbation]) -> None:
             seen[p.param, m] = r
 
 
-def read_variations(path: str | Path | Any, nominal: ModalPlant | None = None) -> VariationSet:
+def read_variations(
+    path: str | Path | Any,
+    nominal: ModalPlant | None = None,
+    *,
+    fallback: ModalPlant | None = None,
+) -> VariationSet:
     """Read a variation file (format in the module docstring) as a :class:`VariationSet`.
 
     Parameters
@@ -186,6 +195,9 @@ def read_variations(path: str | Path | Any, nominal: ModalPlant | None = None) -
     nominal : ModalPlant, optional
         The nominal plant; when omitted, the file's ``plant`` (a catalogue name, or a plant
         file relative to the variation file) is loaded.
+    fallback : ModalPlant, optional
+        The nominal plant when neither ``nominal`` is given nor the file names one (the
+        command line's ``--plant``).
 
     Returns
     -------
@@ -202,7 +214,7 @@ def read_variations(path: str | Path | Any, nominal: ModalPlant | None = None) -
     """
     if not isinstance(path, str | Path):  # a packaged resource
         with resources.as_file(path) as real:
-            return read_variations(real, nominal)
+            return read_variations(real, nominal, fallback=fallback)
     path = Path(path)
     check_regular_file(
         path,
@@ -221,7 +233,7 @@ def read_variations(path: str | Path | Any, nominal: ModalPlant | None = None) -
         raise VariationFileError(
             f"{path}: unknown key '{extra[0]}'; allowed: {', '.join(sorted(_TOP_KEYS))}"
         )
-    plant = _nominal(path, data, nominal)
+    plant = _nominal(path, data, nominal, fallback)
     tables = data.get("modes", [])
     if not isinstance(tables, list):
         raise VariationFileError(f"{path}: field 'modes' must be a list of [[modes]] tables")
