@@ -59,9 +59,9 @@ def _plant_set(nominal: Any, variations: Path | None, n_plants: int) -> list[Any
     """The nominal plant and ``n_plants`` Monte-Carlo plants of the ``--variations`` box."""
     if variations is None:
         return [nominal]
-    from servokit.models import read_variations
+    from servokit.cli._app import load_variations
 
-    box = read_variations(variations, nominal)
+    box = load_variations(variations, fallback=nominal)
     return [nominal, *box.monte_carlo(n_plants)]
 
 

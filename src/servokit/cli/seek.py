@@ -2,7 +2,6 @@
 
 from __future__ import annotations
 
-from pathlib import Path
 from typing import Annotated, Any
 
 import typer
@@ -87,14 +86,6 @@ def _check_size(
     check_memory(design + sim, what=f"{flag} {n_max}", max_memory_mb=max_mb)
 
 
-def _read_box(path: Path, nominal: Any, n_validation: int) -> Any:
-    """The ``--variations`` box (refusing bad ``--n-validation`` first)."""
-    from servokit.models import read_variations
-
-    check_count("--n-validation", n_validation, lo=1, hi=1_000_000)
-    return read_variations(path, nominal)
-
-
 @app.command(
     "seek",
     epilog=example(
@@ -177,18 +168,12 @@ def seek_cmd(
     objective: Annotated[
         str, typer.Option("--objective", help="robust: 'peak' or 'energy'")
     ] = "peak",
-    variations: Annotated[
-        Path | None,
-        typer.Option(
-            "--variations",
-            help="robust: variation file (TOML); the worst case is validated inside its box "
-            "(nominal: --plant if given, else the file's plant)",
-        ),
-    ] = None,
     n_validation: Annotated[
         int,
         typer.Option(
-            "--n-validation", help="robust with --variations: Monte-Carlo validation plants [count]"
+            "--n-validation",
+            help="robust with --variations: Monte-Carlo plants validating the worst case "
+            "inside the box [count]",
         ),
     ] = 2000,
 ) -> None:
@@ -216,18 +201,16 @@ def seek_cmd(
 
     from servokit.models import HDD_BENCHMARK_TS, hdd_benchmark_variants
 
-    if variations is not None and method != "robust":
-        raise ServokitValueError("--variations applies to --method robust; add --method robust")
-    is_hdd = plant == "hdd-benchmark" and variations is None
+    is_hdd = plant == "hdd-benchmark"
     nominal = load_plant(plant)
+    plants = hdd_benchmark_variants() if is_hdd else [nominal]
     vset = None
     if variations is not None:
-        vset = _read_box(variations, None if plant == "hdd-benchmark" else nominal, n_validation)
-        nominal = vset.nominal
-    plants = hdd_benchmark_variants() if is_hdd else [nominal]
-    if variations is not None:
+        if method == "robust":  # validated over the box, not a corner set
+            check_count("--n-validation", n_validation, lo=1, hi=1_000_000)
         vset = load_variations(variations, fallback=nominal)
-        nominal, plants = vset.nominal, variation_corners(vset)
+        nominal = vset.nominal
+        plants = [nominal] if method == "robust" else variation_corners(vset)
         is_hdd = is_hdd and nominal.name == "hdd-benchmark"
     if u_max is not None:
         check_positive("--u-max", u_max)
