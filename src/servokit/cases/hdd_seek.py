@@ -28,7 +28,8 @@ from servokit.cases import register
 from servokit.feedforward import FeedforwardInput, fsc_input
 from servokit.models import HDD_BENCHMARK_TS, ModalPlant, hdd_benchmark_variants
 from servokit.report import CaseResult, Comparison
-from servokit.simulate import NSearchResult, choose_N, seek_response, settling_time
+from servokit.seek import NSearchResult, choose_N
+from servokit.simulate import seek_response, settling_time
 
 __all__ = [
     "SeekDesign",

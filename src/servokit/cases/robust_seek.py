@@ -1,7 +1,7 @@
 """Beyond the book: robust minimum-time seek on the HDD benchmark plant set (issue 13).
 
 The book tunes Design 2's frequency weights by trial and error until the worst of the 18
-plants of Table 2.3 settles (§2.4.2, Table 2.4).  :func:`servokit.robust.robust_minimum_time`
+plants of Table 2.3 settles (§2.4.2, Table 2.4).  :func:`servokit.seek.robust_minimum_time`
 instead computes, by linear programming, the shortest seek guaranteed on all 18 plants
 at the same peak input as Design 2.  Every seek time below is measured by the ordinary
 simulator (:func:`servokit.simulate.seek_time` on the Ts/10 grid, long record), not
@@ -32,7 +32,7 @@ from servokit.models import (
     hdd_benchmark_variation_set,
 )
 from servokit.report import CaseResult, Comparison
-from servokit.robust import RobustFeedforwardInput, robust_minimum_time
+from servokit.seek import RobustFeedforwardInput, robust_minimum_time
 from servokit.simulate import seek_time
 
 __all__ = ["held_out_plants", "robust_seek_case"]

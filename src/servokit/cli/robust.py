@@ -1,7 +1,7 @@
 """``servokit seek --method robust``: the robust minimum-time seek over a plant set (issue 13).
 
 The ``seek`` command forwards ``--method robust`` here; the design is
-:func:`servokit.robust.robust_minimum_time`, verified by the ordinary simulator.
+:func:`servokit.seek.robust_minimum_time`, verified by the ordinary simulator.
 """
 
 from __future__ import annotations
@@ -18,7 +18,7 @@ from servokit.errors import ServokitValueError, check_positive
 
 if TYPE_CHECKING:
     from servokit.models import ModalPlant
-    from servokit.robust import RobustFeedforwardInput
+    from servokit.seek import RobustFeedforwardInput
 
 __all__ = ["RobustSeekRequest", "robust_seek"]
 
@@ -51,7 +51,7 @@ class RobustSeekRequest:
 
 
 def _design(req: RobustSeekRequest) -> RobustFeedforwardInput:
-    from servokit.robust import NoFeasibleSeekError, robust_minimum_time
+    from servokit.seek import NoFeasibleSeekError, robust_minimum_time
 
     if req.u_max is None:
         raise ServokitValueError("--method robust needs --u-max (input limit [plant input unit])")

@@ -272,7 +272,8 @@ def _parse_n(text: str) -> int | str:
 def _design(nominal, sim_plants, dt, target, settle_band, n_top, auto, design_kw, *, show):  # noqa: ANN001
     """The seek input: fixed N, or the N search of §2.4.2 with a progress bar."""
     from servokit.feedforward import fsc_input
-    from servokit.simulate import choose_N, seek_time
+    from servokit.seek import choose_N
+    from servokit.simulate import seek_time
 
     if not auto:
         return fsc_input(nominal, dt, n_top, target, **design_kw), None

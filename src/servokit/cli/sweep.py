@@ -74,12 +74,12 @@ def _from_method(
     from servokit.cases.hdd_seek import search_range, table_2_4_weights
     from servokit.feedforward import fsc_input
     from servokit.models import HDD_BENCHMARK_TS, hdd_benchmark_variants
-    from servokit.simulate import choose_N
+    from servokit.seek import choose_N
 
     plants = hdd_benchmark_variants()
     plants = plants if delay else [p.replace(delay=0.0) for p in plants]
     if method == "robust":
-        from servokit.robust import robust_minimum_time
+        from servokit.seek import robust_minimum_time
 
         if u_max is None:
             raise ServokitValueError("--method robust needs --u-max [plant input unit]")
@@ -153,7 +153,7 @@ def _histogram(times: np.ndarray, pct: dict[str, float], title: str, path: Path)
 
 
 def _client(scheduler: str | None, workers: int | None) -> Any:
-    from servokit.robust.sweep import connect_dask
+    from servokit.seek.sweep import connect_dask
 
     if scheduler is None and workers is None:
         return None
@@ -248,7 +248,7 @@ def sweep_cmd(
     n_unsettled, elapsed_s, plot.
     """
     from servokit.models import hdd_benchmark_variation_set
-    from servokit.robust.sweep import plan_chunks, sweep_seek_times
+    from servokit.seek.sweep import plan_chunks, sweep_seek_times
 
     plot = plot_target(plot)
     n = check_count("--n-variants", n_variants, lo=1)
