@@ -34,7 +34,7 @@ from servokit.models.files import (
     save_plant,
 )
 from servokit.models.lookup import get_discrete_controller, get_plant
-from servokit.models.modal import ModalPlant, Mode, modal_matrices
+from servokit.models.modal import ModalPlant, Mode, modal_matrices, without_delay
 from servokit.models.tf import require_proper, zpk
 from servokit.models.variations import Perturbation, VariationSet
 
@@ -76,5 +76,6 @@ __all__ = [
     "svm_head_plant",
     "vcm_controller_table_5_2",
     "vcm_dual_stage",
+    "without_delay",
     "zpk",
 ]

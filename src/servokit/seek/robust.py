@@ -43,6 +43,7 @@ from servokit.feedforward import FeedforwardInput, constraint_rows, lifted_model
 from servokit.models.modal import ModalPlant
 from servokit.seek._matrices import PulseBank
 from servokit.simulate._bank import as_plant_list
+from servokit.simulate.metrics import readout_substeps
 
 __all__ = ["NoFeasibleSeekError", "RobustFeedforwardInput", "robust_minimum_time"]
 
@@ -380,9 +381,7 @@ def robust_minimum_time(
     dt, target, band, u_max, margin, tail = _check_args(dt, target, band, u_max, margin, horizon)
     if objective not in ("peak", "energy"):
         raise ServokitValueError(f"objective must be 'peak' or 'energy', got {objective!r}")
-    S = 10 if grid is None else int(round(dt / check_positive("grid", grid, "s")))
-    if S < 1 or (grid is not None and abs(S * grid - dt) > 1e-9 * dt):
-        raise ServokitValueError(f"grid ({grid} s) must divide dt ({dt} s) a whole number of times")
+    S = readout_substeps(dt, grid)
     if slew_max is not None:
         slew_max = check_positive("slew_max", slew_max)
     band_eff = band * (1.0 - margin)
