@@ -11,7 +11,7 @@ import dataclasses
 import sys
 
 import servokit as sk
-from servokit.cases.hdd_seek import DESIGNS
+from servokit.seek import DESIGNS
 from servokit.seek.sweep import connect_dask, sweep_seek_times
 
 

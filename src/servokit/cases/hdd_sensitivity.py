@@ -14,7 +14,6 @@ from __future__ import annotations
 
 from pathlib import Path
 
-import control
 import numpy as np
 
 from servokit._figures import save_figure
@@ -28,12 +27,11 @@ from servokit.sampled import (
     sensitivity_plot,
     sinusoid_response,
 )
+from servokit.sampled.hdd_multirate import hdd_multirate, multirate_filter_4_68
 from servokit.sampled.multirate import eval_discrete
 
 __all__ = ["hdd_multirate", "multirate_filter_4_68", "disturbance_ratios", "run"]
 
-M = 4
-FILTER_HZ = 3600.0
 ALIAS_HZ = 2916.0  # the book's rounding of 1/Ts - 3600 Hz
 DC_AMPLITUDE = 0.1  # track pitch
 SIM_SAMPLES = 1200  # closed-loop poles are inside |z| < 0.95: transients die within ~600
@@ -50,50 +48,6 @@ _FORMULA = {
     "yd": ("Sd", "4.36"),
     "yd0": ("Td", "4.33"),
 }
-
-
-def multirate_filter_4_68(dt: float = HDD_SAMPLED_DATA_TS, m: int = M) -> control.TransferFunction:
-    """``Fm``: ``Fmc(s) = 1 - 0.1 s^2 / (s^2 + 2 (0.003) wf s + wf^2)``, wf = 2 pi 3.6 kHz (4.68).
-
-    Discretised at ``dt/m`` by Tustin with prewarping at ``wf``.
-
-    Parameters
-    ----------
-    dt : float
-        Controller sampling period ``Ts`` [s] (153.5 us).
-    m : int
-        Multirate number; the filter runs at ``dt/m``.
-
-    Returns
-    -------
-    control.TransferFunction
-        Discrete ``Fm(z)`` with sampling period ``dt/m``: gain 1 at low frequency, a
-        resonant peak ``|1 + 0.1 j / 0.006|`` (about +24 dB) at 3.6 kHz and 0.9 (-0.9 dB)
-        above it.
-    """
-    wf = 2.0 * np.pi * FILTER_HZ
-    fmc = 1 - control.tf([0.1, 0.0, 0.0], [1.0, 2 * 0.003 * wf, wf**2])
-    return control.sample_system(fmc, dt / m, method="tustin", prewarp_frequency=wf)
-
-
-def hdd_multirate(dt: float = HDD_SAMPLED_DATA_TS, m: int = M) -> Multirate:
-    """Multirate path of §4.5.2: ``Ip = 1 + z^-1 + z^-2 + z^-3`` (4.67), ``Fm`` (4.68), ZOH.
-
-    Parameters
-    ----------
-    dt : float
-        Controller sampling period ``Ts`` [s] (153.5 us).
-    m : int
-        Multirate number (4 in §4.5.2); ``Ip = 1 + z^-1 + ... + z^-(m-1)``.
-
-    Returns
-    -------
-    Multirate
-        ``m``, ``Ip`` and ``Fm`` (:func:`multirate_filter_4_68`) at ``dt/m``, fast
-        zero-order hold (4.66).
-    """
-    ip = control.tf(np.ones(m), np.r_[1.0, np.zeros(m - 1)], dt / m)
-    return Multirate(m, interpolator=ip, filter=multirate_filter_4_68(dt, m))
 
 
 def disturbance_ratios(freq_hz: float, *, n_samples: int = SIM_SAMPLES) -> dict[str, object]:

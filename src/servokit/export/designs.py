@@ -70,8 +70,8 @@ def book_ivc_gain(method: str, velocity_weight: float = 1.55e-7) -> tuple[np.nda
     description : str
         What the gain is, for the export's comment.
     """
-    from servokit.cases.switching_ivc import book_loop, jmin_loop
     from servokit.switching import ivc_jmin, ivc_pole_zero
+    from servokit.switching.book_loops import book_loop, jmin_loop
 
     if method == "pole-zero":
         K = ivc_pole_zero(book_loop(), None, [0.905, 0.954])

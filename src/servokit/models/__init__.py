@@ -25,7 +25,12 @@ from servokit.models.controllers import (
     cpc_eq_4_72,
     vcm_controller_table_5_2,
 )
-from servokit.models.disturbances import BenchmarkDisturbances, DisturbanceRecord, band_powers
+from servokit.models.disturbances import (
+    BenchmarkDisturbances,
+    DisturbanceRecord,
+    band_powers,
+    disturbance_magnitude,
+)
 from servokit.models.files import (
     PlantFileError,
     load_controller,
@@ -43,6 +48,7 @@ __all__ = [
     "BenchmarkDisturbances",
     "DisturbanceRecord",
     "band_powers",
+    "disturbance_magnitude",
     "benchmark_controller",
     "CATALOGUE",
     "CONTROLLERS",
