@@ -1,13 +1,13 @@
 """The book's case studies, each a function returning a :class:`CaseResult`.
 
-A case module registers its entry point with :func:`register`; the runner
-(:mod:`servokit.cases.runner`) lists every case in :data:`~servokit.cases.runner.CASES`,
-and ``servokit reproduce`` (and ``make demo``) runs them.  Only this package and the
+A case module registers its entry point with :func:`register`; the list
+:data:`~servokit.cases.registry.CASES` names every case; :mod:`servokit.cases.runner` runs
+them for ``servokit reproduce`` (and ``make demo``).  Only this package and the
 reproduce command import ``servokit.cases``: library code lives elsewhere.
 """
 
 from __future__ import annotations
 
-from servokit.cases.runner import case_chapter, register, registry, run_all
+from servokit.cases.registry import case_chapter, register, registry, run_all
 
 __all__ = ["case_chapter", "register", "registry", "run_all"]

@@ -9,7 +9,7 @@ import typer
 from rich.markup import escape
 from rich.table import Table
 
-from servokit.cases.runner import case_names
+from servokit.cases.registry import case_names
 from servokit.cli._app import app, console, emit_json, example, progress, wrote
 from servokit.errors import check_out_dir
 
