@@ -1,6 +1,7 @@
 """Writing the report files of ``servokit reproduce --out DIR``: rendering only.
 
-:func:`write_report` writes ``results.json`` and ``report.html`` atomically from the
+:func:`write_report` writes ``results.json`` (with its schema beside it) and
+``report.html`` atomically from the
 :class:`~servokit.report.CaseResult` rows it is given (running the cases is
 :mod:`servokit.cases.runner`'s job).  :func:`clear_report` removes the report files of an
 earlier run first: the figures are overwritten as the cases run, so an old page beside
@@ -18,7 +19,7 @@ from servokit.report import CaseResult
 __all__ = ["REPORT_FILES", "clear_report", "write_report"]
 
 #: The files ``write_report`` produces, in writing order (the page last).
-REPORT_FILES = ("results.json", "report.html")
+REPORT_FILES = ("results.schema.json", "results.json", "report.html")
 
 
 def clear_report(outdir: Path) -> None:
@@ -50,13 +51,22 @@ def write_report(
     Returns
     -------
     tuple of Path
-        ``(results.json, report.html)``.
+        ``(results.json, report.html)``; the schema ``results.json`` names in its
+        ``$schema`` is written beside them.
     """
+    import json
+
     from servokit.report.html import render_html
-    from servokit.report.results import results_document, write_atomic, write_results
+    from servokit.report.results import (
+        load_schema,
+        results_document,
+        write_atomic,
+        write_results,
+    )
 
     outdir = Path(outdir)
     doc = results_document(results, outdir=outdir, runtimes_s=runtimes_s)
-    json_path = write_results(doc, outdir / REPORT_FILES[0])
-    html_path = write_atomic(outdir / REPORT_FILES[1], render_html(doc, outdir))
+    write_atomic(outdir / REPORT_FILES[0], json.dumps(load_schema(), indent=2) + "\n")
+    json_path = write_results(doc, outdir / REPORT_FILES[1])
+    html_path = write_atomic(outdir / REPORT_FILES[2], render_html(doc, outdir))
     return json_path, html_path
