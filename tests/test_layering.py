@@ -6,7 +6,7 @@ still tie the layers together).  Two kinds of import are left out, each for a re
 
 * imports under ``if TYPE_CHECKING:`` never run;
 * imports inside a module-level ``__getattr__``: these are the deprecation/compat shims
-  (``servokit.robust``, ``servokit.simulate.choose_N``, ``models.catalogue.get_plant``,
+  (``servokit.simulate.choose_N``, ``models.catalogue.get_plant``,
   ``feedforward.robust_minimum_time``...).  They run only when a user touches an old
   name, never while a module is imported, and they point from an old home to a new one
   by design; the test below lists them so a new one is a visible decision.
@@ -27,7 +27,6 @@ SHIM_MODULES = {
     "servokit.feedforward",
     "servokit.models.catalogue",
     "servokit.models.controllers",
-    "servokit.robust",
     "servokit.simulate",
 }
 #: at most this many functions of more than 60 body lines outside cli/
