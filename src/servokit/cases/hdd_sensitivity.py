@@ -29,7 +29,12 @@ import numpy as np
 
 from servokit._figures import save_figure
 from servokit.cases import register
-from servokit.models import HDD_SAMPLED_DATA_TS, controller_eq_4_69, hdd_sampled_data
+from servokit.models import (
+    HDD_SAMPLED_DATA_TS,
+    controller_eq_4_69,
+    hdd_sampled_data,
+    without_delay,
+)
 from servokit.report import CaseResult, Comparison
 from servokit.sampled import (
     Multirate,
@@ -243,7 +248,7 @@ def _margins(mr: Multirate, n: int = 20_000, *, delay: bool = True) -> dict[str,
     dt = HDD_SAMPLED_DATA_TS
     f = np.linspace(1.0, 0.5 / dt, n)
     z = np.exp(2j * np.pi * f * dt)
-    plant = hdd_sampled_data() if delay else hdd_sampled_data().replace(delay=0.0)
+    plant = hdd_sampled_data() if delay else without_delay(hdd_sampled_data())[0]
     loop = eval_discrete(mr.discretize(plant, dt), z) * eval_discrete(controller_eq_4_69(), z)
     mag = np.abs(loop)
     ic = int(np.flatnonzero((mag[:-1] >= 1) & (mag[1:] < 1))[0])
