@@ -21,7 +21,7 @@ import time
 import numpy as np
 
 from servokit.models import ModalPlant, Mode, VariationSet
-from servokit.robust import robust_minimum_time, robust_seek_over_box
+from servokit.seek import robust_minimum_time, robust_seek_over_box
 from servokit.simulate import seek_time
 
 STAGE = ModalPlant(

@@ -9,8 +9,8 @@ from hypothesis import strategies as st
 
 from servokit.errors import ServokitValueError
 from servokit.models import ModalPlant, Mode, VariationSet
-from servokit.robust import robust_minimum_time, robust_seek_over_box
-from servokit.robust.validated import box_seek_scores
+from servokit.seek import robust_minimum_time, robust_seek_over_box
+from servokit.seek.validated import box_seek_scores
 from servokit.simulate import seek_time
 
 DT, TARGET, BAND, U_MAX = 1e-4, 1.0, 0.01, 1.0

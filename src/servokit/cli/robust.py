@@ -1,7 +1,7 @@
 """``servokit seek --method robust``: the robust minimum-time seek over a plant set (issue 13).
 
 The ``seek`` command forwards ``--method robust`` here; the design is
-:func:`servokit.robust.robust_minimum_time`, verified by the ordinary simulator.
+:func:`servokit.seek.robust_minimum_time`, verified by the ordinary simulator.
 """
 
 from __future__ import annotations
@@ -19,7 +19,7 @@ from servokit.errors import ServokitValueError, check_positive
 
 if TYPE_CHECKING:
     from servokit.models import ModalPlant, VariationSet
-    from servokit.robust import RobustFeedforwardInput, ValidatedSeek
+    from servokit.seek import RobustFeedforwardInput, ValidatedSeek
 
 __all__ = ["RobustSeekRequest", "box_variations", "robust_seek"]
 
@@ -64,7 +64,7 @@ def box_variations(vset: VariationSet | None, delay: bool) -> VariationSet | Non
 
 def _box_design(req: RobustSeekRequest) -> ValidatedSeek:
     """The design validated over the ``--variations`` box (issue 22 item 4)."""
-    from servokit.robust import robust_seek_over_box
+    from servokit.seek import robust_seek_over_box
 
     assert req.variations is not None and req.u_max is not None
     kw = {} if req.n_steps is None else {"N": req.n_steps}
@@ -85,7 +85,7 @@ def _box_design(req: RobustSeekRequest) -> ValidatedSeek:
 
 
 def _design(req: RobustSeekRequest) -> RobustFeedforwardInput | ValidatedSeek:
-    from servokit.robust import NoFeasibleSeekError, robust_minimum_time
+    from servokit.seek import NoFeasibleSeekError, SeekRequest, design_seek
 
     if req.u_max is None:
         raise ServokitValueError("--method robust needs --u-max (input limit [plant input unit])")
@@ -102,18 +102,20 @@ def _design(req: RobustSeekRequest) -> RobustFeedforwardInput | ValidatedSeek:
     try:
         if req.variations is not None:
             return _box_design(req)
-        return robust_minimum_time(
+        request = SeekRequest(
             req.plants,
             req.dt,
             req.target,
-            band=req.settle_band,
-            u_max=req.u_max,
-            N=req.n_steps,
+            req.settle_band,
+            "robust",
+            "auto" if req.n_steps is None else req.n_steps,
             N_max=req.n_max,
-            margin=req.margin,
+            u_max=req.u_max,
             slew_max=req.slew_max,
-            objective=req.objective,  # type: ignore[arg-type]
+            margin=req.margin,
+            objective=req.objective,
         )
+        return design_seek(request).ff  # type: ignore[return-value]
     except NoFeasibleSeekError as exc:
         lo, hi = exc.N_range
         if lo > hi:
@@ -131,13 +133,13 @@ def _design(req: RobustSeekRequest) -> RobustFeedforwardInput | ValidatedSeek:
 
 def robust_seek(req: RobustSeekRequest) -> None:
     """Design, verify by simulation, print or emit JSON, optionally plot."""
-    from servokit.cases.hdd_seek import seek_plot, simulate_seek
+    from servokit.seek import seek_plot, simulate_seek
 
     plot = plot_target(req.plot)
     t0 = time.perf_counter()
     ff = _design(req)
     design_time = time.perf_counter() - t0
-    from servokit.robust import ValidatedSeek
+    from servokit.seek import ValidatedSeek
 
     if isinstance(ff, ValidatedSeek):
         return _report_box(req, ff, design_time, plot)
@@ -153,7 +155,7 @@ def robust_seek(req: RobustSeekRequest) -> None:
             f"Robust minimum-time seek of {req.target:g} on {req.plant_name}, N = {ff.N}, "
             f"|u| <= {req.u_max:g} (beyond the book)",
             plot,
-            resonances_hz=[m.freq_hz for m in nominal.modes if m.freq_hz > 0],
+            resonances_hz=nominal.resonances_hz(),
             band=req.settle_band,
         )
         wrote(plot)
@@ -195,8 +197,8 @@ def _report_box(
     req: RobustSeekRequest, res: ValidatedSeek, design_time: float, plot: Path | None
 ) -> None:
     """Print or emit the design validated over the ``--variations`` box."""
-    from servokit.cases.hdd_seek import seek_plot, simulate_seek
     from servokit.cli._app import warn
+    from servokit.seek import seek_plot, simulate_seek
 
     assert req.variations is not None
     ff = res.ff
@@ -208,7 +210,7 @@ def _report_box(
             f"Robust seek of {req.target:g} validated over {req.variations.name or 'the box'}"
             f", N = {ff.N}, |u| <= {req.u_max:g}",
             plot,
-            resonances_hz=[m.freq_hz for m in plants[0].modes if m.freq_hz > 0],
+            resonances_hz=plants[0].resonances_hz(),
             band=req.settle_band,
         )
         wrote(plot)

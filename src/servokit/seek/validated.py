@@ -39,7 +39,7 @@ import numpy as np
 from servokit.errors import ServokitValueError, check_count
 from servokit.models.modal import ModalPlant
 from servokit.models.variations import VariationSet
-from servokit.robust.feedforward import RobustFeedforwardInput, robust_minimum_time
+from servokit.seek.robust import RobustFeedforwardInput, robust_minimum_time
 from servokit.simulate.hybrid import simulate_metrics
 from servokit.simulate.metrics import _seek_request
 
