@@ -42,7 +42,7 @@ TARGETS = {
     "many_variants.peak_memory_mb": ("<", 1000.0),
     "many_variants.ratio_to_1000_variant_figure": ("<=", 1.5),
     "closed_loop.speedup": (">=", 30.0),
-    "closed_loop.single_plant_speedup": (">=", 1.0),
+    "closed_loop.single_plant_speedup": (">=", 5.0),
     "qp.worst_default_over_dense": ("<=", 2.0),
     "qp.max_relative_difference": ("<=", 1e-6),
     "sensitivity.speedup_vs_per_cell": (">=", 5.0),
