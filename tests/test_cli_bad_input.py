@@ -187,6 +187,7 @@ CASES: list[tuple[list[str], str]] = [
     (["reproduce", "--out", "u.txt"], "--out"),
     (["reproduce", "--out", "u.txt/sub"], "--out"),
     (["reproduce", "--case", "no-such", "--out", "fresh"], "--case"),
+    (["reproduce", "--svg=yes", "--out", "fresh"], "--svg"),
     # ---- feedforward: the flags the first rows leave out
     ([*POLY, "--n-samples", "abc", "--dt", "1e-4"], "--n-samples"),
     ([*POLY, "--n-samples", "40", "--dt", "-1e-4"], "--dt"),
