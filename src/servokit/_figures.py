@@ -43,7 +43,6 @@ def figure_title(fig: Figure) -> str:
 def save_figure(fig: Figure, path: str | Path, *, dpi: int = 110) -> Path:
     """Lay out, save and close ``fig``; return ``path`` (closing keeps batch runs lean)."""
     import matplotlib.pyplot as plt
-
     from matplotlib.layout_engine import PlaceHolderLayoutEngine
 
     engine = fig.get_layout_engine()
