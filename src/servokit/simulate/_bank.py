@@ -87,10 +87,17 @@ class PlantBank:
 
     @classmethod
     def build(cls, plants: Sequence[ModalPlant], h: float) -> PlantBank:
-        w, z, r, real = modal_arrays(plants)
-        delay = plants[0].delay
-        Phi, Gnew, Gold, dd = modal_delayed_zoh(w, z, r, h, delay)
-        return cls(w, z, r, real, delay, Phi, Gnew, Gold, dd, h)
+        return cls.from_arrays(*modal_arrays(plants), plants[0].delay, h)
+
+    @classmethod
+    def from_arrays(
+        cls, w: np.ndarray, zeta: np.ndarray, r: np.ndarray, real: np.ndarray, delay: float,
+        h: float,
+    ) -> PlantBank:  # fmt: skip
+        """The bank of modal arrays (V, M) directly, e.g. from
+        :func:`servokit.models.variation_arrays.modal_arrays_from_draws`."""
+        Phi, Gnew, Gold, dd = modal_delayed_zoh(w, zeta, r, h, delay)
+        return cls(w, zeta, r, real, delay, Phi, Gnew, Gold, dd, h)
 
     @property
     def shape(self) -> tuple[int, int]:
