@@ -35,6 +35,7 @@ import numpy as np  # noqa: E402
 import qp  # noqa: E402
 import sensitivity  # noqa: E402
 import simulator  # noqa: E402
+import sweep  # noqa: E402
 
 TARGETS = {
     "open_loop.speedup_vs_python_control": (">=", 300.0),
@@ -47,6 +48,7 @@ TARGETS = {
     "qp.max_relative_difference": ("<=", 1e-6),
     "sensitivity.speedup_vs_per_cell": (">=", 5.0),
     "sensitivity.max_relative_difference": ("<=", 1e-10),
+    "sweep.n1e6_2_threads_s": ("<", 60.0),
     "demo.total_cpu_s": ("<", 8.0),
     "demo.max_relative_difference": ("<=", 1e-12),
 }
@@ -78,6 +80,7 @@ def main() -> None:
         "closed_loop": lambda: simulator.closed_loop(200 if q else 1000, 10 if q else 40),
         "qp": lambda: qp.constrained_fsc((100, 300) if q else qp.STEPS),
         "sensitivity": lambda: sensitivity.sensitivity(2000 if q else 10_000),
+        "sweep": lambda: sweep.sweeps((10_000,) if q else (100_000, 1_000_000)),
         "demo": lambda: demo.demo(1 if q else 2),
     }
     wanted = args.only or list(sections)
