@@ -45,15 +45,16 @@ def _plant_path(vset, ff, n: int, seed: int, chunk: int) -> np.ndarray:
 
 
 def _run(vset, ff, n: int, threads: int) -> tuple[object, float, float]:
-    """One sweep: (result, wall seconds, seconds inside the kernel summed over threads)."""
+    """One sweep: (result, wall seconds, kernel seconds summed over threads, CPU seconds
+    of the process: on a shared machine the CPU time is the steadier figure)."""
     spent, original = _timed_kernel()
     try:
-        t0 = time.perf_counter()
+        t0, c0 = time.perf_counter(), time.process_time()
         res = sweep_mod.sweep_seek_times(vset, ff, 10.0, n=n, seed=2026, threads=threads)
-        wall = time.perf_counter() - t0
+        wall, cpu = time.perf_counter() - t0, time.process_time() - c0
     finally:
         _core.run_chunk = original
-    return res, wall, spent[0]
+    return res, wall, spent[0], cpu
 
 
 def sweeps(sizes: tuple[int, ...] = (100_000, 1_000_000), baseline_max: int = 100_000) -> dict:
@@ -64,14 +65,16 @@ def sweeps(sizes: tuple[int, ...] = (100_000, 1_000_000), baseline_max: int = 10
     out: dict = {}
     for n in sizes:
         key = f"n{n:.0e}".replace("+0", "")
-        res, wall, kernel = _run(vset, ff, n, 2)
+        res, wall, kernel, cpu = _run(vset, ff, n, 2)
         out[f"{key}_2_threads_s"] = wall
+        out[f"{key}_2_threads_cpu_s"] = cpu
         out[f"{key}_2_threads_share_outside_simulation"] = 1.0 - kernel / (2 * wall)
         out[f"{key}_chunk_size"] = res.chunk_size
         if n <= baseline_max:
-            res1, wall1, kernel1 = _run(vset, ff, n, 1)
+            res1, wall1, kernel1, cpu1 = _run(vset, ff, n, 1)
             assert np.array_equal(res.seek_times, res1.seek_times)
             out[f"{key}_s"] = wall1
+            out[f"{key}_cpu_s"] = cpu1
             out[f"{key}_share_outside_simulation"] = 1.0 - kernel1 / wall1
             t0 = time.perf_counter()
             ref = _plant_path(vset, ff, n, 2026, res1.chunk_size)
