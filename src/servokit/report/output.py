@@ -158,14 +158,10 @@ def run_cases(
 
     Parameters
     ----------
-    outdir : Path
-        Figure directory (created).
-    names : sequence of str
-        Registered case names, from :func:`select_cases`.
+    outdir, names, svg
+        As for :func:`iter_cases` (PNG only by default).
     advance : callable, optional
         Called after each case (a progress bar).
-    svg : bool
-        Also save every figure as SVG beside its PNG (default: PNG only).
     workers : int, optional
         Processes (see :func:`iter_cases`); ``None``: one per core.
 

@@ -330,15 +330,9 @@ def sweep_seek_times(
 
 
 def _run_local(
-    vset: VariationSet,
-    draws: np.ndarray,
-    gains: np.ndarray,
-    args: tuple,
-    chunk_size: int,
-    out: np.ndarray,
-    tick: Callable[[int], None],
-    threads: int,
-) -> None:
+    vset: VariationSet, draws: np.ndarray, gains: np.ndarray, args: tuple, chunk_size: int,
+    out: np.ndarray, tick: Callable[[int], None], threads: int,
+) -> None:  # fmt: skip
     """The chunks in this process, ``threads`` at a time; fill ``out`` in order."""
     slices = list(_chunks(draws.shape[0], chunk_size))
 
