@@ -88,17 +88,22 @@ def _header_doc(d: FixedPointDesign, t: str, n_samples: int) -> str:
         if d.integrator
         else ""
     )
+    form = "DF-I second-order sections" if d.realization == "sos" else "modal state space"
+    m = t.upper()
     return (
-        f"/* {t}: fixed-point {'DF-I second-order sections' if d.realization == 'sos' else 'modal state space'}"
-        f", {f.name} words ({f.ctype}), {f.acc_ctype} accumulators, dt = {d.dt:.9g} s.\n"
-        f"   Input  {f.name}: x_phys = x * {t.upper()}_INPUT_LSB  (1.0 = input_max = {d.input_max:.9g}).\n"
-        f"   Output {f.name}: u_phys = y * {t.upper()}_OUTPUT_LSB (1.0 = u_max = {d.u_max:.9g}), "
-        f"saturated at +-{t.upper()}_OUT_MAX.\n"
-        f"   Rounding {d.rounding}, stored nodes {d.overflow}; every node is scaled by its L1 gain so it\n"
-        f"   cannot overflow for |x| <= input_max.\n{integ}"
-        f"   |u - u_float| <= {d.error_bound(n_samples):.6g} over {n_samples} samples while unsaturated.\n"
+        f"/* {t}: fixed-point {form}, {f.name} words ({f.ctype}), {f.acc_ctype} "
+        f"accumulators, dt = {d.dt:.9g} s.\n"
+        f"   Input  {f.name}: x_phys = x * {m}_INPUT_LSB  (1.0 = input_max = "
+        f"{d.input_max:.9g}).\n"
+        f"   Output {f.name}: u_phys = y * {m}_OUTPUT_LSB (1.0 = u_max = {d.u_max:.9g}), "
+        f"saturated at +-{m}_OUT_MAX.\n"
+        f"   Rounding {d.rounding}, stored nodes {d.overflow}; every node is scaled by its "
+        "L1 gain so it\n   cannot overflow for |x| <= input_max.\n"
+        f"{integ}"
+        f"   |u - u_float| <= {d.error_bound(n_samples):.6g} over {n_samples} samples "
+        "while unsaturated.\n"
         f"   Call {t}_init once, then {t}_step once per sample. */\n"
-    )  # fmt: skip
+    )
 
 
 def _macros(d: FixedPointDesign, t: str) -> str:
@@ -125,10 +130,13 @@ def _output_code(d: FixedPointDesign, t: str, acc_expr: str) -> str:
         return f"    ylin = {t}_shr({acc_expr}, {p - n});\n"
     fs = min(p, d.integrator.state_frac)
     a1, a2 = p - fs, d.integrator.state_frac - fs
+    floor = "".join(
+        f"        {w} = {w} >= 0 ? {w} >> {k} : ~(~{w} >> {k});\n"
+        for w, k in (("a", a1), ("v", a2))
+        if k > 0
+    )
     return (
-        f"    {{\n        {acc} a = {acc_expr}, v = s->v;\n"
-        f"        a = a >= 0 ? a >> {a1} : ~(~a >> {a1});\n"
-        f"        v = v >= 0 ? v >> {a2} : ~(~v >> {a2});\n"
+        f"    {{\n        {acc} a = {acc_expr}, v = s->v;\n{floor}"
         f"        ylin = {t}_shr(a + v, {fs - n});\n    }}\n"
     )
 
@@ -141,7 +149,8 @@ def _integrator_code(d: FixedPointDesign, t: str) -> str:
     s = d.fmt.frac_bits + it.gain.frac - it.state_frac
     return (
         f"    {{\n        {acc} inc = {t}_shr(({acc}){_int(it.gain.coefs[0], acc)} * x, {s}), v;\n"
-        f"        if ((ylin > {m}_OUT_MAX && inc > 0) || (ylin < -{m}_OUT_MAX && inc < 0)) inc = 0;\n"
+        f"        if ((ylin > {m}_OUT_MAX && inc > 0) || (ylin < -{m}_OUT_MAX && inc < 0))"
+        " inc = 0;\n"
         f"        v = s->v + inc;\n"
         f"        s->v = v > {m}_V_MAX ? {m}_V_MAX : (v < -{m}_V_MAX ? -{m}_V_MAX : v);\n    }}\n"
     )  # fmt: skip

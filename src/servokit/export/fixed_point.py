@@ -55,13 +55,28 @@ rounding add up once per sample.  ``d = q/2`` for round-half-up and convergent r
 from __future__ import annotations
 
 import math
-import re
 from dataclasses import dataclass, field
 
 import control
 import numpy as np
 
-from servokit.errors import ServokitValueError, check_finite, check_positive
+from servokit.errors import ServokitValueError, check_positive
+from servokit.export.fixed_format import (
+    FixedRow,
+    QFormat,
+    parse_qformat,
+    quantize_row,
+    rounding_bound,
+)
+from servokit.export.fixed_network import (
+    l1_matrix,
+    modal_realization,
+    node_impulse_responses,
+    sos_network,
+    sos_sections,
+    split_integrator,
+    ss_network,
+)
 
 __all__ = [
     "OVERFLOWS",
@@ -72,6 +87,8 @@ __all__ = [
     "Integrator",
     "QFormat",
     "design_fixed_point",
+    "design_summary",
+    "node_impulse_responses",
     "parse_qformat",
 ]
 
@@ -79,111 +96,6 @@ ROUNDINGS = ("half-up", "convergent", "truncate")
 OVERFLOWS = ("saturate", "wrap")
 REALIZATIONS = ("sos", "ss")
 _ETA0 = 2.0**-12  # first headroom of a node below full scale (float L1 -> quantised peak)
-_L1_TAIL = 1e-18  # an impulse response is summed until its terms fall below this
-
-
-@dataclass(frozen=True)
-class QFormat:
-    """Signed fixed-point word ``Qm.n``: ``1 + m + n`` bits, value ``k 2**-n``.
-
-    Attributes
-    ----------
-    int_bits : int
-        ``m``, integer bits besides the sign.
-    frac_bits : int
-        ``n``, fractional bits.
-    """
-
-    int_bits: int
-    frac_bits: int
-
-    @property
-    def word_bits(self) -> int:
-        """Bits of the word, sign included."""
-        return 1 + self.int_bits + self.frac_bits
-
-    @property
-    def acc_bits(self) -> int:
-        """Accumulator bits: 32 for words up to 16 bits, else 64."""
-        return 32 if self.word_bits <= 16 else 64
-
-    @property
-    def ctype(self) -> str:
-        """C type of a stored word."""
-        return "int16_t" if self.word_bits <= 16 else "int32_t"
-
-    @property
-    def acc_ctype(self) -> str:
-        """C type of the accumulator."""
-        return f"int{self.acc_bits}_t"
-
-    @property
-    def hi(self) -> int:
-        """Largest word integer."""
-        return 2 ** (self.word_bits - 1) - 1
-
-    @property
-    def lo(self) -> int:
-        """Smallest word integer."""
-        return -(2 ** (self.word_bits - 1))
-
-    @property
-    def acc_max(self) -> int:
-        """Largest accumulator integer."""
-        return 2 ** (self.acc_bits - 1) - 1
-
-    @property
-    def name(self) -> str:
-        """``"Q0.15"`` etc."""
-        return f"Q{self.int_bits}.{self.frac_bits}"
-
-
-def parse_qformat(text: str) -> QFormat:
-    """``"q15"``, ``"q31"`` or ``"qM.N"`` (word of ``1 + M + N`` <= 32 bits) as a format.
-
-    Parameters
-    ----------
-    text : str
-        The ``--precision`` value.
-
-    Returns
-    -------
-    QFormat
-        The word format.
-    """
-    t = text.strip().lower()
-    if t in ("q15", "q31"):
-        return QFormat(0, int(t[1:]))
-    match = re.fullmatch(r"q(\d{1,2})\.(\d{1,2})", t)
-    if match is None:
-        raise ServokitValueError(f"--precision {text!r}: use q15, q31 or qM.N (e.g. q3.12)")
-    fmt = QFormat(int(match[1]), int(match[2]))
-    if fmt.frac_bits < 1 or not 4 <= fmt.word_bits <= 32:
-        raise ServokitValueError(
-            f"--precision {text!r}: a word of 1 + M + N = {fmt.word_bits} bits; "
-            "use 4 to 32 bits with N >= 1"
-        )
-    return fmt
-
-
-@dataclass(frozen=True)
-class FixedRow:
-    """One accumulation: integer coefficients sharing ``frac`` fractional bits.
-
-    Attributes
-    ----------
-    coefs : tuple of int
-        The coefficients (value ``c 2**-frac``).
-    frac : int
-        Fractional bits of the coefficients; products carry ``n + frac``.
-    """
-
-    coefs: tuple[int, ...]
-    frac: int
-
-    def values(self) -> np.ndarray:
-        """The coefficients' real values."""
-        return np.array([math.ldexp(c, -self.frac) for c in self.coefs])
 
 
 @dataclass(frozen=True)
@@ -283,193 +195,6 @@ class FixedPointDesign:
         return self.u_max * (fixed + n_samples * per_sample)
 
 
-# ---------------------------------------------------------------- decomposition
-def split_integrator(num: np.ndarray, den: np.ndarray) -> tuple[float, np.ndarray, np.ndarray]:
-    """``C = num/den = r/(z-1) + num_r/den_r`` (``r = 0`` without a pole at ``z = 1``).
-
-    Parameters
-    ----------
-    num, den : ndarray
-        Polynomial coefficients in ``z`` (descending powers), ``deg num <= deg den``.
-
-    Returns
-    -------
-    r : float
-        Residue at ``z = 1`` (0 if there is no pole there).
-    num_r, den_r : ndarray
-        The remainder, with all poles strictly inside the unit circle.
-    """
-    num = np.trim_zeros(check_finite("controller numerator", num), "f")
-    den = np.trim_zeros(check_finite("controller denominator", den), "f")
-    if num.size == 0 or den.size == 0 or num.size > den.size:
-        raise ServokitValueError("the controller must be proper with a nonzero denominator")
-    r = 0.0
-    if abs(np.polyval(den, 1.0)) <= 1e-9 * np.sum(np.abs(den)):
-        den, _ = np.polydiv(den, [1.0, -1.0])
-        r = float(np.polyval(num, 1.0) / np.polyval(den, 1.0))
-        rest = np.polysub(num, r * den)
-        num, _ = np.polydiv(rest, [1.0, -1.0]) if rest.size > 1 else (np.zeros(1), None)
-        num = np.atleast_1d(num)
-    poles = np.roots(den)
-    if poles.size and np.max(np.abs(poles)) >= 1.0 - 1e-9:
-        what = "a second pole at z = 1" if np.any(np.abs(poles - 1) < 1e-6) else "a pole"
-        raise ServokitValueError(
-            f"the controller has {what} on or outside the unit circle (|p| = "
-            f"{np.max(np.abs(poles)):.9g}); fixed point handles stable poles and one integrator"
-        )
-    num = np.where(np.abs(num) <= 1e-13 * np.max(np.abs(num), initial=0.0), 0.0, num)
-    num = np.trim_zeros(num, "f")  # leading terms that cancelled to round-off
-    num = num[-den.size :] if num.size else np.zeros(1)
-    return r, num, den
-
-
-# ---------------------------------------------------------------- L1 norms of networks
-def l1_matrix(a: np.ndarray, b: np.ndarray, c: np.ndarray, d: np.ndarray) -> np.ndarray:
-    """``sum_k |h[k]|`` per output/input of ``x+ = A x + B u, y = C x + D u``.
-
-    Parameters
-    ----------
-    a, b, c, d : ndarray
-        A stable discrete state-space system.
-
-    Returns
-    -------
-    ndarray (n_out, n_in)
-        L1 norms of the impulse responses (summed until the terms are below 1e-18 of
-        the total).
-    """
-    total = np.abs(d).astype(float)
-    x = b.astype(float)
-    for k in range(2_000_000):
-        h = np.abs(c @ x)
-        total += h
-        if k >= 16 and np.max(np.abs(x), initial=0.0) <= _L1_TAIL * max(np.max(total), 1e-300):
-            return total
-        x = a @ x
-    raise ServokitValueError("the controller's poles are too close to the unit circle to scale")
-
-
-def _sos_network(sections: np.ndarray, g: float) -> tuple[np.ndarray, ...]:
-    """State space of a DF-I cascade: inputs ``[w0, e_1..e_K]``, outputs ``[w_1..w_K, y]``.
-
-    ``sections[k] = [b0, b1, b2, -a1, -a2]`` (scaled values); ``e_k`` is the rounding
-    error added to section k's output; states are the histories ``w_k[n-1], w_k[n-2]``.
-    """
-    n_sec = sections.shape[0]
-    ns, ni = 2 * (n_sec + 1), n_sec + 1
-    expr = np.zeros((n_sec + 1, ns + ni))  # each w_k[n] over [states, inputs]
-    expr[0, ns] = 1.0
-    for k in range(1, n_sec + 1):
-        c = sections[k - 1]
-        row = c[0] * expr[k - 1]
-        for coef, idx in zip(c[1:], (2 * (k - 1), 2 * (k - 1) + 1, 2 * k, 2 * k + 1), strict=True):
-            row[idx] += coef
-        row[ns + k] += 1.0
-        expr[k] = row
-    a, b = np.zeros((ns, ns)), np.zeros((ns, ni))
-    for k in range(n_sec + 1):
-        a[2 * k], b[2 * k] = expr[k, :ns], expr[k, ns:]
-        a[2 * k + 1, 2 * k] = 1.0
-    out = np.vstack([expr[1:], g * expr[n_sec]])
-    return a, b, out[:, :ns], out[:, ns:]
-
-
-def _ss_network(rows: np.ndarray, out: np.ndarray) -> tuple[np.ndarray, ...]:
-    """Network of a state-space realisation: inputs ``[w0, e_1..e_n]``, outputs ``[x, y]``."""
-    nx = rows.shape[0]
-    a = rows[:, :nx]
-    b = np.hstack([rows[:, nx:], np.eye(nx)])
-    c = np.vstack([np.eye(nx), out[None, :nx]])
-    d = np.zeros((nx + 1, nx + 1))
-    d[nx, 0] = out[nx]
-    return a, b, c, d
-
-
-# ---------------------------------------------------------------- realisations of C_r
-def _sos_of(num: np.ndarray, den: np.ndarray) -> np.ndarray:
-    from scipy import signal
-
-    z, p, k = signal.tf2zpk(num, den)
-    return signal.zpk2sos(z, p, k)
-
-
-def _modal_of(num: np.ndarray, den: np.ndarray) -> tuple[np.ndarray, ...]:
-    """Real modal realisation ``(A, B, C, D)`` of ``num/den`` (distinct poles)."""
-    from scipy import signal
-
-    nx = den.size - 1
-    if nx == 0:
-        return np.zeros((1, 1)), np.zeros((1, 1)), np.zeros((1, 1)), np.array([[num[-1] / den[0]]])
-    res, poles, direct = signal.residue(num, den)
-    a, b, c = np.zeros((nx, nx)), np.zeros((nx, 1)), np.zeros((1, nx))
-    i = 0
-    for rk, pk in zip(res, poles, strict=True):
-        if abs(pk.imag) <= 1e-12 * max(abs(pk), 1e-300):
-            a[i, i], b[i, 0], c[0, i] = pk.real, 1.0, rk.real
-            i += 1
-        elif pk.imag > 0:
-            a[i : i + 2, i : i + 2] = [[pk.real, pk.imag], [-pk.imag, pk.real]]
-            b[i, 0] = 1.0
-            c[0, i : i + 2] = [2 * rk.real, 2 * rk.imag]
-            i += 2
-    dd = float(direct[0]) if len(direct) else 0.0
-    w = np.exp(1j * np.linspace(0.01, 3.1, 64))
-    modal = np.array([(c @ np.linalg.solve(z * np.eye(nx) - a, b))[0, 0] + dd for z in w])
-    exact = np.polyval(num, w) / np.polyval(den, w)
-    if i != nx or np.max(np.abs(modal - exact)) > 1e-7 * np.max(np.abs(exact)):
-        raise ServokitValueError(
-            "--realization ss: the controller's poles are repeated or too close for a modal "
-            "form; use --realization sos"
-        )
-    return a, b, c, np.array([[dd]])
-
-
-# ---------------------------------------------------------------- quantisation of rows
-def _row_fits(ints: np.ndarray, fmt: QFormat, extra: int) -> bool:
-    return bool(
-        np.max(np.abs(ints), initial=0) <= fmt.hi
-        and int(np.sum(np.abs(ints))) * 2 ** (fmt.word_bits - 1) + extra <= fmt.acc_max
-    )
-
-
-def quantize_row(values: np.ndarray, fmt: QFormat, extra: int = 0) -> FixedRow:
-    """Coefficients of one accumulation with the most fractional bits that fit.
-
-    Parameters
-    ----------
-    values : ndarray
-        Real coefficients.
-    fmt : QFormat
-        Word format (the coefficients are words too).
-    extra : int
-        Accumulator integers reserved for other terms.
-
-    Returns
-    -------
-    FixedRow
-        Integers and their fractional bits ``cf >= 0`` (refused if none fits).
-    """
-    peak = float(np.max(np.abs(values), initial=0.0))
-    cf = fmt.word_bits - 1 - (math.frexp(peak)[1] if peak > 0 else 0)
-    while cf >= 0:
-        ints = np.rint(np.ldexp(values, cf)).astype(np.int64)
-        if _row_fits(ints, fmt, extra):
-            return FixedRow(tuple(int(v) for v in ints), cf)
-        cf -= 1
-    raise ServokitValueError(
-        f"a coefficient ({peak:.6g}) is too large for {fmt.name}; raise --u-max or lower "
-        "--input-max"
-    )
-
-
-def _delta(fmt: QFormat, rounding: str, shift: int) -> float:
-    """Bound of one rounding error, in units of the target word's value."""
-    if shift <= 0:
-        return 0.0
-    q = math.ldexp(1.0, -fmt.frac_bits)
-    return q if rounding == "truncate" else q / 2
-
-
 # ---------------------------------------------------------------- the design
 @dataclass
 class _Plan:
@@ -497,18 +222,18 @@ class _Plan:
     def network(self, rows: np.ndarray, out: np.ndarray) -> tuple[np.ndarray, ...]:
         """The network with these (scaled or quantised) coefficient values."""
         if self.kind == "sos":
-            return _sos_network(rows, float(out[0]))
-        return _ss_network(rows, out)
+            return sos_network(rows, float(out[0]))
+        return ss_network(rows, out)
 
 
 def _plan(kind: str, num: np.ndarray, den: np.ndarray, input_max: float) -> _Plan:
     n, d = num * input_max, den  # per normalised input, physical output
     if kind == "sos":
-        sos = _sos_of(n, d)
+        sos = sos_sections(n, d)
         plan = _Plan(kind, sos, np.zeros(0), np.zeros(0), 0.0)
         a, b, c, dd = plan.network(plan.scaled(np.ones(sos.shape[0]), 1.0)[0], np.ones(1))
     else:
-        am, bm, cm, dm = _modal_of(n, d)
+        am, bm, cm, dm = modal_realization(n, d)
         plan = _Plan(kind, np.hstack([am, bm]), np.concatenate([cm[0], dm[0]]), np.zeros(0), 0.0)
         a, b, c, dd = plan.network(plan.unscaled, plan.out)
     l1 = l1_matrix(a, b, c, dd)
@@ -636,7 +361,7 @@ def _scale_and_verify(plan: _Plan, fmt: QFormat, rounding: str, g_out: float,
         q_rows = np.array([r.values() for r in rows])
         a, b, c, d = plan.network(q_rows, out_row.values())
         l1 = l1_matrix(a, b, c, d)
-        deltas = np.array([_delta(fmt, rounding, r.frac) for r in rows])
+        deltas = np.array([rounding_bound(fmt, rounding, r.frac) for r in rows])
         peaks = (l1[:-1, 0] + l1[:-1, 1:] @ deltas) * (1 + 1e-9)
         bad = peaks > peak_word
         if not bad.any():
@@ -677,6 +402,47 @@ def _bound_terms(plan: _Plan, fmt: QFormat, rounding: str, g_out: float, net: tu
     return {
         "coefficient": float(diff[0, 0]),
         "signal": float(l1[-1, 1:] @ deltas),
-        "output_rounding": _delta(fmt, rounding, out_shift) + align,
+        "output_rounding": rounding_bound(fmt, rounding, out_shift) + align,
         "integrator_per_sample": per_sample,
+    }
+
+
+def design_summary(design: FixedPointDesign, n_samples: int) -> dict[str, object]:
+    """JSON-ready facts of a design: formats, scales, node bounds and the error bound.
+
+    Parameters
+    ----------
+    design : FixedPointDesign
+        The design.
+    n_samples : int
+        Horizon of the error bound.
+
+    Returns
+    -------
+    dict
+        ``realization, input_format, output_format, word_bits, accumulator_bits,
+        rounding, overflow, input_max, u_max, input_lsb, output_lsb, n_nodes,
+        node_peak, integrator, error_bound, error_bound_n_samples, error_bound_terms``
+        (``error_bound`` in output units; terms in output units, the integrator's per
+        sample).
+    """
+    f = design.fmt
+    return {
+        "realization": design.realization,
+        "input_format": f.name,
+        "output_format": f.name,
+        "word_bits": f.word_bits,
+        "accumulator_bits": f.acc_bits,
+        "rounding": design.rounding,
+        "overflow": design.overflow,
+        "input_max": design.input_max,
+        "u_max": design.u_max,
+        "input_lsb": design.input_lsb,
+        "output_lsb": design.output_lsb,
+        "n_nodes": len(design.rows),
+        "node_peak": [float(p) for p in design.node_peak],
+        "integrator": design.integrator is not None,
+        "error_bound": design.error_bound(n_samples),
+        "error_bound_n_samples": n_samples,
+        "error_bound_terms": {k: v * design.u_max for k, v in design.bound_terms.items()},
     }

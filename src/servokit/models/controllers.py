@@ -167,11 +167,19 @@ def vcm_controller_table_5_2(dt: float = VCM_PES_TS) -> control.TransferFunction
     return zpk(zeros, poles, 0.1365, dt)
 
 
-#: Book controllers by command-line name (all discrete, at their book sampling period).
+def _hdd_benchmark_controller() -> control.TransferFunction:
+    from servokit.models.benchmark_controller import benchmark_controller
+
+    return benchmark_controller()
+
+
+#: Book controllers by command-line name (all discrete, at their book sampling period),
+#: and servokit's baseline tracking controller of the HDD benchmark (PI + lead + notches).
 CONTROLLERS = {
     "eq-4.69": controller_eq_4_69,
     "fig-4.57": controller_fig_4_57,
     "table-5.2": vcm_controller_table_5_2,
+    "hdd-benchmark": _hdd_benchmark_controller,
 }
 
 
@@ -183,8 +191,8 @@ def get_discrete_controller(name_or_file: str, dt: float | None = None) -> contr
     Parameters
     ----------
     name_or_file : str
-        A key of ``CONTROLLERS`` (``"eq-4.69"``, ``"fig-4.57"``, ``"table-5.2"``; each at
-        its book sampling period) or the path of a controller TOML file
+        A key of ``CONTROLLERS`` (``"eq-4.69"``, ``"fig-4.57"``, ``"table-5.2"``,
+        ``"hdd-benchmark"``; each at its book sampling period) or the path of a controller TOML file
         (:func:`~servokit.models.files.load_controller`).
     dt : float, optional
         Required sampling period [s] (matched to a relative 1e-9); not checked if omitted.
