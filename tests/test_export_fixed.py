@@ -88,7 +88,9 @@ def _inputs(design, n: int = 6000, seed: int = 0) -> dict[str, np.ndarray]:
         "step": q(np.r_[np.zeros(20), np.full(n - 20, 0.3)]),
         "full_scale": q(np.where(rng.uniform(size=n) < 0.5, -1.0, 1.0)),
         # beyond the declared range: saturating output, anti-windup, saturating nodes
-        "extremes": np.r_[np.full(n // 3, f.hi), np.full(n // 3, f.lo), rng.integers(f.lo, f.hi, n // 3)],
+        "extremes": np.r_[
+            np.full(n // 3, f.hi), np.full(n // 3, f.lo), rng.integers(f.lo, f.hi, n // 3)
+        ],
     }
 
 
@@ -286,7 +288,9 @@ def test_random_filters_within_bound_and_range(filt, precision, realization, rou
 
 
 @needs_gcc
-@settings(max_examples=8, deadline=None, suppress_health_check=[HealthCheck.function_scoped_fixture])
+@settings(
+    max_examples=8, deadline=None, suppress_health_check=[HealthCheck.function_scoped_fixture]
+)
 @given(filt=stable_filters(), precision=st.sampled_from(["q15", "q31", "q5.10"]),
        realization=st.sampled_from(["sos", "ss"]))  # fmt: skip
 def test_random_filters_c_bit_exact(tmp_path_factory, filt, precision, realization):
@@ -298,3 +302,34 @@ def test_random_filters_c_bit_exact(tmp_path_factory, filt, precision, realizati
     x = np.concatenate(list(_inputs(d, 900, seed=1).values()))
     tmp = tmp_path_factory.mktemp("rand")
     np.testing.assert_array_equal(_run_c(tmp, d, x), fixed_point_response(d, x))
+
+
+@needs_gcc
+def test_cli_exports_the_design_the_library_makes(tmp_path: Path) -> None:
+    import json
+
+    from typer.testing import CliRunner
+
+    from servokit.cli import _discover
+    from servokit.cli._app import app
+
+    _discover()
+    args = ["export", "controller", "--controller", "hdd-benchmark", "--precision", "q31",
+            "--realization", "sos", "--u-max", "0.5", "--rounding", "convergent",
+            "--out", str(tmp_path), "--name", "k", "--n-samples", "5000", "--json"]  # fmt: skip
+    res = CliRunner().invoke(app, args)
+    assert res.exit_code == 0, res.output
+    info = json.loads(res.stdout)
+    d = design_fixed_point(
+        get_discrete_controller("hdd-benchmark"), "q31", realization="sos", u_max=0.5,
+        rounding="convergent",
+    )  # fmt: skip
+    assert info["input_format"] == info["output_format"] == "Q0.31"
+    assert info["error_bound"] == d.error_bound(5000) and info["error_bound_n_samples"] == 5000
+    assert info["integrator"] is True and info["n_nodes"] == 4
+    assert (tmp_path / "k.c").read_text() == _c_source(d, tmp_path / "lib")
+
+
+def _c_source(design, outdir: Path) -> str:
+    write_fixed_export(design, outdir, "k", title="controller hdd-benchmark", n_samples=5000)
+    return (outdir / "k.c").read_text()

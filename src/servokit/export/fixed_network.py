@@ -97,6 +97,18 @@ def sos_network(sections: np.ndarray, g: float) -> tuple[np.ndarray, ...]:
 
     ``sections[k] = [b0, b1, b2, -a1, -a2]`` (scaled values); ``e_k`` is the rounding
     error added to section k's output; states are the histories ``w_k[n-1], w_k[n-2]``.
+
+    Parameters
+    ----------
+    sections : ndarray (K, 5)
+        Section coefficients (values, scaled or quantised).
+    g : float
+        Output gain on ``w_K``.
+
+    Returns
+    -------
+    A, B, C, D : ndarray
+        The network.
     """
     n_sec = sections.shape[0]
     ns, ni = 2 * (n_sec + 1), n_sec + 1
@@ -118,7 +130,20 @@ def sos_network(sections: np.ndarray, g: float) -> tuple[np.ndarray, ...]:
 
 
 def ss_network(rows: np.ndarray, out: np.ndarray) -> tuple[np.ndarray, ...]:
-    """Network of a state-space realisation: inputs ``[w0, e_1..e_n]``, outputs ``[x, y]``."""
+    """Network of a state-space realisation: inputs ``[w0, e_1..e_n]``, outputs ``[x, y]``.
+
+    Parameters
+    ----------
+    rows : ndarray (n, n + 1)
+        State rows ``[A_i, B_i]``.
+    out : ndarray (n + 1,)
+        Output row ``[C, D]``.
+
+    Returns
+    -------
+    A, B, C, D : ndarray
+        The network (the outputs are the states and ``y``).
+    """
     nx = rows.shape[0]
     a = rows[:, :nx]
     b = np.hstack([rows[:, nx:], np.eye(nx)])
@@ -129,6 +154,18 @@ def ss_network(rows: np.ndarray, out: np.ndarray) -> tuple[np.ndarray, ...]:
 
 
 def sos_sections(num: np.ndarray, den: np.ndarray) -> np.ndarray:
+    """Second-order sections of ``num/den`` (``scipy.signal.zpk2sos`` pairing).
+
+    Parameters
+    ----------
+    num, den : ndarray
+        Polynomials in ``z``.
+
+    Returns
+    -------
+    ndarray (K, 6)
+        Rows ``[b0 b1 b2 1 a1 a2]``.
+    """
     from scipy import signal
 
     z, p, k = signal.tf2zpk(num, den)
@@ -136,7 +173,22 @@ def sos_sections(num: np.ndarray, den: np.ndarray) -> np.ndarray:
 
 
 def modal_realization(num: np.ndarray, den: np.ndarray) -> tuple[np.ndarray, ...]:
-    """Real modal realisation ``(A, B, C, D)`` of ``num/den`` (distinct poles)."""
+    """Real modal realisation of ``num/den``: ``2x2`` blocks ``[[s, w], [-w, s]]`` per pair.
+
+    Built from the partial fractions ``D + sum c_i / (z - p_i)`` (distinct poles): a pair
+    ``c/(z-p) + conj`` is ``A = [[Re p, Im p], [-Im p, Re p]]``, ``B = [1, 0]``,
+    ``C = [2 Re c, 2 Im c]``.  Checked against ``num/den`` on the unit circle.
+
+    Parameters
+    ----------
+    num, den : ndarray
+        Polynomials in ``z`` of a proper, stable transfer function.
+
+    Returns
+    -------
+    A, B, C, D : ndarray
+        The realisation (one dummy zero state for a constant).
+    """
     from scipy import signal
 
     nx = den.size - 1
