@@ -216,11 +216,6 @@ def _fixed_request(precision: str, fmt: str, u_max: float | None, input_max: flo
     }
 
 
-def design_terms(info: dict) -> list[tuple[str, float]]:
-    """The error-bound terms of a design summary, in print order."""
-    return list(info["error_bound_terms"].items())
-
-
 def _finish_fixed(ctrl: object, realization: str, req: dict, out: Path, name: str, title: str,
                   json_out: bool) -> None:  # fmt: skip
     """Design, write and report a fixed-point controller."""
@@ -251,7 +246,8 @@ def _finish_fixed(ctrl: object, realization: str, req: dict, out: Path, name: st
         f"input {info['input_format']} (1.0 = {design.input_max:g}), output "
         f"{info['output_format']} (1.0 = u_max = {design.u_max:.6g}), saturated at u_max"
     )
-    terms = ", ".join(f"{k.replace('_', ' ')} {v:.3g}" for k, v in design_terms(info))
+    parts = info["error_bound_terms"].items()
+    terms = ", ".join(f"{k.replace('_', ' ')} {v:.3g}" for k, v in parts)
     typer.echo(f"error bound vs the float design: {info['error_bound']:.3g} over {n} samples")
     typer.echo(f"  terms [output unit]: {terms}")
 
