@@ -237,6 +237,24 @@ def test_formats_and_refusals() -> None:
         design_fixed_point(ctrl, "q15", u_max=1e-9)
 
 
+@needs_gcc
+@pytest.mark.parametrize("realization", ["sos", "ss"])
+def test_tiny_gain_keeps_shifts_defined(tmp_path: Path, realization: str) -> None:
+    # output 1e-9 of u_max: the output row asks for more fractional bits than the
+    # accumulator has (a shift >= its width is undefined in C); they are capped
+    tf = control.tf(1e-9 * np.array([1.0, -0.5]), [1.0, -0.3], 1e-4)
+    d = design_fixed_point(tf, "q15", realization=realization, u_max=1.0)
+    assert d.out_row.frac == d.fmt.acc_bits - 2
+    assert all(0 <= r.frac <= d.fmt.acc_bits - 2 for r in d.rows)
+    x = np.concatenate(list(_inputs(d, 600).values()))
+    np.testing.assert_array_equal(_run_c(tmp_path, d, x), fixed_point_response(d, x))
+    y = fixed_point_response(d, x[:200]) * d.output_lsb
+    ref = signal.lfilter(tf.num[0][0], tf.den[0][0], x[:200] * d.input_lsb)
+    assert np.max(np.abs(y - ref)) <= d.error_bound(200)
+    with pytest.raises(ServokitValueError, match="--u-max"):  # and a huge one is refused
+        design_fixed_point(tf * 1e18, "q15", realization=realization, u_max=1.0)
+
+
 # ---------------------------------------------------------------- random stable filters
 @st.composite
 def stable_filters(draw: st.DrawFn) -> tuple[control.TransferFunction, bool]:

@@ -146,6 +146,7 @@ def quantize_row(values: np.ndarray, fmt: QFormat, extra: int = 0) -> FixedRow:
     """
     peak = float(np.max(np.abs(values), initial=0.0))
     cf = fmt.word_bits - 1 - (math.frexp(peak)[1] if peak > 0 else 0)
+    cf = min(cf, fmt.acc_bits - 2)  # every shift stays below the accumulator width (C)
     while cf >= 0:
         ints = np.rint(np.ldexp(values, cf)).astype(np.int64)
         if _row_fits(ints, fmt, extra):

@@ -328,6 +328,8 @@ def design_fixed_point(
         raise ServokitValueError(
             "--u-max: the controller has an integrator (pole at z = 1); give the output limit"
         )
+    if u_max is None and plan.y_l1 == 0.0:
+        raise ServokitValueError("--controller: the controller is zero; nothing to export")
     y_max = check_positive("--u-max", u_max) if u_max is not None else plan.y_l1 * (1 + 2**-10)
     integ = None
     if r != 0.0:
