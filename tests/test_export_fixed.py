@@ -261,7 +261,7 @@ def stable_filters(draw: st.DrawFn) -> tuple[control.TransferFunction, bool]:
     n_sec = draw(st.integers(1, 3))
     poles, zeros = [], []
     for _ in range(n_sec):
-        r = draw(st.floats(0.05, 0.97))
+        r = draw(st.floats(0.05, 0.995))
         th = draw(st.floats(0.0, 3.1))
         poles += [r * np.exp(1j * th), r * np.exp(-1j * th)]
         rz = draw(st.floats(0.0, 1.5))
