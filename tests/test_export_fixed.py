@@ -315,7 +315,8 @@ def test_random_filters_c_bit_exact(tmp_path_factory, filt, precision, realizati
     tf, integ = filt
     try:
         d = design_fixed_point(tf, precision, realization=realization, u_max=1.0 if integ else None)
-    except ServokitValueError:
+    except ServokitValueError as exc:  # only a modal form of near-repeated poles is refused
+        assert realization == "ss" and "use --realization sos" in str(exc)
         return
     x = np.concatenate(list(_inputs(d, 900, seed=1).values()))
     tmp = tmp_path_factory.mktemp("rand")
