@@ -27,7 +27,7 @@ from servokit.export import (
     quantize_input,
     write_fixed_export,
 )
-from servokit.models.controllers import get_discrete_controller
+from servokit.models.lookup import get_discrete_controller
 
 # SERVOKIT_EXAMPLE_SMALL (the test suite): shorter inputs, same checks
 N = 500 if os.environ.get("SERVOKIT_EXAMPLE_SMALL") else 10_000

@@ -30,7 +30,7 @@ from servokit.export import (
 from servokit.export.fixed_format import QFormat
 from servokit.export.fixed_model import shr, store
 from servokit.export.fixed_network import l1_matrix, split_integrator
-from servokit.models.controllers import get_discrete_controller
+from servokit.models.lookup import get_discrete_controller
 
 GCC = shutil.which("gcc")
 needs_gcc = pytest.mark.skipif(GCC is None, reason="gcc is not installed")
