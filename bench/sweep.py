@@ -16,7 +16,7 @@ import numpy as np
 
 from servokit.cases.hdd_seek import DESIGNS
 from servokit.models import hdd_benchmark, hdd_benchmark_variation_set
-from servokit.robust import sweep as sweep_mod
+from servokit.seek import sweep as sweep_mod
 from servokit.simulate import _core, seek_time
 
 

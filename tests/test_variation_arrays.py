@@ -9,7 +9,7 @@ from hypothesis import strategies as st
 from servokit.cases.hdd_seek import DESIGNS
 from servokit.models import hdd_benchmark, hdd_benchmark_variation_set
 from servokit.models.variation_arrays import modal_arrays_from_draws
-from servokit.robust.sweep import sweep_seek_times
+from servokit.seek.sweep import sweep_seek_times
 from servokit.simulate import seek_time
 from servokit.simulate._bank import modal_arrays
 

@@ -20,7 +20,7 @@ import numpy as np
 from servokit.errors import ServokitValueError, check_count, check_memory, check_positive
 from servokit.models.variation_arrays import modal_arrays_from_draws
 from servokit.models.variations import VariationSet
-from servokit.simulate.metrics import seek_time_of_arrays
+from servokit.simulate.metrics import readout_substeps, seek_time_of_arrays
 
 __all__ = [
     "SweepResult",
@@ -225,7 +225,7 @@ def plan_chunks(
         If the estimate exceeds ``max_memory_mb``.
     """
     dt = check_positive("ff.dt", ff.dt, "s")
-    S = 10 if grid is None else int(round(dt / check_positive("grid", grid, "s")))
+    S = readout_substeps(dt, grid)
     K = _record(_Held(np.asarray(ff.u), dt), horizon)
     per_plant = chunk_bytes(1, len(vset.nominal.modes), K, max(S, 1))
     limit = 2000.0 if max_memory_mb is None else float(max_memory_mb)
