@@ -105,7 +105,7 @@ def main() -> None:
         print(f"[{name}]")
         for k, v in results[name].items():
             print(f"  {k:40s} {v:.4g}" if isinstance(v, float) else f"  {k:40s} {v}")
-    print("[targets of issue 8]")
+    print("[targets (issues 8 and 24)]")
     for key, v, op, t, ok in rows:
         print(f"  {'met ' if ok else 'MISS'}  {key:48s} {v:10.4g} {op} {t:g}")
     print(f"wrote {args.out}")
