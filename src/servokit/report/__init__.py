@@ -16,7 +16,24 @@ from pathlib import Path
 
 import numpy as np
 
-__all__ = ["Comparison", "CaseResult", "nearest", "printed_tolerance", "printed_unit"]
+__all__ = [
+    "KINDS",
+    "MISS_CLASSES",
+    "Comparison",
+    "CaseResult",
+    "nearest",
+    "printed_tolerance",
+    "printed_unit",
+]
+
+#: What a row is (docs/CONVENTIONS.md), in the order the report lists them.
+KINDS = ("reproduced", "fitted", "assumed", "spec", "consistency", "informational")
+#: Why a judged row misses, the unexplained class ``"open"`` first (the report's order):
+#: ``book_misprint`` (a corrected derivation matches the book's intent),
+#: ``book_inconsistent`` (the book's own data give another number),
+#: ``under_determined`` (the book omits data; a stated search cannot reach the number),
+#: ``figure_read`` (the book value is read off a figure or printed as "around").
+MISS_CLASSES = ("open", "book_misprint", "book_inconsistent", "under_determined", "figure_read")
 
 
 @dataclass(frozen=True)
@@ -31,7 +48,12 @@ class Comparison:
     ``note`` says what was read, fitted or assumed.  ``bound`` makes the book value a
     limit instead of a value to match: ``"min"`` (the book asks for more than it, e.g.
     "gain margin greater than 4.5 dB") or ``"max"`` (less than it); ``rel_tol`` then
-    loosens the limit by that fraction of it.
+    loosens the limit by that fraction of it.  ``"informational"`` rows (a sensitivity
+    study, a value the book prints no number for) are shown but never judged.
+
+    A judged row that misses names why in ``miss_class`` (one of :data:`MISS_CLASSES`)
+    and gives the evidence in one sentence in ``miss_note`` (the corrected derivation,
+    the search range and its best value); a miss without a class is ``"open"``.
     """
 
     quantity: str
@@ -44,6 +66,19 @@ class Comparison:
     note: str = ""
     book_text: str = ""
     bound: str = ""
+    miss_class: str = ""
+    miss_note: str = ""
+
+    def __post_init__(self) -> None:
+        if self.kind not in KINDS:
+            raise ValueError(f"kind {self.kind!r} is not one of {KINDS}")
+        if self.miss_class and self.miss_class not in MISS_CLASSES:
+            raise ValueError(f"miss_class {self.miss_class!r} is not one of {MISS_CLASSES}")
+
+    @property
+    def judged(self) -> bool:
+        """Whether the row is judged: a finite book value and not informational."""
+        return self.kind != "informational" and bool(np.isfinite(float(self.book)))
 
     @classmethod
     def printed(

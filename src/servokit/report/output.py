@@ -2,10 +2,10 @@
 
 :func:`run_cases` runs the selected cases one by one (timing each, advancing a progress
 callback) with every figure also saved as SVG; :func:`write_report` then writes
-``results.json`` and ``report.html`` atomically.  :func:`clear_report` removes the
-report files of an earlier run first: the figures are overwritten as the cases run, so
-an old page beside new figures would mix two runs, and a run killed half-way must
-leave no page a reader could take for a complete one.
+``results.json`` (with its schema beside it) and ``report.html`` atomically.
+:func:`clear_report` removes the report files of an earlier run first: the figures are
+overwritten as the cases run, so an old page beside new figures would mix two runs, and
+a run killed half-way must leave no page a reader could take for a complete one.
 """
 
 from __future__ import annotations
@@ -19,7 +19,7 @@ from servokit.report import CaseResult
 __all__ = ["REPORT_FILES", "clear_report", "run_cases", "select_cases", "write_report"]
 
 #: The files ``write_report`` produces, in writing order (the page last).
-REPORT_FILES = ("results.json", "report.html")
+REPORT_FILES = ("results.schema.json", "results.json", "report.html")
 
 
 def select_cases(names: Sequence[str] | None, chapters: Sequence[int] | None) -> list[str]:
@@ -127,13 +127,22 @@ def write_report(
     Returns
     -------
     tuple of Path
-        ``(results.json, report.html)``.
+        ``(results.json, report.html)``; the schema ``results.json`` names in its
+        ``$schema`` is written beside them.
     """
+    import json
+
     from servokit.report.html import render_html
-    from servokit.report.results import results_document, write_atomic, write_results
+    from servokit.report.results import (
+        load_schema,
+        results_document,
+        write_atomic,
+        write_results,
+    )
 
     outdir = Path(outdir)
     doc = results_document(results, outdir=outdir, runtimes_s=runtimes_s)
-    json_path = write_results(doc, outdir / REPORT_FILES[0])
-    html_path = write_atomic(outdir / REPORT_FILES[1], render_html(doc, outdir))
+    write_atomic(outdir / REPORT_FILES[0], json.dumps(load_schema(), indent=2) + "\n")
+    json_path = write_results(doc, outdir / REPORT_FILES[1])
+    html_path = write_atomic(outdir / REPORT_FILES[2], render_html(doc, outdir))
     return json_path, html_path
