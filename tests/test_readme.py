@@ -176,9 +176,7 @@ def test_readme_subcommands_and_flags_exist() -> None:
                 flag = arg.split("=", 1)[0]
                 if re.match(r"--?[A-Za-z]", flag):  # not a value such as -60 or -16:39370
                     if flag not in flags:
-                        problems.append(
-                            f"{line}: {flag} not in `servokit {' '.join(path)} --help`"
-                        )
+                        problems.append(f"{line}: {flag} not in `servokit {' '.join(path)} --help`")
     assert not problems, "\n".join(problems)
 
 

@@ -15,8 +15,8 @@ from report_page import Page, chromium, rendered_dom
 
 from servokit._figures import also_save_as, save_figure
 from servokit.report import CaseResult, Comparison
+from servokit.report.files import write_report
 from servokit.report.html import figure_caption, render_html
-from servokit.report.output import write_report
 
 
 def _fake_results(outdir: Path) -> list[CaseResult]:

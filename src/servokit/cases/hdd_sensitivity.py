@@ -25,12 +25,16 @@ from __future__ import annotations
 
 from pathlib import Path
 
-import control
 import numpy as np
 
 from servokit._figures import save_figure
 from servokit.cases import register
-from servokit.models import HDD_SAMPLED_DATA_TS, controller_eq_4_69, hdd_sampled_data
+from servokit.models import (
+    HDD_SAMPLED_DATA_TS,
+    controller_eq_4_69,
+    hdd_sampled_data,
+    without_delay,
+)
 from servokit.report import CaseResult, Comparison
 from servokit.sampled import (
     Multirate,
@@ -39,12 +43,11 @@ from servokit.sampled import (
     sensitivity_plot,
     sinusoid_response,
 )
+from servokit.sampled.hdd_multirate import FILTER_HZ, M, hdd_multirate, multirate_filter_4_68  # noqa: F401
 from servokit.sampled.multirate import eval_discrete
 
 __all__ = ["hdd_multirate", "multirate_filter_4_68", "disturbance_ratios", "run"]
 
-M = 4
-FILTER_HZ = 3600.0
 ALIAS_HZ = 1.0 / HDD_SAMPLED_DATA_TS - FILTER_HZ  # 2914.66 Hz; the book prints 2.916 kHz
 BOOK_FS_HZ = 6516.0  # ωs/2π as printed (belongs to Ts = 153.47 us)
 DC_AMPLITUDE = 0.1  # track pitch
@@ -62,50 +65,6 @@ _FORMULA = {
     "yd": ("Sd", "4.36"),
     "yd0": ("Td", "4.33"),
 }
-
-
-def multirate_filter_4_68(dt: float = HDD_SAMPLED_DATA_TS, m: int = M) -> control.TransferFunction:
-    """``Fm``: ``Fmc(s) = 1 - 0.1 s^2 / (s^2 + 2 (0.003) wf s + wf^2)``, wf = 2 pi 3.6 kHz (4.68).
-
-    Discretised at ``dt/m`` by Tustin with prewarping at ``wf``.
-
-    Parameters
-    ----------
-    dt : float
-        Controller sampling period ``Ts`` [s] (153.5 us).
-    m : int
-        Multirate number; the filter runs at ``dt/m``.
-
-    Returns
-    -------
-    control.TransferFunction
-        Discrete ``Fm(z)`` with sampling period ``dt/m``: gain 1 at low frequency, a
-        resonant peak ``|1 + 0.1 j / 0.006|`` (about +24 dB) at 3.6 kHz and 0.9 (-0.9 dB)
-        above it.
-    """
-    wf = 2.0 * np.pi * FILTER_HZ
-    fmc = 1 - control.tf([0.1, 0.0, 0.0], [1.0, 2 * 0.003 * wf, wf**2])
-    return control.sample_system(fmc, dt / m, method="tustin", prewarp_frequency=wf)
-
-
-def hdd_multirate(dt: float = HDD_SAMPLED_DATA_TS, m: int = M) -> Multirate:
-    """Multirate path of §4.5.2: ``Ip = 1 + z^-1 + z^-2 + z^-3`` (4.67), ``Fm`` (4.68), ZOH.
-
-    Parameters
-    ----------
-    dt : float
-        Controller sampling period ``Ts`` [s] (153.5 us).
-    m : int
-        Multirate number (4 in §4.5.2); ``Ip = 1 + z^-1 + ... + z^-(m-1)``.
-
-    Returns
-    -------
-    Multirate
-        ``m``, ``Ip`` and ``Fm`` (:func:`multirate_filter_4_68`) at ``dt/m``, fast
-        zero-order hold (4.66).
-    """
-    ip = control.tf(np.ones(m), np.r_[1.0, np.zeros(m - 1)], dt / m)
-    return Multirate(m, interpolator=ip, filter=multirate_filter_4_68(dt, m))
 
 
 def disturbance_ratios(freq_hz: float, *, n_samples: int = SIM_SAMPLES) -> dict[str, object]:
@@ -289,7 +248,7 @@ def _margins(mr: Multirate, n: int = 20_000, *, delay: bool = True) -> dict[str,
     dt = HDD_SAMPLED_DATA_TS
     f = np.linspace(1.0, 0.5 / dt, n)
     z = np.exp(2j * np.pi * f * dt)
-    plant = hdd_sampled_data() if delay else hdd_sampled_data().replace(delay=0.0)
+    plant = hdd_sampled_data() if delay else without_delay(hdd_sampled_data())[0]
     loop = eval_discrete(mr.discretize(plant, dt), z) * eval_discrete(controller_eq_4_69(), z)
     mag = np.abs(loop)
     ic = int(np.flatnonzero((mag[:-1] >= 1) & (mag[1:] < 1))[0])
@@ -354,6 +313,40 @@ def _ratio_miss(book_text: str, exact: float, f_hz: float) -> dict[str, str]:
     }
 
 
+def _ratio_rows(f_hz: float, eq: str, sim: dict, mr: Multirate) -> list[Comparison]:
+    """The four ratios of (4.70)-(4.71) at ``f_hz``: by simulation and by the formulas."""
+    plant, ctrl, dt = hdd_sampled_data(), controller_eq_4_69(), HDD_SAMPLED_DATA_TS
+    at = sampled_data_sensitivity(plant, ctrl, dt, [f_hz], multirate=mr)
+    comps: list[Comparison] = []
+    label = "3.6 kHz" if f_hz == FILTER_HZ else f"fs - 3.6 kHz = {f_hz:.2f} Hz"
+    for key, book in BOOK[f_hz].items():
+        attr, feq = _FORMULA[key]
+        val = float(np.abs(getattr(at, attr))[0])
+        text = f"{book:.2f}"
+        comps.append(
+            Comparison.printed(
+                f"||{key}||/||dc|| at {label}, simulation",
+                text,
+                sim["simulation"][key],
+                source=f"eq. ({eq})",
+                note="steady-state peak of the hybrid simulation, as the book's simulation",
+                **_ratio_miss(text, sim["steady_state"][key], f_hz),
+            )
+        )
+        comps.append(
+            Comparison.printed(
+                f"||{key}||/||dc|| at {label}, formula ({feq})",
+                text,
+                val,
+                source=f"eq. ({eq}) vs ({feq})",
+                kind="consistency",
+                note="the same quantity from the formula: a cross-check of the simulation row",
+                **_ratio_miss(text, val, f_hz),
+            )
+        )
+    return comps
+
+
 @register("hdd-sensitivity", order=20)
 def run(outdir: Path) -> CaseResult:
     """§4.5.2: Figs. 4.41-4.51 and the disturbance ratios (4.70)-(4.71).
@@ -408,34 +401,8 @@ def run(outdir: Path) -> CaseResult:
     extra["max_Sd_below_500Hz"] = float(np.abs(res.Sd[low]).max())
     comps += _spec_rows(extra)
     for f_hz, eq, fig in ((3600.0, "4.70", "4.50"), (ALIAS_HZ, "4.71", "4.51")):
-        at = sampled_data_sensitivity(plant, ctrl, dt, [f_hz], multirate=mr)
         sim = disturbance_ratios(f_hz)
-        label = "3.6 kHz" if f_hz == FILTER_HZ else f"fs - 3.6 kHz = {f_hz:.2f} Hz"
-        for key, book in BOOK[f_hz].items():
-            attr, feq = _FORMULA[key]
-            val = float(np.abs(getattr(at, attr))[0])
-            text = f"{book:.2f}"
-            comps.append(
-                Comparison.printed(
-                    f"||{key}||/||dc|| at {label}, simulation",
-                    text,
-                    sim["simulation"][key],
-                    source=f"eq. ({eq})",
-                    note="steady-state peak of the hybrid simulation, as the book's simulation",
-                    **_ratio_miss(text, sim["steady_state"][key], f_hz),
-                )
-            )
-            comps.append(
-                Comparison.printed(
-                    f"||{key}||/||dc|| at {label}, formula ({feq})",
-                    text,
-                    val,
-                    source=f"eq. ({eq}) vs ({feq})",
-                    kind="consistency",
-                    note="the same quantity from the formula: a cross-check of the simulation row",
-                    **_ratio_miss(text, val, f_hz),
-                )
-            )
+        comps += _ratio_rows(f_hz, eq, sim, mr)
         extra[f"steady_state_{f_hz:g}Hz"] = sim["steady_state"]
         extra[f"simulation_{f_hz:g}Hz"] = sim["simulation"]
         figures.append(

@@ -5,7 +5,8 @@ A case study (:mod:`servokit.cases`) returns a :class:`CaseResult` holding
 
 * :mod:`servokit.report.results` — ``results.json`` (rows, summary, shipped JSON schema);
 * :mod:`servokit.report.html` — ``report.html`` (jinja2 template, embedded figures);
-* :mod:`servokit.report.output` — running the cases and writing both atomically;
+* :mod:`servokit.report.files` — writing both atomically (running the cases is
+  :mod:`servokit.cases.runner`'s job);
 * :mod:`servokit.report.pairing` — one-to-one pairing of computed lists with the book's.
 """
 
@@ -189,3 +190,41 @@ def nearest(found: object, value: float) -> float:
     """
     arr = np.asarray(found, dtype=float).ravel()
     return float(arr[np.argmin(np.abs(arr - value))]) if arr.size else float("nan")
+
+
+def _old_output_module() -> None:
+    """Keep ``servokit.report.output`` (moved: report.files + cases.runner) importable.
+
+    The old module ran the cases, which made report import cases; the alias resolves its
+    names on attribute access, with a DeprecationWarning, so report imports no case.
+    """
+    import sys
+    import types
+    import warnings
+
+    moved = {
+        "REPORT_FILES": "servokit.report.files",
+        "clear_report": "servokit.report.files",
+        "write_report": "servokit.report.files",
+        "run_cases": "servokit.cases.runner",
+        "select_cases": "servokit.cases.runner",
+    }
+
+    def __getattr__(name: str) -> object:  # noqa: N807
+        if name not in moved:
+            raise AttributeError(f"module 'servokit.report.output' has no attribute {name!r}")
+        warnings.warn(
+            f"servokit.report.output.{name} is deprecated; use {moved[name]}.{name}",
+            DeprecationWarning,
+            stacklevel=2,
+        )
+        from importlib import import_module
+
+        return getattr(import_module(moved[name]), name)
+
+    module = types.ModuleType(f"{__name__}.output", "Deprecated alias (see servokit.report).")
+    module.__getattr__ = __getattr__  # type: ignore[method-assign]
+    sys.modules.setdefault(module.__name__, module)
+
+
+_old_output_module()
