@@ -8,8 +8,6 @@ from servokit.models.catalogue import (
     HDD_SAMPLED_DATA_TS,
     galvano_scanner,
     hdd_benchmark,
-    hdd_benchmark_variants,
-    hdd_benchmark_variation_set,
     hdd_sampled_data,
     personal_mobility_robot,
     pzt_active_suspension,
@@ -40,6 +38,7 @@ from servokit.models.files import (
 )
 from servokit.models.fit import BandError, ModalFit, delay_from_phase, fit_modal
 from servokit.models.frf import FRF_MAX_BYTES, FrfFileError, read_frf, save_frf
+from servokit.models.hdd_box import hdd_benchmark_variants, hdd_benchmark_variation_set
 from servokit.models.lookup import get_discrete_controller, get_plant
 from servokit.models.modal import ModalPlant, Mode, modal_matrices, without_delay
 from servokit.models.plots import fit_plot
