@@ -598,6 +598,12 @@ CASES: list[tuple[list[str], str]] = [
     (["fit", "FRF.csv", "--out", "o", "--band", "1:11"], "--band"),
     (["fit", "FRF.csv", "--out", "o", "--plot", "noext"], "--plot"),
     (["fit", "FRF.csv", "--out", "o", "--plot", "DIR"], "--plot"),
+    # ---- actuator limits (simulate)
+    ([*SIM, "--step", "1", "--u-max", "0"], "--u-max"),
+    ([*SIM, "--step", "1", "--u-max", "nan"], "--u-max"),
+    ([*SIM, "--step", "1", "--u-max", "-2"], "--u-max"),
+    ([*SIM, "--step", "1", "--slew-max", "0"], "--slew-max"),
+    ([*SIM, "--step", "1", "--slew-max", "inf"], "--slew-max"),
     # ---- --variations (simulate, sweep)
     ([*SIM, "--step", "1", "--variations", "missing.toml"], "--variations"),
     ([*SIM, "--step", "1", "--variations", "DIR"], "--variations"),

@@ -27,6 +27,9 @@ README = ROOT / "README.md"
 # the README and every Markdown page of the docs (guide, book, performance)
 DOC_FILES = [README, *sorted((ROOT / "docs").rglob("*.md"))]
 DOC_FILES = [p for p in DOC_FILES if "_build" not in p.parts and p.name != "cli.md"]
+# pages whose commands form one session with its own test (run in order, numbers checked):
+# their flags are checked here, their commands run there
+OWN_TEST = {"docs/guide/own_actuator.md": "tests/test_guide_own_actuator.py"}
 EXE = [sys.executable, "-c", "from servokit.cli import main; main()"]
 
 _discover()
@@ -102,6 +105,8 @@ def _block_scripts() -> list[tuple[int, list[tuple[int, list[str]]]]]:
     examples run in test_examples.py)."""
     blocks: dict[int, list[tuple[int, list[str]]]] = {}
     for block, n, words in _shell_lines():
+        if block[0] in OWN_TEST:
+            continue
         if words[0] == "servokit" or (words[0] == "echo" and ">" in words):
             blocks.setdefault(block, []).append((n, words))
     return [(b, lines) for b, lines in blocks.items() if any(w[0] == "servokit" for _, w in lines)]

@@ -9,6 +9,7 @@ import numpy as np
 import pytest
 
 import servokit as sk
+from servokit.errors import ServokitValueError
 from servokit.models import (
     HDD_BENCHMARK_VARIATIONS,
     ModalPlant,
@@ -161,3 +162,11 @@ def test_missing_plant_and_non_regular_file(tmp_path):
         read_variations(_write(tmp_path, 'kind = "variations"\n'))
     with pytest.raises(VariationFileError, match="regular file"):
         read_variations(tmp_path)
+
+
+def test_a_delay_range_is_refused_by_the_sweep_arrays_not_ignored():
+    from servokit.models.variation_arrays import modal_arrays_from_draws
+
+    vs = VariationSet.per_mode(STAGE, freq_rel=0.05, delay_rel=0.2)
+    with pytest.raises(ServokitValueError, match="delay_rel"):
+        modal_arrays_from_draws(vs, *vs.draw(3))

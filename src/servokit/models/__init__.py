@@ -38,7 +38,7 @@ from servokit.models.files import (
 )
 from servokit.models.fit import BandError, ModalFit, delay_from_phase, fit_modal
 from servokit.models.frf import FRF_MAX_BYTES, FrfFileError, read_frf, save_frf
-from servokit.models.hdd_variations import hdd_benchmark_variants, hdd_benchmark_variation_set
+from servokit.models.hdd_box import hdd_benchmark_variants, hdd_benchmark_variation_set
 from servokit.models.lookup import get_discrete_controller, get_plant
 from servokit.models.modal import ModalPlant, Mode, modal_matrices, without_delay
 from servokit.models.plots import fit_plot

@@ -287,4 +287,9 @@ def __getattr__(name: str) -> object:
         from servokit.models import lookup
 
         return lookup.get_plant
+    if name in ("hdd_benchmark_variation_set", "hdd_benchmark_variants"):
+        # moved to servokit.models.hdd_box (it reads the shipped variation file)
+        from servokit.models import hdd_box
+
+        return getattr(hdd_box, name)
     raise AttributeError(f"module {__name__!r} has no attribute {name!r}")

@@ -63,6 +63,12 @@ def modal_arrays_from_draws(
         name: np.repeat(nominal[None, :, k], V, axis=0)
         for k, name in enumerate(("freq", "damping", "residue"))
     }
+    if any(p.param == "delay" for p in vset.ranges):
+        # the arrays carry no delay: the batched simulator runs every variant on one delay
+        raise ServokitValueError(
+            "a delay range (delay_rel) cannot be swept: the batched simulator needs one "
+            "delay for all variants; remove delay_rel from the variation set"
+        )
     for j, p in enumerate(vset.ranges):
         for i in p.modes:
             if not 1 <= i <= M:

@@ -18,9 +18,13 @@ from servokit.simulate.metrics import (
     step_metrics,
 )
 from servokit.simulate.pes import PesResult, track_following_pes
+from servokit.simulate.saturation import Actuator, SaturatedResult, simulate_saturated
 from servokit.simulate.tdof import TdofResult, tdof_response
 
 __all__ = [
+    "Actuator",
+    "SaturatedResult",
+    "simulate_saturated",
     "PesResult",
     "track_following_pes",
     "HeldInput",

@@ -1,18 +1,17 @@
-"""The HDD benchmark's parameter variations (book Table 2.3) as a variation set and as
-its fixed 18 plants.
+"""The HDD benchmark's plant set (book Table 2.3), read from the shipped variation file.
 
-Kept out of :mod:`servokit.models.catalogue` so that the catalogue does not depend on
-the variation-file reader (which resolves a file's ``plant`` through the catalogue).
+Kept apart from :mod:`servokit.models.catalogue` so that the catalogue imports nothing
+above it: this module reads :data:`~servokit.models.variation_file.HDD_BENCHMARK_VARIATIONS`
+through :mod:`servokit.models.variation_file`.
 """
 
 from __future__ import annotations
 
 from servokit.models.catalogue import hdd_benchmark
 from servokit.models.modal import ModalPlant
-from servokit.models.variation_file import HDD_BENCHMARK_VARIATIONS, read_variations
 from servokit.models.variations import VariationSet
 
-__all__ = ["hdd_benchmark_variants", "hdd_benchmark_variation_set"]
+__all__ = ["hdd_benchmark_variation_set", "hdd_benchmark_variants"]
 
 
 def hdd_benchmark_variation_set() -> VariationSet:
@@ -31,6 +30,8 @@ def hdd_benchmark_variation_set() -> VariationSet:
         The nominal :func:`hdd_benchmark` with the six relative ranges above (mode numbers
         counted from the rigid body, 1) and the loop-gain range ``(-0.1, 0.1)``.
     """
+    from servokit.models.variation_file import HDD_BENCHMARK_VARIATIONS, read_variations
+
     return read_variations(HDD_BENCHMARK_VARIATIONS, hdd_benchmark())
 
 
