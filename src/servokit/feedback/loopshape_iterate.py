@@ -46,7 +46,7 @@ from typing import Any
 import control
 import numpy as np
 
-from servokit.errors import ServokitValueError, check_count, check_finite
+from servokit.errors import ServokitValueError, check_count, check_finite, check_positive
 from servokit.feedback.loopshape_eval import LoopTable, evaluate_set
 from servokit.feedback.loopshape_init import initial_parameters, plant_integrators
 from servokit.feedback.loopshape_problem import (
@@ -188,9 +188,12 @@ def _step(pb: _Problem, st: _State, f_t: float | None, s_hard: float, s_goal: fl
 
 
 def _iterate(pb: _Problem, st: _State, *, s_max: float, max_iter: int, delta: float,
-             history: list, progress: Callable[[dict], None] | None) -> _State:
+             history: list, progress: Callable[[dict], None] | None,
+             deadline: float) -> _State:
     stall = 0
     for it in range(max_iter):
+        if time.perf_counter() > deadline:
+            break
         phase1 = st.table.worst_s_peak_db > s_max + 1e-9
         s_hard = max(s_max, st.table.worst_s_peak_db)
         f_k = st.table.min_crossover_hz
@@ -211,7 +214,7 @@ def _iterate(pb: _Problem, st: _State, *, s_max: float, max_iter: int, delta: fl
             if st.rho < 1e-3:
                 break
             continue
-        st = _State(out[0], tab, min(st.rho * 1.5, 0.5))
+        st = _State(out[0], tab, min(st.rho * 2.0, 0.5))
         entry = {"iteration": it, "phase": 1 if phase1 else 2, "tau": out[1], "rho": st.rho,
                  **tab.summary()}
         history.append(entry)
@@ -237,6 +240,7 @@ def loopshape(
     initial: control.TransferFunction | None = None,
     plant_integrators_count: int | None = None,
     max_iter: int = 60,
+    time_limit_s: float = 100.0,
     delta: float = 0.03,
     trust: float = 0.3,
     names: tuple[str, ...] | None = None,
@@ -274,6 +278,9 @@ def loopshape(
         slope when omitted.
     max_iter : int
         Largest number of convex steps.
+    time_limit_s : float
+        Wall time after which no further step starts [s]; the best design so far is
+        returned.
     delta : float
         Relative crossover target step of the continuation.
     trust : float
@@ -309,7 +316,8 @@ def loopshape(
     history: list[dict[str, Any]] = [{"iteration": -1, "phase": 0, "tau": 0.0, "rho": trust,
                                       **tab0.summary()}]
     state = _iterate(pb, _State(theta0, tab0, trust), s_max=s_max, max_iter=iters, delta=delta,
-                     history=history, progress=progress)
+                     history=history, progress=progress,
+                     deadline=t0 + check_positive("time_limit_s", time_limit_s, "s"))
     notes = [note] if note else []
     if state.table.worst_s_peak_db > s_max + 1e-9:
         notes.append(f"s_max_db {s_max:g} not reached: worst ‖S‖∞ "

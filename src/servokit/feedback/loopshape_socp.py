@@ -97,35 +97,68 @@ class StepData:
     rho: float
 
 
-def _soc_rows(t0, tz, q0, qz):
-    """Cones ``t0 + tz z ≥ |q0 + qz z|`` as clarabel rows ``b - A z``, scaled per point.
+def _scaled(A: sp.spmatrix, b: np.ndarray, group: int = 1) -> tuple[sp.csr_matrix, np.ndarray]:
+    """Scale rows (in groups of ``group`` rows, one cone each) by their largest entry."""
+    A = sp.csr_matrix(A)
+    mag = np.maximum(abs(A).max(axis=1).toarray().ravel(), np.abs(b))
+    mag = np.maximum(mag.reshape(-1, group).max(axis=1), 1e-300)
+    inv = np.repeat(1.0 / mag, group)
+    return sp.diags(inv) @ A, b * inv
 
-    Returns ``(A, b, linear)``: where ``q`` does not depend on ``z`` (fixed denominator) the
-    cone is the linear inequality ``t0 - |q0| + tz z ≥ 0`` (one row, ``linear`` True).
+
+class _Rows:
+    """Accumulates clarabel rows ``s = b - A z`` for z = [θ, τ, r]: linear ones and 3-D cones.
+
+    ``r_j ≥ |Y(ω_j)|`` (one cone per active frequency) is shared by every plant, so the
+    sensitivity and crossover constraints of all plants at ``ω_j`` are linear rows in r_j.
+    With a fixed denominator ``Y = y / y_k = 1`` and there is no r at all.
     """
-    if not np.any(qz):
-        t0 = t0 - np.abs(q0)
-        scale = np.maximum(np.abs(tz).max(axis=1), np.abs(t0)) + 1e-300
-        return -tz / scale[:, None], t0 / scale, True
-    scale = np.maximum(np.abs(tz).max(axis=1), np.abs(qz).max(axis=1)) + 1e-300
-    scale = np.maximum(scale, np.abs(t0))
-    k, nz = tz.shape
-    A = np.empty((3 * k, nz))
-    b = np.empty(3 * k)
-    A[0::3], b[0::3] = -tz / scale[:, None], t0 / scale
-    A[1::3], b[1::3] = -qz.real / scale[:, None], q0.real / scale
-    A[2::3], b[2::3] = -qz.imag / scale[:, None], q0.imag / scale
-    return A, b, False
+
+    def __init__(self, n_theta: int, n_r: int) -> None:
+        self.nt, self.nr = n_theta, n_r
+        self.lin: list[tuple[sp.csr_matrix, np.ndarray]] = []
+        self.soc: list[tuple[sp.csr_matrix, np.ndarray]] = []
+
+    @property
+    def nz(self) -> int:
+        return self.nt + 1 + self.nr
+
+    def linear(self, t0, tth, ttau: float, rcoef, ridx) -> None:
+        """Rows ``t0 + tth θ + ttau τ - rcoef r[ridx] ≥ 0`` (ridx None: no r)."""
+        k = t0.size
+        dense = np.hstack([tth, np.full((k, 1), ttau)])
+        A = sp.hstack([sp.csr_matrix(-dense), sp.csr_matrix((k, self.nr))], format="lil")
+        if ridx is not None:
+            A = sp.csr_matrix(A)
+            A = A + sp.csr_matrix(
+                (np.broadcast_to(rcoef, (k,)), (np.arange(k), self.nt + 1 + ridx)),
+                shape=(k, self.nz),
+            )
+        self.lin.append(_scaled(A, t0))
+
+    def cone(self, t0, tz, q0, qz) -> None:
+        """Cones ``t0 + tz z ≥ |q0 + qz z|`` (``tz``, ``qz`` over the full z)."""
+        k = t0.size
+        A = np.empty((3 * k, self.nz))
+        b = np.empty(3 * k)
+        A[0::3], b[0::3] = -tz, t0
+        A[1::3], b[1::3] = -qz.real, q0.real
+        A[2::3], b[2::3] = -qz.imag, q0.imag
+        self.soc.append(_scaled(sp.csr_matrix(A), b, group=3))
+
+    def full(self, gth: np.ndarray, gtau: float = 0.0) -> np.ndarray:
+        """A θ-gradient widened to all of z."""
+        k = gth.shape[0]
+        return np.hstack([gth, np.full((k, 1), gtau), np.zeros((k, self.nr))])
 
 
 def _affine(basis: Basis, P: np.ndarray, idx: tuple[np.ndarray, np.ndarray], F: np.ndarray):
-    """``Y + P X`` and ``Y`` at points ``idx`` as (constant, gradient in θ) pairs."""
+    """``Y + P X`` (constant, θ-gradient) and ``P X`` (θ-gradient) at points ``idx``."""
     i, j = idx
     f = F[j][:, None]
     g_x = P[i, j][:, None] * basis.Vx[j] / f
     g_y = basis.Vy[j] / f
-    y0 = basis.Y0[j] / F[j]
-    return y0, np.hstack([g_x, g_y]), y0, np.hstack([np.zeros_like(g_x), g_y]), g_x
+    return basis.Y0[j] / F[j], np.hstack([g_x, g_y]), np.hstack([g_x, np.zeros_like(g_y)])
 
 
 def _tangent(u: np.ndarray, g0: np.ndarray, gz: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
@@ -134,39 +167,65 @@ def _tangent(u: np.ndarray, g0: np.ndarray, gz: np.ndarray) -> tuple[np.ndarray,
     return (uh * g0).real, (uh[:, None] * gz).real
 
 
-def _pad(gz: np.ndarray, tau: float = 0.0) -> np.ndarray:
-    return np.hstack([gz, np.full((gz.shape[0], 1), tau)])
-
-
-def _blocks(d: StepData, F: np.ndarray, c: np.ndarray, pxk: np.ndarray):
-    """All cone blocks of the step as lists of (A, b)."""
-    out = []
+def _build(d: StepData, rows: _Rows, F: np.ndarray, K: np.ndarray, r_of: np.ndarray | None):
+    """Sensitivity, objective, complementary-sensitivity and crossover rows of the step."""
+    c = 1.0 + d.P * K[None, :]
     idx = np.nonzero(d.s_mask)
-    g0, gz, y0, yz, gx = _affine(d.basis, d.P, idx, F)
+    ridx = None if r_of is None else r_of[idx[1]]
+    y_abs = np.abs(d.basis.Y0[idx[1]] / F[idx[1]])  # |Y| when the denominator is fixed
+    g0, gz, gx = _affine(d.basis, d.P, idx, F)
     l0, lz = _tangent(c[idx], g0, gz)
-    out.append(_soc_rows(l0, _pad(lz), d.w_s * y0, _pad(d.w_s * yz)))
+
+    def lin(t0, tth, ttau, w, r_index, yabs):
+        if r_index is None:
+            rows.linear(t0 - w * yabs, tth, ttau, 0.0, None)
+        else:
+            rows.linear(t0, tth, ttau, w, r_index)
+
+    lin(l0, lz, 0.0, d.w_s, ridx, y_abs)
     if d.w_obj_s is not None:
-        out.append(_soc_rows(l0, _pad(lz, -1.0), d.w_obj_s * y0, _pad(d.w_obj_s * yz)))
+        lin(l0, lz, -1.0, d.w_obj_s, ridx, y_abs)
     if d.w_t is not None:
-        qx = np.hstack([gx, np.zeros((gx.shape[0], d.basis.Vy.shape[1]))])
-        out.append(_soc_rows(l0, _pad(lz), np.zeros_like(y0), _pad(d.w_t * qx)))
+        rows.cone(l0, rows.full(lz), np.zeros(l0.size, dtype=complex), rows.full(d.w_t * gx))
     if d.c_mask is not None and d.c_mask.any():
         idx = np.nonzero(d.c_mask)
-        _, _, y0, yz, gx = _affine(d.basis, d.P, idx, F)
-        qx = np.hstack([gx, np.zeros((gx.shape[0], d.basis.Vy.shape[1]))])
-        m0, mz = _tangent(pxk[idx], np.zeros(len(idx[0]), dtype=complex), qx)
-        out.append(_soc_rows(m0, _pad(mz, -1.0), y0, _pad(yz)))
-    return out
+        _, _, gx = _affine(d.basis, d.P, idx, F)
+        m0, mz = _tangent(d.P[idx] * K[idx[1]], np.zeros(len(idx[0]), dtype=complex), gx)
+        y_abs = np.abs(d.basis.Y0[idx[1]] / F[idx[1]])
+        lin(m0, mz, -1.0, 1.0, None if r_of is None else r_of[idx[1]], y_abs)
 
 
-def _trust_rows(d: StepData, F: np.ndarray, K: np.ndarray):
+def _r_cones(d: StepData, rows: _Rows, F: np.ndarray, freqs: np.ndarray) -> None:
+    """``r_j ≥ |Y(ω_j)|`` at the active frequencies."""
+    na = d.basis.Vx.shape[1]
+    k = freqs.size
+    tz = np.zeros((k, rows.nz))
+    tz[np.arange(k), rows.nt + 1 + np.arange(k)] = 1.0
+    qth = np.hstack([np.zeros((k, na)), d.basis.Vy[freqs] / F[freqs][:, None]])
+    rows.cone(np.zeros(k), tz, d.basis.Y0[freqs] / F[freqs], rows.full(qth))
+
+
+def _trust(d: StepData, rows: _Rows, F: np.ndarray, K: np.ndarray) -> None:
+    """``|X - K_k Y| ≤ ρ |K_k|`` on the trust-region frequencies."""
     j = d.tr_idx
     scale = (F[j] * K[j])[:, None]
-    na = d.basis.Vx.shape[1]
-    qz = np.hstack([d.basis.Vx[j], -K[j][:, None] * d.basis.Vy[j]]) / scale
+    qth = np.hstack([d.basis.Vx[j], -K[j][:, None] * d.basis.Vy[j]]) / scale
     q0 = -K[j] * d.basis.Y0[j] / scale[:, 0]
-    del na
-    return _soc_rows(np.full(len(j), d.rho), _pad(np.zeros((len(j), qz.shape[1]))), q0, _pad(qz))
+    rows.cone(np.full(j.size, d.rho), np.zeros((j.size, rows.nz)), q0, rows.full(qth))
+
+
+def _signs(d: StepData, rows: _Rows) -> None:
+    """Integral-action sign ``σ x(1) ≥ 0.1 |x_k(1)|`` and ``τ ≤ 10`` (keeps it bounded)."""
+    na = d.basis.Vx.shape[1]
+    x1 = float(np.sum(d.theta_k[:na]))
+    sigma = np.sign(x1) or 1.0
+    tth = np.zeros((2, rows.nt))
+    tth[0, :na] = sigma
+    rows.linear(np.array([-0.1 * abs(x1), 10.0]), tth, 0.0, 0.0, None)
+    rows.lin[-1] = (rows.lin[-1][0].tolil(), rows.lin[-1][1])
+    A, b = rows.lin[-1]
+    A[1, rows.nt] = 1.0  # 10 - τ ≥ 0
+    rows.lin[-1] = (sp.csr_matrix(A), b)
 
 
 def solve_step(d: StepData) -> tuple[np.ndarray, float] | None:
@@ -184,36 +243,35 @@ def solve_step(d: StepData) -> tuple[np.ndarray, float] | None:
     """
     import clarabel
 
-    xk, yk = d.basis.polys(d.theta_k)
-    F = yk
-    K = xk / yk
-    c = 1.0 + d.P * K[None, :]
-    pxk = d.P * K[None, :]
-    blocks = _blocks(d, F, c, pxk) + [_trust_rows(d, F, K)]
-    nz = d.theta_k.size + 1
-    # integral-action sign and an upper bound on τ (keeps the problem bounded)
-    na = d.basis.Vx.shape[1]
-    sigma = np.sign(np.sum(d.theta_k[:na])) or 1.0
-    lin_A = np.zeros((2, nz))
-    lin_A[0, :na] = -sigma
-    lin_A[1, -1] = 1.0
-    lin_b = np.array([-0.1 * abs(np.sum(d.theta_k[:na])), 10.0])
-    lin = [(lin_A, lin_b)] + [(a, bb) for a, bb, is_lin in blocks if is_lin]
-    soc = [(a, bb) for a, bb, is_lin in blocks if not is_lin]
-    A = sp.csc_matrix(np.vstack([a for a, _ in lin + soc]))
-    b = np.concatenate([bb for _, bb in lin + soc])
-    n_lin = sum(bb.size for _, bb in lin)
-    n_soc = sum(bb.size // 3 for _, bb in soc)
+    xk, F = d.basis.polys(d.theta_k)
+    K = xk / F
+    free = d.basis.Vy.shape[1] > 0
+    active = d.s_mask.any(axis=0) | (d.c_mask.any(axis=0) if d.c_mask is not None else False)
+    freqs = np.nonzero(active)[0] if free else np.empty(0, dtype=int)
+    r_of = None
+    if free:
+        r_of = np.full(F.size, -1)
+        r_of[freqs] = np.arange(freqs.size)
+    rows = _Rows(d.theta_k.size, freqs.size)
+    _signs(d, rows)
+    _build(d, rows, F, K, r_of)
+    if free:
+        _r_cones(d, rows, F, freqs)
+    _trust(d, rows, F, K)
+    A = sp.vstack([a for a, _ in rows.lin + rows.soc], format="csc")
+    b = np.concatenate([bb for _, bb in rows.lin + rows.soc])
+    n_lin = sum(bb.size for _, bb in rows.lin)
+    n_soc = sum(bb.size // 3 for _, bb in rows.soc)
     cones = [clarabel.NonnegativeConeT(n_lin)] + [clarabel.SecondOrderConeT(3)] * n_soc
-    q = np.zeros(nz)
-    q[-1] = -1.0
+    q = np.zeros(rows.nz)
+    q[rows.nt] = -1.0
     settings = clarabel.DefaultSettings()
     settings.verbose = False
-    solver = clarabel.DefaultSolver(sp.csc_matrix((nz, nz)), q, A, b, cones, settings)
+    solver = clarabel.DefaultSolver(sp.csc_matrix((rows.nz, rows.nz)), q, A, b, cones, settings)
     sol = solver.solve()
     if str(sol.status) not in ("Solved", "AlmostSolved"):
         return None
     z = np.asarray(sol.x)
     if not np.all(np.isfinite(z)):
         raise ServokitValueError("loop-shaping step returned non-finite parameters")
-    return z[:-1], float(z[-1])
+    return z[: rows.nt], float(z[rows.nt])
