@@ -125,7 +125,7 @@ class _Problem:
         self.m = n_plant_int + structure.n_integrators
         self.names = names
         n = f.size
-        self.tr_idx = np.unique(np.linspace(0, n - 1, min(n, 400)).astype(int))
+        self.tr_idx = np.unique(np.linspace(0, n - 1, min(n, 150)).astype(int))
 
     def K(self, theta: np.ndarray) -> np.ndarray:
         x, y = self.basis.polys(theta)
@@ -148,7 +148,7 @@ class _Problem:
 def _masks(pb: _Problem, theta: np.ndarray, f_t: float | None, s_lin: float):
     K = pb.K(theta)
     L = pb.P * K[None, :]
-    s_mask = np.abs(1.0 / (1.0 + L)) >= 0.7 * s_lin
+    s_mask = np.abs(1.0 / (1.0 + L)) >= 0.8 * s_lin
     c_mask = None
     if f_t is not None:
         c_mask = (pb.f[None, :] <= f_t) & (np.abs(L) < 3.0)

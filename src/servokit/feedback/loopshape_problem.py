@@ -311,18 +311,18 @@ def model_frfs(plants: list, dt: float, freq_hz: np.ndarray) -> np.ndarray:
     ndarray
         Shape ``(len(plants), len(freq_hz))``.
     """
+    from servokit.models._zoh import delayed_zoh
+    from servokit.models.modal import modal_matrices
+
     z = np.exp(2j * np.pi * np.asarray(freq_hz) * dt)
     out = np.empty((len(plants), z.size), dtype=complex)
     for i, p in enumerate(plants):
-        ss = p.discretize(dt)
-        A, B, C, D = (np.asarray(m) for m in (ss.A, ss.B, ss.C, ss.D))
-        # one Hessenberg reduction, then a cheap solve per frequency
-        import scipy.linalg as sla
-
-        H, Q = sla.hessenberg(A, calc_q=True)
-        Bq, Cq = Q.T @ B, C @ Q
-        eye = np.eye(A.shape[0])
-        out[i] = [(Cq @ np.linalg.solve(zk * eye - H, Bq))[0, 0] + D[0, 0] for zk in z]
+        A, B, C = modal_matrices(*p.arrays())
+        Phi, g_new, g_old, d = delayed_zoh(A, B, dt, p.delay)
+        # P_d(z) = C (zI - Φ)^{-1} (Γ_new z^{-d} + Γ_old z^{-d-1}): one batched solve
+        M = z[:, None, None] * np.eye(Phi.shape[0])[None] - Phi[None]
+        rhs = g_new[None] * z[:, None, None] ** -d + g_old[None] * z[:, None, None] ** (-d - 1)
+        out[i] = (C[None] @ np.linalg.solve(M, rhs))[:, 0, 0]
     return out
 
 

@@ -267,6 +267,9 @@ def solve_step(d: StepData) -> tuple[np.ndarray, float] | None:
     q[rows.nt] = -1.0
     settings = clarabel.DefaultSettings()
     settings.verbose = False
+    # each accepted step is re-checked exactly, so a 1e-6 optimum is plenty
+    settings.tol_gap_abs = settings.tol_gap_rel = 1e-6
+    settings.tol_feas = 1e-7
     solver = clarabel.DefaultSolver(sp.csc_matrix((rows.nz, rows.nz)), q, A, b, cones, settings)
     sol = solver.solve()
     if str(sol.status) not in ("Solved", "AlmostSolved"):
