@@ -37,7 +37,15 @@ from servokit.models.files import (
     save_controller,
     save_plant,
 )
+from servokit.models.fit import BandError, ModalFit, delay_from_phase, fit_modal
+from servokit.models.frf import FRF_MAX_BYTES, FrfFileError, read_frf, save_frf
 from servokit.models.modal import ModalPlant, Mode, modal_matrices
+from servokit.models.plots import fit_plot
+from servokit.models.variation_file import (
+    HDD_BENCHMARK_VARIATIONS,
+    VariationFileError,
+    read_variations,
+)
 from servokit.models.variations import Perturbation, VariationSet
 
 __all__ = [
@@ -53,11 +61,23 @@ __all__ = [
     "HDD_BENCHMARK_TS",
     "HDD_SAMPLED_DATA_TS",
     "VCM_PES_TS",
+    "BandError",
+    "ModalFit",
+    "delay_from_phase",
+    "fit_modal",
+    "fit_plot",
+    "FRF_MAX_BYTES",
+    "FrfFileError",
+    "read_frf",
+    "save_frf",
     "ModalPlant",
     "Mode",
     "Perturbation",
     "PlantFileError",
     "VariationSet",
+    "HDD_BENCHMARK_VARIATIONS",
+    "VariationFileError",
+    "read_variations",
     "cnc_eq_4_73",
     "controller_eq_4_69",
     "controller_fig_4_57",
