@@ -56,7 +56,7 @@ def loopshape_plot(
     ax_mag = fig.add_subplot(2, 2, 1)
     ax_ph = fig.add_subplot(2, 2, 3, sharex=ax_mag)
     ax_ny = fig.add_subplot(1, 2, 2)
-    colors = ("tab:gray", "tab:blue", "tab:orange", "tab:green")
+    colors = ("tab:gray", "tab:blue", "tab:orange") if len(controllers) > 1 else ("tab:blue",)
     for (label, K), color in zip(controllers.items(), colors, strict=False):
         _draw_set(ax_mag, ax_ph, ax_ny, freq_hz, responses * K[None, :], color, label)
     r = 10 ** (-s_max_db / 20)
