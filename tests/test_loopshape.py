@@ -52,8 +52,9 @@ def test_nyquist_count_matches_closed_loop_poles(gain: float, zero: float, pole:
     # discrete double integrator with one-sample delay, PI-lead controller: the count of
     # closed-loop poles outside the unit disc from the Nyquist plot equals the roots' count
     plant = control.tf([0.5, 0.5], [1, -2, 1, 0], DT)
-    ctrl = control.tf(gain * np.convolve([1, -zero], [1, -0.5]), np.convolve([1, -1], [1, -pole]),
-                      DT)
+    ctrl = control.tf(
+        gain * np.convolve([1, -zero], [1, -0.5]), np.convolve([1, -1], [1, -pole]), DT
+    )
     loop = plant * ctrl
     char = np.polyadd(loop.den[0][0], loop.num[0][0])
     roots = np.roots(char)
@@ -90,8 +91,10 @@ def test_benchmark_controller_is_exact_in_its_own_structure() -> None:
 
 def _small_set():
     base = ModalPlant(gain=1e8, modes=(Mode(0.0, 0.0, 1.0), Mode(3000.0, 0.02, -0.5)), delay=2e-5)
-    plants = [base.replace(modes=(Mode(0.0, 0.0, 1.0), Mode(3000.0 * s, 0.02, -0.5)))
-              for s in (0.95, 1.0, 1.05)]
+    plants = [
+        base.replace(modes=(Mode(0.0, 0.0, 1.0), Mode(3000.0 * s, 0.02, -0.5)))
+        for s in (0.95, 1.0, 1.05)
+    ]
     f = packed_grid(DT, [(3000.0 * s, 0.02) for s in (0.95, 1.0, 1.05)], n_freq=400, fmin=1.0)
     return plants, f, model_frfs(plants, DT, f)
 
@@ -99,8 +102,7 @@ def _small_set():
 def test_loopshape_small_set_is_certified_and_improves() -> None:
     plants, f, P = _small_set()
     assert plant_integrators(f, P, DT) == 2
-    res = loopshape(f, P, DT, s_max_db=6.0, structure="order", order=4, max_iter=5,
-                    time_limit_s=60)
+    res = loopshape(f, P, DT, s_max_db=6.0, structure="order", order=4, max_iter=5, time_limit_s=60)
     t = res.table
     assert t.all_stable and t.worst_s_peak_db <= 6.0 + 1e-6
     assert t.min_crossover_hz >= res.history[1]["min_crossover_hz"] - 1e-9
@@ -120,8 +122,15 @@ def test_loopshape_rejects_bad_input() -> None:
     with pytest.raises(ValueError, match="Nyquist"):
         loopshape(f * 10, P, DT, s_max_db=6.0)
     with pytest.raises(ValueError, match="stabilise"):
-        loopshape(f, P, DT, s_max_db=6.0, structure="order", order=2,
-                  initial=control.tf([-1.0, 0.0], [1.0, -1.0], DT))
+        loopshape(
+            f,
+            P,
+            DT,
+            s_max_db=6.0,
+            structure="order",
+            order=2,
+            initial=control.tf([-1.0, 0.0], [1.0, -1.0], DT),
+        )
 
 
 def test_cli_loopshape_writes_a_readable_controller(tmp_path, monkeypatch, capsys) -> None:
@@ -134,9 +143,26 @@ def test_cli_loopshape_writes_a_readable_controller(tmp_path, monkeypatch, capsy
     files = []
     for i, p in enumerate(P):
         files.append(str(save_frf(tmp_path / f"p{i}.csv", f, p)))
-    monkeypatch.setattr(sys, "argv", ["servokit", "loopshape", *files, "--dt", str(DT),
-                                      "--order", "4", "--s-max-db", "6", "--out",
-                                      str(tmp_path / "o"), "--json", "--time-limit", "2"])
+    monkeypatch.setattr(
+        sys,
+        "argv",
+        [
+            "servokit",
+            "loopshape",
+            *files,
+            "--dt",
+            str(DT),
+            "--order",
+            "4",
+            "--s-max-db",
+            "6",
+            "--out",
+            str(tmp_path / "o"),
+            "--json",
+            "--time-limit",
+            "2",
+        ],
+    )
     with pytest.raises(SystemExit) as exc:
         servokit.cli.main()
     assert exc.value.code == 0

@@ -37,8 +37,15 @@ JSON_KEYS = (
     "crossover_hz, phase_margin_deg, gain_margin_db, delay_margin_s, s_peak_db, t_peak_db, "
     "stable, unstable_poles, resolved}], history, plot"
 )
-_FLAGS = {"dt": "--dt", "s_max_db": "--s-max-db", "order": "--order", "t_max_db": "--t-max-db",
-          "time_limit_s": "--time-limit", "lowpass_hz": "--lowpass", "freq_hz": "FRF_FILE"}
+_FLAGS = {
+    "dt": "--dt",
+    "s_max_db": "--s-max-db",
+    "order": "--order",
+    "t_max_db": "--t-max-db",
+    "time_limit_s": "--time-limit",
+    "lowpass_hz": "--lowpass",
+    "freq_hz": "FRF_FILE",
+}
 
 
 def _read_set(files: list[str]) -> tuple[np.ndarray, np.ndarray]:
@@ -77,9 +84,21 @@ def _notches(values: list[str]) -> tuple[tuple[float, float], ...] | None:
             raise ServokitValueError(
                 f"--notch {v!r}: give FREQ_HZ:DAMPING, e.g. 4100:0.2"
             ) from None
-        out.append((check_positive("--notch FREQ_HZ", f, "Hz"),
-                    check_positive("--notch DAMPING", z)))
+        out.append(
+            (check_positive("--notch FREQ_HZ", f, "Hz"), check_positive("--notch DAMPING", z))
+        )
     return tuple(out)
+
+
+def _structure(structure: str, order: int | None) -> tuple[str, int | None]:
+    """``--order N`` implies ``--structure order``; ``order`` needs ``--order``."""
+    if order is not None:
+        return "order", check_count("--order", order, lo=1, hi=40)
+    if structure not in ("pid-notch", "order"):
+        raise ServokitValueError(f"--structure must be pid-notch or order (got {structure!r})")
+    if structure == "order":
+        raise ServokitValueError("--structure order needs --order N (controller states)")
+    return structure, None
 
 
 def _print(res: Any) -> None:
@@ -87,13 +106,26 @@ def _print(res: Any) -> None:
     from rich.table import Table
 
     table = Table(title=escape(f"loopshape: {res.structure.name}"))
-    for col in ("plant", "crossover [Hz]", "PM [deg]", "GM [dB]", "delay margin [us]",
-                "||S||inf [dB]", "stable"):
+    for col in (
+        "plant",
+        "crossover [Hz]",
+        "PM [deg]",
+        "GM [dB]",
+        "delay margin [us]",
+        "||S||inf [dB]",
+        "stable",
+    ):
         table.add_column(escape(col), justify="right")
     for d in res.table.to_dicts():
-        table.add_row(d["plant"], f"{d['crossover_hz']:.1f}", f"{d['phase_margin_deg']:.1f}",
-                      f"{d['gain_margin_db']:.2f}", f"{d['delay_margin_s'] * 1e6:.1f}",
-                      f"{d['s_peak_db']:.2f}", "yes" if d["stable"] else "NO")
+        table.add_row(
+            d["plant"],
+            f"{d['crossover_hz']:.1f}",
+            f"{d['phase_margin_deg']:.1f}",
+            f"{d['gain_margin_db']:.2f}",
+            f"{d['delay_margin_s'] * 1e6:.1f}",
+            f"{d['s_peak_db']:.2f}",
+            "yes" if d["stable"] else "NO",
+        )
     console.print(table)
     a, b = res.initial_table, res.table
     console.print(
@@ -107,34 +139,60 @@ def _print(res: Any) -> None:
 
 @app.command(
     "loopshape",
-    epilog=example("servokit loopshape p1.csv p2.csv --dt 3.7879e-5 --order 12 --out ctrl "
-                   "--plot loops.png")
-    + "  Writes OUT/controller.toml (read by every --controller).  JSON: " + JSON_KEYS + ".",
+    epilog=example(
+        "servokit loopshape p1.csv p2.csv --dt 3.7879e-5 --order 12 --out ctrl --plot loops.png"
+    )
+    + "  Writes OUT/controller.toml (read by every --controller).  JSON: "
+    + JSON_KEYS
+    + ".",
 )
 def loopshape_cmd(
-    frf_files: Annotated[list[str], typer.Argument(
-        help="measured discrete-time FRFs of the plant set, one grid (.csv/.npz/.mat)",
-        metavar="FRF_FILE...")],
+    frf_files: Annotated[
+        list[str],
+        typer.Argument(
+            help="measured discrete-time FRFs of the plant set, one grid (.csv/.npz/.mat)",
+            metavar="FRF_FILE...",
+        ),
+    ],
     dt: Annotated[float, typer.Option("--dt", help="controller sampling period [s]")],
-    out: Annotated[Path, typer.Option("--out", help="directory to write controller.toml into",
-                                      metavar="DIR")],
+    out: Annotated[
+        Path, typer.Option("--out", help="directory to write controller.toml into", metavar="DIR")
+    ],
     s_max_db: Annotated[float, typer.Option("--s-max-db", help="bound on ||S||inf [dB]")] = 6.0,
-    structure: Annotated[str, typer.Option(
-        "--structure", help="pid-notch (fixed denominators) or order (general)")] = "pid-notch",
-    order: Annotated[int | None, typer.Option(
-        "--order", help="controller states of --structure order [count]")] = None,
-    notch: Annotated[list[str] | None, typer.Option(
-        "--notch", help="notch poles of pid-notch (repeatable; default: FRF peaks)",
-        metavar="FREQ_HZ:DAMPING")] = None,
-    lowpass: Annotated[list[float] | None, typer.Option(
-        "--lowpass", help="low-pass / lead pole corner of pid-notch [Hz] (repeatable)")] = None,
-    t_max_db: Annotated[float | None, typer.Option(
-        "--t-max-db", help="bound on ||T||inf [dB]")] = None,
-    controller: Annotated[str | None, typer.Option(
-        "--controller", help="stabilising initial controller (book name or .toml)",
-        metavar="NAME_OR_TOML")] = None,
-    time_limit: Annotated[float, typer.Option(
-        "--time-limit", help="wall time after which no new step starts [s]")] = 100.0,
+    structure: Annotated[
+        str, typer.Option("--structure", help="pid-notch (fixed denominators) or order (general)")
+    ] = "pid-notch",
+    order: Annotated[
+        int | None, typer.Option("--order", help="controller states of --structure order [count]")
+    ] = None,
+    notch: Annotated[
+        list[str] | None,
+        typer.Option(
+            "--notch",
+            help="notch poles of pid-notch (repeatable; default: FRF peaks)",
+            metavar="FREQ_HZ:DAMPING",
+        ),
+    ] = None,
+    lowpass: Annotated[
+        list[float] | None,
+        typer.Option(
+            "--lowpass", help="low-pass / lead pole corner of pid-notch [Hz] (repeatable)"
+        ),
+    ] = None,
+    t_max_db: Annotated[
+        float | None, typer.Option("--t-max-db", help="bound on ||T||inf [dB]")
+    ] = None,
+    controller: Annotated[
+        str | None,
+        typer.Option(
+            "--controller",
+            help="stabilising initial controller (book name or .toml)",
+            metavar="NAME_OR_TOML",
+        ),
+    ] = None,
+    time_limit: Annotated[
+        float, typer.Option("--time-limit", help="wall time after which no new step starts [s]")
+    ] = 100.0,
     plot: PlotOpt = None,
     json_out: JsonOpt = False,
 ) -> None:
@@ -146,13 +204,7 @@ def loopshape_cmd(
     plot = plot_target(plot)
     dt = check_positive("--dt", dt, "s")
     outdir = check_out_dir(out)
-    if order is not None:
-        order = check_count("--order", order, lo=1, hi=40)
-        structure = "order"
-    if structure not in ("pid-notch", "order"):
-        raise ServokitValueError(f"--structure must be pid-notch or order (got {structure!r})")
-    if structure == "order" and order is None:
-        raise ServokitValueError("--structure order needs --order N (controller states)")
+    structure, order = _structure(structure, order)
     check_positive("--s-max-db", s_max_db, "dB")
     check_positive("--time-limit", time_limit, "s")
     notches = _notches(notch or [])
@@ -161,9 +213,20 @@ def loopshape_cmd(
     f, P = _read_set(frf_files)
     names = tuple(Path(n).stem for n in frf_files)
     with flag_names(_FLAGS):
-        res = loopshape(f, P, dt, s_max_db=s_max_db, structure=structure, order=order,
-                        notches=notches, lowpass_hz=lp, t_max_db=t_max_db, initial=init,
-                        time_limit_s=time_limit, names=names)
+        res = loopshape(
+            f,
+            P,
+            dt,
+            s_max_db=s_max_db,
+            structure=structure,
+            order=order,
+            notches=notches,
+            lowpass_hz=lp,
+            t_max_db=t_max_db,
+            initial=init,
+            time_limit_s=time_limit,
+            names=names,
+        )
     outdir.mkdir(parents=True, exist_ok=True)
     path = outdir / CONTROLLER_FILE
     save_controller(res.controller, path)
@@ -183,16 +246,28 @@ def _plot(res: Any, f: np.ndarray, P: np.ndarray, dt: float, s_max_db: float, pl
 
     z = np.exp(2j * np.pi * f * dt)
     k = np.asarray(res.controller(z)).ravel()
-    return loopshape_plot(f, P, {f"loopshape ({res.structure.name})": k}, s_max_db=s_max_db,
-                          path=plot, title=f"FRF-set loop shaping, {P.shape[0]} plants")
+    return loopshape_plot(
+        f,
+        P,
+        {f"loopshape ({res.structure.name})": k},
+        s_max_db=s_max_db,
+        path=plot,
+        title=f"FRF-set loop shaping, {P.shape[0]} plants",
+    )
 
 
 def _data(res: Any, path: Path, dt: float, s_max_db: float, plot: Path | None) -> dict:
     return {
-        "controller_file": str(path), "structure": res.structure.name,
-        "order": res.structure.order, "dt_s": dt, "s_max_db": s_max_db,
-        "design_time_s": res.design_time_s, "notes": res.notes,
-        "initial": res.initial_table.summary(), "summary": res.table.summary(),
-        "plants": res.table.to_dicts(), "history": res.history,
+        "controller_file": str(path),
+        "structure": res.structure.name,
+        "order": res.structure.order,
+        "dt_s": dt,
+        "s_max_db": s_max_db,
+        "design_time_s": res.design_time_s,
+        "notes": res.notes,
+        "initial": res.initial_table.summary(),
+        "summary": res.table.summary(),
+        "plants": res.table.to_dicts(),
+        "history": res.history,
         "plot": str(plot) if plot else None,
     }

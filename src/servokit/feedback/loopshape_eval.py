@@ -188,9 +188,7 @@ def closed_loop_unstable(
     first = np.angle(r[0] * np.exp(-1j * start))
     delta = first + steps.sum()
     z_out = n_unstable + n_integrators / 2 - delta / np.pi
-    resolved = bool(np.all(np.abs(steps) < MAX_PHASE_STEP)) and bool(
-        abs(first) < MAX_PHASE_STEP
-    )
+    resolved = bool(np.all(np.abs(steps) < MAX_PHASE_STEP)) and bool(abs(first) < MAX_PHASE_STEP)
     return int(np.rint(z_out)), resolved
 
 
@@ -279,7 +277,10 @@ def evaluate_set(
     """
     rows = tuple(
         evaluate_loop(
-            freq_hz, p * controller_response, dt, n_integrators=n_integrators,
+            freq_hz,
+            p * controller_response,
+            dt,
+            n_integrators=n_integrators,
             n_unstable=n_unstable,
         )
         for p in responses

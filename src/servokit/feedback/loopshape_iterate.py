@@ -119,8 +119,9 @@ class _Problem:
     def __init__(self, f, P, dt, structure: Structure, s_max, t_max, n_plant_int, names):
         self.f, self.P, self.dt, self.st = f, P, dt, structure
         self.zinv = np.exp(-2j * np.pi * f * dt)
-        self.basis = Basis.build(self.zinv, structure.den_fixed, structure.n_num,
-                                 structure.n_den_free)
+        self.basis = Basis.build(
+            self.zinv, structure.den_fixed, structure.n_num, structure.n_den_free
+        )
         self.s_max, self.t_max = s_max, t_max
         self.m = n_plant_int + structure.n_integrators
         self.names = names
@@ -132,8 +133,9 @@ class _Problem:
         return x / y
 
     def table(self, theta: np.ndarray) -> LoopTable:
-        return evaluate_set(self.f, self.P, self.K(theta), self.dt, n_integrators=self.m,
-                            names=self.names)
+        return evaluate_set(
+            self.f, self.P, self.K(theta), self.dt, n_integrators=self.m, names=self.names
+        )
 
     def ok(self, theta: np.ndarray, s_bound: float) -> tuple[bool, LoopTable]:
         """Exact acceptance test: every loop stable and resolved, ‖S‖∞ within the bound."""
@@ -172,9 +174,15 @@ def _step(pb: _Problem, st: _State, f_t: float | None, s_hard: float, s_goal: fl
     s_mask, c_mask = _masks(pb, st.theta, f_t, s_lin)
     for _ in range(4):
         data = StepData(
-            basis=pb.basis, P=pb.P, theta_k=st.theta, w_s=1.0 / s_lin, s_mask=s_mask,
-            c_mask=c_mask, w_obj_s=None if s_goal is None else 10 ** (-s_goal / 20),
-            w_t=None if pb.t_max is None else 10 ** (-pb.t_max / 20), tr_idx=pb.tr_idx,
+            basis=pb.basis,
+            P=pb.P,
+            theta_k=st.theta,
+            w_s=1.0 / s_lin,
+            s_mask=s_mask,
+            c_mask=c_mask,
+            w_obj_s=None if s_goal is None else 10 ** (-s_goal / 20),
+            w_t=None if pb.t_max is None else 10 ** (-pb.t_max / 20),
+            tr_idx=pb.tr_idx,
             rho=st.rho,
         )
         out = solve_step(data)
@@ -187,9 +195,17 @@ def _step(pb: _Problem, st: _State, f_t: float | None, s_hard: float, s_goal: fl
     return out
 
 
-def _iterate(pb: _Problem, st: _State, *, s_max: float, max_iter: int, delta: float,
-             history: list, progress: Callable[[dict], None] | None,
-             deadline: float) -> _State:
+def _iterate(
+    pb: _Problem,
+    st: _State,
+    *,
+    s_max: float,
+    max_iter: int,
+    delta: float,
+    history: list,
+    progress: Callable[[dict], None] | None,
+    deadline: float,
+) -> _State:
     stall = 0
     for it in range(max_iter):
         if time.perf_counter() > deadline:
@@ -206,8 +222,8 @@ def _iterate(pb: _Problem, st: _State, *, s_max: float, max_iter: int, delta: fl
             continue
         ok, tab = pb.ok(out[0], s_hard)
         gain = tab.min_crossover_hz / f_k - 1.0
-        better = (tab.worst_s_peak_db < st.table.worst_s_peak_db - 1e-4) if phase1 else (
-            gain > -1e-6
+        better = (
+            (tab.worst_s_peak_db < st.table.worst_s_peak_db - 1e-4) if phase1 else (gain > -1e-6)
         )
         if not (ok and better):
             st.rho *= 0.5
@@ -215,8 +231,13 @@ def _iterate(pb: _Problem, st: _State, *, s_max: float, max_iter: int, delta: fl
                 break
             continue
         st = _State(out[0], tab, min(st.rho * 2.0, 0.5))
-        entry = {"iteration": it, "phase": 1 if phase1 else 2, "tau": out[1], "rho": st.rho,
-                 **tab.summary()}
+        entry = {
+            "iteration": it,
+            "phase": 1 if phase1 else 2,
+            "tau": out[1],
+            "rho": st.rho,
+            **tab.summary(),
+        }
         history.append(entry)
         if progress is not None:
             progress(entry)
@@ -301,8 +322,11 @@ def loopshape(
         raise ServokitValueError(f"s_max_db must be > 0 dB (got {s_max:g})")
     iters = check_count("max_iter", max_iter, lo=0, hi=10_000)
     t0 = time.perf_counter()
-    n_pi = plant_integrators(f, P, h) if plant_integrators_count is None else int(
-        plant_integrators_count)
+    n_pi = (
+        plant_integrators(f, P, h)
+        if plant_integrators_count is None
+        else int(plant_integrators_count)
+    )
     notches = notches if notches is not None or structure != "pid-notch" else _peaks(f, P, h, n_pi)
     st = _resolve_structure(structure, order, h, notches, lowpass_hz)
     pb = _Problem(f, P, h, st, s_max, t_max_db, n_pi, names)
@@ -313,19 +337,33 @@ def loopshape(
             "initial controller does not stabilise every FRF (Nyquist count on the grid); "
             "give a stabilising initial controller"
         )
-    history: list[dict[str, Any]] = [{"iteration": -1, "phase": 0, "tau": 0.0, "rho": trust,
-                                      **tab0.summary()}]
-    state = _iterate(pb, _State(theta0, tab0, trust), s_max=s_max, max_iter=iters, delta=delta,
-                     history=history, progress=progress,
-                     deadline=t0 + check_positive("time_limit_s", time_limit_s, "s"))
+    history: list[dict[str, Any]] = [
+        {"iteration": -1, "phase": 0, "tau": 0.0, "rho": trust, **tab0.summary()}
+    ]
+    state = _iterate(
+        pb,
+        _State(theta0, tab0, trust),
+        s_max=s_max,
+        max_iter=iters,
+        delta=delta,
+        history=history,
+        progress=progress,
+        deadline=t0 + check_positive("time_limit_s", time_limit_s, "s"),
+    )
     notes = [note] if note else []
     if state.table.worst_s_peak_db > s_max + 1e-9:
-        notes.append(f"s_max_db {s_max:g} not reached: worst ‖S‖∞ "
-                     f"{state.table.worst_s_peak_db:.3f} dB")
+        notes.append(
+            f"s_max_db {s_max:g} not reached: worst ‖S‖∞ {state.table.worst_s_peak_db:.3f} dB"
+        )
     return LoopshapeResult(
-        controller=st.transfer_function(state.theta, h), table=state.table, initial_table=tab0,
-        history=history, structure=st, theta=state.theta,
-        design_time_s=time.perf_counter() - t0, notes=notes,
+        controller=st.transfer_function(state.theta, h),
+        table=state.table,
+        initial_table=tab0,
+        history=history,
+        structure=st,
+        theta=state.theta,
+        design_time_s=time.perf_counter() - t0,
+        notes=notes,
     )
 
 

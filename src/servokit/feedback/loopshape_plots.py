@@ -61,8 +61,13 @@ def loopshape_plot(
         _draw_set(ax_mag, ax_ph, ax_ny, freq_hz, responses * K[None, :], color, label)
     r = 10 ** (-s_max_db / 20)
     t = np.linspace(0, 2 * np.pi, 361)
-    ax_ny.plot(-1 + r * np.cos(t), r * np.sin(t), "r--", lw=1.2,
-               label=f"|1 + L| = 1/s_max ({s_max_db:.2f} dB)")
+    ax_ny.plot(
+        -1 + r * np.cos(t),
+        r * np.sin(t),
+        "r--",
+        lw=1.2,
+        label=f"|1 + L| = 1/s_max ({s_max_db:.2f} dB)",
+    )
     ax_ny.plot([-1], [0], "r+", ms=10)
     ax_ny.set_xlim(-3, 1.5)
     ax_ny.set_ylim(-2.5, 2)
