@@ -153,7 +153,7 @@ def _masks(pb: _Problem, theta: np.ndarray, f_t: float | None, s_lin: float):
     s_mask = np.abs(1.0 / (1.0 + L)) >= 0.8 * s_lin
     c_mask = None
     if f_t is not None:
-        c_mask = (pb.f[None, :] <= f_t) & (np.abs(L) < 3.0)
+        c_mask = (pb.f[None, :] <= f_t) & (np.abs(L) < 1.5)
     return s_mask, c_mask
 
 
