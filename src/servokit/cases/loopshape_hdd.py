@@ -41,7 +41,7 @@ __all__ = ["loopshape_hdd_case"]
 GAINS = (0.95, 1.0, 1.05)
 N_FREQ, ORDER, HELD_OUT, SEED = 3000, 12, 1000, 2026
 #: convex steps of the design: a fixed count keeps the result independent of machine load
-STEPS = 4
+STEPS = 6
 SRC = "issue 25 (beyond the book)"
 
 

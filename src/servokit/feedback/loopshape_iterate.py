@@ -127,6 +127,17 @@ class _Problem:
         self.names = names
         n = f.size
         self.tr_idx = np.unique(np.linspace(0, n - 1, min(n, 150)).astype(int))
+        self.floor_idx: np.ndarray | None = None
+        self.floor_w: np.ndarray | None = None
+
+    def set_floor(self, theta0: np.ndarray, f_c: float, keep: float | None) -> None:
+        """Keep ``|L| ≥ keep |L_0|`` at 40 log-spaced grid points below ``0.7 f_c``."""
+        below = np.nonzero(self.f <= 0.7 * f_c)[0]
+        if keep is None or below.size == 0:
+            return
+        pick = np.unique(np.rint(np.geomspace(1, below.size, 40)).astype(int) - 1)
+        self.floor_idx = below[pick]
+        self.floor_w = keep * np.abs(self.P[:, self.floor_idx] * self.K(theta0)[self.floor_idx])
 
     def K(self, theta: np.ndarray) -> np.ndarray:
         x, y = self.basis.polys(theta)
@@ -184,6 +195,8 @@ def _step(pb: _Problem, st: _State, f_t: float | None, s_hard: float, s_goal: fl
             w_t=None if pb.t_max is None else 10 ** (-pb.t_max / 20),
             tr_idx=pb.tr_idx,
             rho=st.rho,
+            floor_idx=pb.floor_idx,
+            floor_w=pb.floor_w,
         )
         out = solve_step(data)
         if out is None:
@@ -260,6 +273,7 @@ def loopshape(
     t_max_db: float | None = None,
     initial: control.TransferFunction | None = None,
     plant_integrators_count: int | None = None,
+    keep_low_gain: float | None = 0.9,
     max_iter: int = 60,
     time_limit_s: float = 100.0,
     delta: float = 0.03,
@@ -297,6 +311,10 @@ def loopshape(
     plant_integrators_count : int, optional
         Plant poles at ``z = 1`` (2 for a rigid body); estimated from the low-frequency
         slope when omitted.
+    keep_low_gain : float or None
+        Keep ``|L| ≥ keep_low_gain |L_0|`` (``L_0`` the initial loop) on 40 frequencies below
+        0.7 x the initial lowest crossover, so that disturbance rejection is not traded for
+        crossover; None lets the low-frequency gain fall (to 1).
     max_iter : int
         Largest number of convex steps.
     time_limit_s : float
@@ -337,6 +355,9 @@ def loopshape(
             "initial controller does not stabilise every FRF (Nyquist count on the grid); "
             "give a stabilising initial controller"
         )
+    if keep_low_gain is not None and not 0 < keep_low_gain <= 1:
+        raise ServokitValueError(f"keep_low_gain must be in (0, 1] or None (got {keep_low_gain})")
+    pb.set_floor(theta0, tab0.min_crossover_hz, keep_low_gain)
     history: list[dict[str, Any]] = [
         {"iteration": -1, "phase": 0, "tau": 0.0, "rho": trust, **tab0.summary()}
     ]

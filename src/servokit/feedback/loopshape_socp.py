@@ -95,6 +95,8 @@ class StepData:
     w_t: float | None
     tr_idx: np.ndarray  # frequency indices of the trust region
     rho: float
+    floor_idx: np.ndarray | None = None  # frequency indices of the low-frequency gain floor
+    floor_w: np.ndarray | None = None  # (M, len(floor_idx)) floor of |L| there
 
 
 def _scaled(A: sp.spmatrix, b: np.ndarray, group: int = 1) -> tuple[sp.csr_matrix, np.ndarray]:
@@ -187,6 +189,13 @@ def _build(d: StepData, rows: _Rows, F: np.ndarray, K: np.ndarray, r_of: np.ndar
         lin(l0, lz, -1.0, d.w_obj_s, ridx, y_abs)
     if d.w_t is not None:
         rows.cone(l0, rows.full(lz), np.zeros(l0.size, dtype=complex), rows.full(d.w_t * gx))
+    if d.floor_idx is not None:  # |P X| >= w_floor |Y|: no loss of low-frequency gain
+        m = d.P.shape[0]
+        idx = (np.repeat(np.arange(m), d.floor_idx.size), np.tile(d.floor_idx, m))
+        _, _, gx = _affine(d.basis, d.P, idx, F)
+        m0, mz = _tangent(d.P[idx] * K[idx[1]], np.zeros(len(idx[0]), dtype=complex), gx)
+        y_abs = np.abs(d.basis.Y0[idx[1]] / F[idx[1]])
+        lin(m0, mz, 0.0, d.floor_w.ravel(), None if r_of is None else r_of[idx[1]], y_abs)
     if d.c_mask is not None and d.c_mask.any():
         idx = np.nonzero(d.c_mask)
         _, _, gx = _affine(d.basis, d.P, idx, F)
@@ -247,6 +256,8 @@ def solve_step(d: StepData) -> tuple[np.ndarray, float] | None:
     K = xk / F
     free = d.basis.Vy.shape[1] > 0
     active = d.s_mask.any(axis=0) | (d.c_mask.any(axis=0) if d.c_mask is not None else False)
+    if d.floor_idx is not None:
+        active[d.floor_idx] = True
     freqs = np.nonzero(active)[0] if free else np.empty(0, dtype=int)
     r_of = None
     if free:
