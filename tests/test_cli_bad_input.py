@@ -570,6 +570,8 @@ CASES: list[tuple[list[str], str]] = [
     (["loopshape", "FRF.csv", "--dt", "1e-4", "--out", "o", "--notch", "4100:-1"], "--notch"),
     (["loopshape", "FRF.csv", "--dt", "1e-4", "--out", "o", "--lowpass", "-5"], "--lowpass"),
     (["loopshape", "FRF.csv", "--dt", "1e-4", "--out", "o", "--time-limit", "0"], "--time-limit"),
+    (["loopshape", "FRF.csv", "--dt", "1e-4", "--out", "o", "--keep-low-gain", "2"],
+     "--keep-low-gain"),
     (["loopshape", "FRF.csv", "--dt", "1e-4", "--out", "o", "--controller", "DIR"],
      "--controller"),
     (["loopshape", "FRF.csv", "--dt", "1e-4", "--out", "o", "--controller", "GARBAGE.toml"],

@@ -106,6 +106,11 @@ def test_loopshape_small_set_is_certified_and_improves() -> None:
     t = res.table
     assert t.all_stable and t.worst_s_peak_db <= 6.0 + 1e-6
     assert t.min_crossover_hz >= res.history[1]["min_crossover_hz"] - 1e-9
+    # the low-frequency floor |L| >= 0.9 |L_0| below 0.7 x the initial crossover holds
+    low = f <= 0.7 * res.initial_table.min_crossover_hz
+    L0 = P[:, low] * _resp(res.initial_controller, f[low])[None, :]
+    L1 = P[:, low] * _resp(res.controller, f[low])[None, :]
+    assert np.all(np.abs(L1) >= 0.9 * np.abs(L0) * (1 - 1e-6))
     # exact certificate on the models: every closed-loop pole inside the unit disc
     assert certify_models(res.controller, plants).max() < 1.0
     # the table's ||S||inf is the FRF maximum, recomputed independently

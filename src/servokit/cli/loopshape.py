@@ -43,6 +43,7 @@ _FLAGS = {
     "order": "--order",
     "t_max_db": "--t-max-db",
     "time_limit_s": "--time-limit",
+    "keep_low_gain": "--keep-low-gain",
     "lowpass_hz": "--lowpass",
     "freq_hz": "FRF_FILE",
 }
@@ -190,6 +191,13 @@ def loopshape_cmd(
             metavar="NAME_OR_TOML",
         ),
     ] = None,
+    keep_low_gain: Annotated[
+        float,
+        typer.Option(
+            "--keep-low-gain",
+            help="keep |L| >= this x the initial |L| below its crossover (0: off) [1]",
+        ),
+    ] = 0.9,
     time_limit: Annotated[
         float, typer.Option("--time-limit", help="wall time after which no new step starts [s]")
     ] = 100.0,
@@ -207,6 +215,8 @@ def loopshape_cmd(
     structure, order = _structure(structure, order)
     check_positive("--s-max-db", s_max_db, "dB")
     check_positive("--time-limit", time_limit, "s")
+    if not 0.0 <= keep_low_gain <= 1.0:
+        raise ServokitValueError(f"--keep-low-gain must be in [0, 1] (got {keep_low_gain})")
     notches = _notches(notch or [])
     lp = tuple(check_positive("--lowpass", v, "Hz") for v in (lowpass or []))
     init = None if controller is None else load_controller(controller, dt)
@@ -225,6 +235,7 @@ def loopshape_cmd(
             t_max_db=t_max_db,
             initial=init,
             time_limit_s=time_limit,
+            keep_low_gain=keep_low_gain or None,
             names=names,
         )
     outdir.mkdir(parents=True, exist_ok=True)

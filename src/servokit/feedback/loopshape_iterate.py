@@ -80,6 +80,10 @@ class LoopshapeResult:
         Final parameters.
     design_time_s : float
         Wall time of the iteration [s].
+    initial_controller : control.TransferFunction
+        The starting controller in the structure.
+    notes : list of str
+        How the start was obtained; an unmet bound.
     """
 
     controller: control.TransferFunction
@@ -89,6 +93,7 @@ class LoopshapeResult:
     structure: Structure
     theta: np.ndarray
     design_time_s: float
+    initial_controller: control.TransferFunction | None = None
     notes: list[str] = field(default_factory=list)
 
 
@@ -384,6 +389,7 @@ def loopshape(
         structure=st,
         theta=state.theta,
         design_time_s=time.perf_counter() - t0,
+        initial_controller=st.transfer_function(theta0, h),
         notes=notes,
     )
 
