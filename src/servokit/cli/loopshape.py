@@ -91,6 +91,13 @@ def _notches(values: list[str]) -> tuple[tuple[float, float], ...] | None:
     return tuple(out)
 
 
+def _check_numbers(s_max_db: float, time_limit: float, keep_low_gain: float) -> None:
+    check_positive("--s-max-db", s_max_db, "dB")
+    check_positive("--time-limit", time_limit, "s")
+    if not 0.0 <= keep_low_gain <= 1.0:
+        raise ServokitValueError(f"--keep-low-gain must be in [0, 1] (got {keep_low_gain})")
+
+
 def _structure(structure: str, order: int | None) -> tuple[str, int | None]:
     """``--order N`` implies ``--structure order``; ``order`` needs ``--order``."""
     if order is not None:
@@ -213,10 +220,7 @@ def loopshape_cmd(
     dt = check_positive("--dt", dt, "s")
     outdir = check_out_dir(out)
     structure, order = _structure(structure, order)
-    check_positive("--s-max-db", s_max_db, "dB")
-    check_positive("--time-limit", time_limit, "s")
-    if not 0.0 <= keep_low_gain <= 1.0:
-        raise ServokitValueError(f"--keep-low-gain must be in [0, 1] (got {keep_low_gain})")
+    _check_numbers(s_max_db, time_limit, keep_low_gain)
     notches = _notches(notch or [])
     lp = tuple(check_positive("--lowpass", v, "Hz") for v in (lowpass or []))
     init = None if controller is None else load_controller(controller, dt)
