@@ -579,6 +579,12 @@ CASES: list[tuple[list[str], str]] = [
     (["loopshape", "FRF.csv", "--dt", "1e-2", "--out", "o"], "FRF_FILE"),
     (["loopshape", "FRF.csv", "--dt", "1e-4", "--out", "o", "--plot", "DIR"], "--plot"),
     (["loopshape", "FRF.csv", "--dt", "1e-4", "--out", "o", "--plot", "noext"], "--plot"),
+    # ---- actuator limits (simulate)
+    ([*SIM, "--step", "1", "--u-max", "0"], "--u-max"),
+    ([*SIM, "--step", "1", "--u-max", "nan"], "--u-max"),
+    ([*SIM, "--step", "1", "--u-max", "-2"], "--u-max"),
+    ([*SIM, "--step", "1", "--slew-max", "0"], "--slew-max"),
+    ([*SIM, "--step", "1", "--slew-max", "inf"], "--slew-max"),
     # ---- --variations (simulate, sweep)
     ([*SIM, "--step", "1", "--variations", "missing.toml"], "--variations"),
     ([*SIM, "--step", "1", "--variations", "DIR"], "--variations"),

@@ -98,3 +98,26 @@ def test_seek_u_max_is_a_qp_constraint_over_the_box(tmp_path, monkeypatch, capsy
     assert free["peak_input"] > 8  # the limit binds: the unconstrained input is larger
     # no input beats bang-bang: a move of 10 um at 8 V takes 2 sqrt(x / (K u)) = 1.12 ms
     assert limited["n_samples"] * 5e-5 >= 2 * (10 / (4e6 * 8)) ** 0.5 - 1e-12
+
+
+def test_simulate_u_max_limits_the_input_and_anti_windup_settles(monkeypatch, capsys):
+    common = [
+        "simulate",
+        "--plant",
+        "hdd-sampled-data",
+        "--dt",
+        "153.5e-6",
+        "--duration",
+        "0.3",
+        "--step",
+        "100",
+        "--controller",
+        "eq-4.69",
+        "--u-max",
+        "0.3",
+    ]
+    guarded = _run(monkeypatch, capsys, *common)
+    wound = _run(monkeypatch, capsys, *common, "--no-anti-windup")
+    assert guarded["peak_input"] == pytest.approx(0.3) and guarded["u_max"] == 0.3
+    assert guarded["worst_settling_time_s"] < 0.05
+    assert wound["worst_settling_time_s"] is None  # inf in JSON: the wound-up loop diverges

@@ -138,6 +138,8 @@ def test_friction_mode_and_plant_without_rigid_body():
 def test_bad_arguments():
     with pytest.raises(ServokitValueError, match="n_modes"):
         fit_modal(F, STAGE.freqresp(F), n_modes=9)
+    with pytest.raises(ServokitValueError, match="n_modes"):
+        fit_modal(F, STAGE.freqresp(F), n_modes=-1)
     with pytest.raises(ServokitValueError, match="at least 10"):
         fit_modal(F[:5], STAGE.freqresp(F[:5]))
     with pytest.raises(ServokitValueError, match="increasing"):

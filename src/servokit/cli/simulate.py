@@ -56,8 +56,9 @@ _ARRAYS_PER_FINE_STEP = 3
         "--controller eq-4.69 --json"
     )
     + "  --variations FILE simulates every corner of the file's box (nominal, low, high of "
-    "each range).  JSON: plants, final, peak, settling_time_s, worst_plant, "
-    "worst_settling_time_s, plot.",
+    "each range); --u-max/--slew-max limit the actuator (anti-windup for the controller; the "
+    "output is then sampled).  JSON: plants, final, peak, settling_time_s, worst_plant, "
+    "worst_settling_time_s, peak_input, u_max, plot.",
 )
 def simulate_cmd(
     dt: DtOpt,
@@ -93,6 +94,21 @@ def simulate_cmd(
         ),
     ] = None,
     settle_band: SettleBandOpt = 0.1,
+    u_max: Annotated[
+        float | None,
+        typer.Option("--u-max", help="actuator limit |u| [plant input unit] (output at samples)"),
+    ] = None,
+    slew_max: Annotated[
+        float | None,
+        typer.Option("--slew-max", help="actuator slew limit |u[k]-u[k-1]| [input unit/sample]"),
+    ] = None,
+    anti_windup: Annotated[
+        bool,
+        typer.Option(
+            "--anti-windup/--no-anti-windup",
+            help="with --u-max/--slew-max and a controller: observer anti-windup",
+        ),
+    ] = True,
     max_memory_mb: MaxMemoryOpt = DEFAULT_MAX_MEMORY_MB,
     plot: PlotOpt = None,
     json_out: JsonOpt = False,
@@ -130,15 +146,21 @@ def simulate_cmd(
     K = int(np.ceil(n_periods))
     ctrl = None if controller is None else load_controller(controller, dt)
     kw, target = _inputs(step, input_file, ctrl, K)
-    with flag_names(_FLAGS):
-        from servokit.simulate import simulate, step_metrics
+    limited = u_max is not None or slew_max is not None
+    with flag_names(_FLAGS | {"u_max": "--u-max", "slew_max": "--slew-max"}):
+        from servokit.simulate import step_metrics
 
-        res = simulate(plants, dt=dt, n_samples=K, substeps=substeps, controller=ctrl, **kw)
+        if limited:
+            res = _saturated(plants, dt, K, ctrl, kw, u_max, slew_max, anti_windup)
+        else:
+            from servokit.simulate import simulate
+
+            res = simulate(plants, dt=dt, n_samples=K, substeps=substeps, controller=ctrl, **kw)
         if ctrl is None:
             target = float(np.median(res.yc[:, -1]))
         met = step_metrics(res.t, res.yc, target, settle_band)
     if plot is not None:
-        _plot(res, plants, dt, substeps, plot)
+        _plot(res, plants, dt, res.substeps, plot)
     data = {
         "plants": [p.name for p in plants],
         "final": res.yc[:, -1],
@@ -146,6 +168,8 @@ def simulate_cmd(
         "settling_time_s": met.settling_time,
         "worst_plant": plants[met.worst].name,
         "worst_settling_time_s": met.worst_settling_time,
+        "peak_input": float(np.max(np.abs(res.u))),
+        "u_max": u_max,
         "plot": str(plot) if plot else None,
     }
     if json_out:
@@ -155,6 +179,23 @@ def simulate_cmd(
         f"{len(plants)} plant(s); worst settling time {met.worst_settling_time * 1e3:.4g} ms "
         f"({plants[met.worst].name}); final value {np.median(res.yc[:, -1]):.6g}"
     )
+
+
+def _saturated(plants, dt, K, ctrl, kw, u_max, slew_max, anti_windup):  # noqa: ANN001, ANN202
+    """The loop with a limited actuator, sampled output, as a SimulationResult."""
+    from servokit.simulate import Actuator, SimulationResult, simulate_saturated
+
+    if u_max is not None:
+        check_positive("--u-max", u_max)
+    if slew_max is not None:
+        check_positive("--slew-max", slew_max)
+    act = Actuator(
+        u_max=float("inf") if u_max is None else u_max,
+        slew_max=slew_max,
+        anti_windup=anti_windup and ctrl is not None,
+    )
+    r = simulate_saturated(plants, dt=dt, n_samples=K, actuator=act, controller=ctrl, **kw)
+    return SimulationResult(r.td, r.yd, r.td, r.yd, r.u, 1)
 
 
 def _plants(plant: str, variants: bool, variations: Path | None) -> list:

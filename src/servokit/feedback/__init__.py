@@ -33,6 +33,7 @@ from servokit.feedback.loopshape_problem import (
     pid_notch_structure,
 )
 from servokit.feedback.margins import Margins, loop_response, stability_margins
+from servokit.feedback.peak_filtered import PeakFilterSpec, peak_filtered_controller
 
 __all__ = [
     "DualStageLoops",
@@ -45,6 +46,8 @@ __all__ = [
     "loopshape",
     "pid_notch_structure",
     "Margins",
+    "PeakFilterSpec",
+    "peak_filtered_controller",
     "complex_lag",
     "design_peak_filter",
     "discretize_filter",

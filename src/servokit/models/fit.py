@@ -32,7 +32,7 @@ from typing import Literal
 
 import numpy as np
 
-from servokit.errors import ServokitValueError
+from servokit.errors import ServokitValueError, check_count
 from servokit.models._modal_nls import Layout, _basis, linear_residues, solve
 from servokit.models.modal import ModalPlant, Mode
 
@@ -92,6 +92,8 @@ class ModalFit:
         data's relative noise when the model is right).
     bic : dict
         BIC of every mode count tried (lower is better).
+    friction : bool
+        Whether the first flexible mode is the low-frequency friction mode.
     """
 
     plant: ModalPlant
@@ -105,6 +107,7 @@ class ModalFit:
     bands: tuple[BandError, ...]
     noise_rel: float
     bic: dict[int, float]
+    friction: bool = False
 
     @property
     def rel_error(self) -> np.ndarray:
@@ -119,11 +122,7 @@ class ModalFit:
     @property
     def n_modes(self) -> int:
         """Number of fitted resonances (rigid body and friction mode not counted)."""
-        return sum(1 for m in self.plant.modes if m.freq_hz > 0) - int(self._friction)
-
-    @property
-    def _friction(self) -> bool:
-        return bool(self.plant.source.endswith("+ friction mode"))
+        return sum(1 for m in self.plant.modes if m.freq_hz > 0) - int(self.friction)
 
 
 def delay_from_phase(freq_hz: np.ndarray, response: np.ndarray) -> float:
@@ -366,6 +365,9 @@ def fit_modal(
     from threadpoolctl import threadpool_limits
 
     f, H = _check(freq_hz, response, band)
+    if n_modes != "auto":
+        n_modes = check_count("n_modes", n_modes, lo=0)
+    max_modes = check_count("max_modes", max_modes, lo=0)
     # small dense problems: BLAS threads only contend (a loaded 2-core box ran 50x slower)
     with threadpool_limits(limits=1):
         return _fit(f, H, n_modes, delay, rigid_body, friction, max_delay, max_modes, name)
@@ -381,15 +383,15 @@ def _fit(f, H, n_modes, delay, rigid_body, friction, max_delay, max_modes, name)
     t_max = 5.0 / f[-1] if max_delay is None else float(max_delay)
     T0 = min(delay_from_phase(f, H), t_max) if fixed is None else fixed
     n_max = int(max_modes) if n_modes == "auto" else int(n_modes)
+    low = [(omega[0], 0.7)] if friction else []  # the friction mode's start
     cands = _candidates(omega, H, T0, rigid or friction, n_max)
     if fixed is None and cands:
-        T0 = _delay_scan(omega, H, cands[:n_max], rigid, t_max)  # friction: close enough
+        T0 = _delay_scan(omega, H, low + cands[:n_max], rigid, t_max)
     if n_modes != "auto" and len(cands) < n_max:
         raise ServokitValueError(
             f"found {len(cands)} resonance(s) in the data, fewer than n_modes={n_max}; "
             "lower n_modes or use 'auto'"
         )
-    low = [(omega[0], 0.7)] if friction else []
     fit = partial(_trial, omega, H, rigid=rigid, delay=fixed, T0=T0, t_max=t_max, friction=friction)
     if n_modes != "auto":
         trials = {n_max: fit(low + cands[:n_max])}
@@ -465,4 +467,5 @@ def _result(f, H, t: _Trial, friction: bool, name: str, bic: dict[int, float]) -
         bands=_band_errors(f, rel),
         noise_rel=float(np.sqrt(np.sum(rel**2) / max(N / 2 - k / 2, 1))),
         bic=bic,
+        friction=friction,
     )

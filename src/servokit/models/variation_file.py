@@ -157,7 +157,8 @@ def _nominal(
         raise VariationFileError(
             f'{path}: no nominal plant; add plant = "NAME_OR_FILE" or pass the plant'
         )
-    from servokit.models.catalogue import CATALOGUE, get_plant
+    from servokit.models.catalogue import CATALOGUE
+    from servokit.models.lookup import get_plant
 
     ref = data["plant"]
     if not isinstance(ref, str) or not ref:

@@ -1,0 +1,66 @@
+"""docs/guide/own_actuator.md: every ``$ servokit`` command runs (in a scratch copy of the
+example data), and the numbers it quotes hold against independent computations."""
+
+from __future__ import annotations
+
+import json
+import re
+import runpy
+import shlex
+import shutil
+import sys
+from pathlib import Path
+
+import pytest
+
+import servokit.cli
+from servokit.models import load_plant, read_variations
+
+ROOT = Path(__file__).resolve().parents[1]
+GUIDE = ROOT / "docs" / "guide" / "own_actuator.md"
+
+
+def _blocks(kind: str) -> list[str]:
+    return re.findall(rf"```{kind}\n(.*?)```", GUIDE.read_text(encoding="utf-8"), re.S)
+
+
+def _run(line: str, monkeypatch, capsys) -> None:
+    cmd, _, target = line.partition(" > ")
+    args = shlex.split(cmd)
+    assert args[0] == "servokit"
+    monkeypatch.setattr(sys, "argv", args)
+    with pytest.raises(SystemExit) as exc:
+        servokit.cli.main()
+    out, err = capsys.readouterr()
+    assert exc.value.code == 0, (line, err)
+    if target:
+        Path(target.strip()).write_text(out)
+
+
+@pytest.mark.slow
+def test_guide_commands_run_and_numbers_hold(tmp_path, monkeypatch, capsys):
+    shutil.copytree(ROOT / "examples" / "data", tmp_path / "examples" / "data")
+    monkeypatch.chdir(tmp_path)
+    commands = [
+        ln[2:] for block in _blocks("console") for ln in block.splitlines() if ln.startswith("$ ")
+    ]
+    assert [c.split()[1] for c in commands] == ["fit", "seek", "sweep"]
+    _run(commands[0], monkeypatch, capsys)
+    (tmp_path / "fitted" / "box.toml").write_text(_blocks("toml")[0])
+    for line in commands[1:]:
+        _run(line, monkeypatch, capsys)
+    # the fit against the generator the fitter never saw
+    truth = runpy.run_path(str(ROOT / "examples" / "data" / "make_stage_frf.py"))["STAGE"]
+    plant = load_plant("fitted/plant.toml")
+    for m, mq in zip(truth.modes, plant.modes, strict=True):
+        assert mq.freq_hz == pytest.approx(m.freq_hz, rel=0.005, abs=1e-12)
+        assert plant.gain * mq.residue == pytest.approx(truth.gain * m.residue, rel=0.10)
+    assert plant.delay == pytest.approx(15e-6, abs=1e-6)
+    # the seek over the box: 27 corners, the input limit held, no faster than bang-bang
+    vset = read_variations("fitted/box.toml")
+    design = json.loads(Path("design.json").read_text())
+    assert design["n_plants"] == vset.n_corners == 27
+    assert design["peak_input"] <= 40 * (1 + 1e-9)
+    bang_bang = 2 * (100 / (plant.gain * 40)) ** 0.5
+    assert design["seek_time_s"] >= bang_bang
+    assert Path("fit.png").stat().st_size > 0 and Path("sweep.png").stat().st_size > 0
