@@ -52,6 +52,7 @@ CASES: dict[str, tuple[int, str]] = {
     "limits": (420, "limits"),
     "hdd-pes": (430, "hdd_pes"),
     "hdd-robust-seek": (500, "robust_seek"),
+    "hdd-loopshape": (510, "loopshape_hdd"),
 }
 _REGISTRY: dict[str, tuple[int, CaseFn]] = {}
 #: Registration ``order`` ranges per book chapter (docs/CONVENTIONS.md); 0 = beyond the book.

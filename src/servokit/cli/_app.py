@@ -31,7 +31,7 @@ COMMAND_ORDER = (
     "feedforward", "seek", "sweep",
     "switching",
     "sensitivity", "unobservable", "srs", "identify",
-    "filter", "margins", "dual-stage", "ssa",
+    "filter", "margins", "loopshape", "dual-stage", "ssa",
     "limits", "settle",
     "export", "reproduce",
 )  # fmt: skip

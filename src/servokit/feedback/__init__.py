@@ -5,6 +5,10 @@
 * :mod:`~servokit.feedback.dual_stage`: parallel / CMS / DMS dual-stage loops (5.79)-(5.89).
 * :mod:`~servokit.feedback.margins`: gain/phase/delay/second phase margins on the exact
   frequency response.
+* :mod:`~servokit.feedback.loopshape_iterate`: fixed-structure controller design from the
+  measured FRFs of a plant set (convex-concave iteration, stability certificate); set-up in
+  ``loopshape_problem``/``loopshape_init``, cone program in ``loopshape_socp``, tables in
+  ``loopshape_eval``, figures in ``loopshape_plots``.
 """
 
 from servokit.feedback.dual_stage import DualStageLoops, dual_stage_loops
@@ -21,11 +25,26 @@ from servokit.feedback.filters import (
     pi_controller,
     pseudo_plant,
 )
+from servokit.feedback.loopshape_eval import LoopRow, LoopTable
+from servokit.feedback.loopshape_iterate import LoopshapeResult, certify_models, loopshape
+from servokit.feedback.loopshape_problem import (
+    Structure,
+    fixed_order_structure,
+    pid_notch_structure,
+)
 from servokit.feedback.margins import Margins, loop_response, stability_margins
 from servokit.feedback.peak_filtered import PeakFilterSpec, peak_filtered_controller
 
 __all__ = [
     "DualStageLoops",
+    "LoopRow",
+    "LoopTable",
+    "LoopshapeResult",
+    "Structure",
+    "certify_models",
+    "fixed_order_structure",
+    "loopshape",
+    "pid_notch_structure",
     "Margins",
     "PeakFilterSpec",
     "peak_filtered_controller",
