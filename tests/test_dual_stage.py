@@ -225,3 +225,18 @@ def test_pzt_peak_filter_phase_cannot_reach_the_printed_value():
     # with no delay the phase is largest: the delay only adds lag at 2484 Hz
     top = pzt_phase_span(np.array([0.0]), np.array([0.05]))["max_deg"]
     assert top == pytest.approx(span["max_deg"], abs=1e-9)
+
+
+def test_joint_cost_skip_leaves_out_the_gain_margin_row():
+    # skip removes exactly the gain column's gain-margin term (5.5.2 search option)
+    from servokit.feedback.dual_stage_design import SEARCH_GRID_HZ, evaluate_design, table_cost
+    from servokit.feedback.dual_stage_fitted import JOINT_FIT, joint_unknowns
+    from servokit.feedback.dual_stage_search import _joint_cost
+
+    values = JOINT_FIT["inside"]
+    u = joint_unknowns("inside")
+    gain = evaluate_design("gain", u, SEARCH_GRID_HZ)
+    full = table_cost(gain) + table_cost(evaluate_design("inverse", u, SEARCH_GRID_HZ))
+    assert _joint_cost(values, SEARCH_GRID_HZ) == pytest.approx(full)
+    gm_term = (gain.gain_margin_db - 14.1) ** 2
+    assert _joint_cost(values, SEARCH_GRID_HZ, ("gain_margin_db",)) == pytest.approx(full - gm_term)
