@@ -147,6 +147,16 @@ def test_svm_beats_conventional_rule():
     assert svm8.failures < svm0.failures
 
 
+def test_svm_beats_conventional_rule_reduced():
+    # the slow test's outcome on a 5 x 9 training grid and 40 validation seeks
+    data = training_set(simulate_seeks(training_seeks(5, 9)))
+    judge = SettlingJudge(C=10.0, coef0=0.5).fit(data.X, data.labels)
+    conv, svm0, svm8 = evaluate_judgements(simulate_seeks(validation_seeks(40)), judge)
+    assert conv.failures > 0 and conv.mean_delay > 0
+    assert svm0.failures <= conv.failures and svm0.mean_delay < conv.mean_delay
+    assert svm8.failures < svm0.failures
+
+
 def test_class1_weight_makes_the_judge_more_cautious(tmp_path):
     rng = np.random.default_rng(1)
     X = rng.uniform(-1, 1, (400, 2))

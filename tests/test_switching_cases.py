@@ -45,6 +45,82 @@ def test_jmin_case2_has_no_overshoot_case1_has():
     assert under[0.0] > 1e-7 and under[1e-6] <= 1e-12
 
 
+@pytest.fixture
+def no_plots(monkeypatch, tmp_path):
+    """Replace the chapter-3 plot calls by a stub: the reduced tests judge rows, not figures."""
+    from servokit.cases import switching_admissible, switching_galvano, switching_ivc
+
+    def stub(*args, path=None, **kwargs):
+        return path if path is not None else tmp_path / "stub.png"
+
+    for mod in (switching_ivc, switching_admissible, switching_galvano):
+        monkeypatch.setattr(mod, "transient_plot", stub)
+    monkeypatch.setattr(switching_admissible, "admissible_plot", stub)
+    return tmp_path
+
+
+@pytest.fixture(scope="module")
+def unit_current_set():
+    """O_inf of the §3.3.3 loop for |u| <= 1 A (shared: the LP pruning is the slow part)."""
+    from servokit.cases.switching_admissible import admissible_loop
+    from servokit.switching import max_output_admissible_set
+
+    loop = admissible_loop()
+    return loop, max_output_admissible_set(loop.A, loop.Cu, -1.0, 1.0)
+
+
+def test_case_runs_reduced(no_plots, monkeypatch):
+    # the slow test's outcome (every row within tolerance) with 8 rounding draws, not 60
+    from servokit.cases import switching_ivc
+
+    monkeypatch.setattr(switching_ivc, "N_DRAWS", 8)
+    res = switching_ivc_case(no_plots)
+    assert len(res.comparisons) >= 10
+    assert [c.quantity for c in res.comparisons if not c.ok] == []
+    rows = {c.quantity: c for c in res.comparisons}
+    assert rows["zero of xpos[0] -> y after pole-zero IVC"].ok
+    pole = [c for c in res.comparisons if "b fitted" in c.quantity]
+    assert len(pole) == 1 and pole[0].servokit == pytest.approx(0.999, abs=5e-4)
+
+
+def test_admissible_case_reduced(no_plots):
+    # same rows as the slow test (figures stubbed): 4 of 4 with IVC, 1 with zero reset
+    from servokit.cases.switching_admissible import switching_admissible_case
+
+    res = switching_admissible_case(no_plots)
+    got = {c.quantity: c.servokit for c in res.comparisons}
+    assert got["Table 3.1 conditions admissible with IVC"] == 4.0
+    assert got["Table 3.1 conditions admissible with zero reset"] == 1.0
+    assert got["zero-reset set inside the IVC set (1 = yes)"] == 1.0
+    assert res.extra["gain_factor"] > 0 and all(c.ok for c in res.comparisons)
+
+
+def test_acoustic_current_sets_reduced(unit_current_set):
+    # the case's Fig. 3.21 rows from O_inf(|u| <= 1) scaled by cp (O_inf is linear in the
+    # bound): J-min IVC enlarges the set and contains the §3.4.1 switching condition
+    from servokit.cases.switching_acoustic import CONDITION, CP_A, _area
+    from servokit.cases.switching_admissible import _scaled, _slice
+    from servokit.switching import ivc_pole_zero
+
+    loop, unit = unit_current_set
+    real = sorted((p.real for p in loop.poles() if abs(p.imag) < 1e-12), key=lambda p: -abs(p))
+    gains = {
+        "pz": ivc_pole_zero(loop, None, real[:2]),
+        "jmin": ivc_jmin(loop, None, output_weight=loop.Cu),
+    }
+    cur = {k: _scaled(unit, CP_A).restrict(loop.stack(K) @ _slice(loop)) for k, K in gains.items()}
+    assert _area(cur["jmin"]) > _area(cur["pz"]) > 0
+    assert cur["jmin"].contains(CONDITION)
+
+
+def test_galvano_case_reduced(no_plots):
+    from servokit.cases.switching_galvano import switching_galvano_case
+
+    res = switching_galvano_case(no_plots)
+    assert res.extra["closed_loop_roots"] == 13 and res.extra["compensator_order"] == 12
+    assert res.comparisons and all(c.ok for c in res.comparisons)
+
+
 @pytest.mark.slow
 def test_case_runs(tmp_path):
     res = switching_ivc_case(tmp_path)
