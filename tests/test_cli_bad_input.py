@@ -544,7 +544,11 @@ CASES: list[tuple[list[str], str]] = [
     ([*XQ, "--out", "u.txt"], "--out"),
     ([*XQ, "--name", "1x"], "--name"),
     ([*XC, "--precision", "q3.12", "--u-max", "2", "--format", "json"], "--format"),
-    ([*XC, "--u-max", "2"], "--u-max"),  # float: no saturation to apply
+    ([*XC, "--u-max", "0"], "--u-max"),  # float: clamped ss step
+    ([*XC, "--u-max", "nan"], "--u-max"),
+    ([*XC, "--u-max", "-1"], "--u-max"),
+    ([*XC, "--u-max", "2", "--realization", "sos"], "--u-max"),
+    ([*XC, "--u-max", "2", "--format", "csv"], "--u-max"),
     ([*XC, "--rounding", "truncate"], "--rounding"),
     ([*XC, "--precision", "q15", "--format", "csv", "--overflow", "wrap"], "--overflow"),
     (["export", "ivc", "--method", "foo"], "--method"),

@@ -129,3 +129,50 @@ def test_deliberately_wrong_table_is_caught(tmp_path: Path, design2: np.ndarray)
     write_export(feedforward_tables(bad, 37.879e-6, "u"), tmp_path, "hdd_ff")
     got = float(_build_and_run(tmp_path, "hdd_ff", _SUM_MAIN % ""))
     assert got != _sequential_float_sum(design2)
+
+
+def _clamped_model(tables: list, e: np.ndarray, u_max: float) -> tuple[np.ndarray, np.ndarray]:
+    """Python model of the clamped step: v = clip(y), x <- A x + B e + L (v - y)."""
+    A, B, C, D, L = (t.values for t in tables)
+    x, out, states = np.zeros(A.shape[0]), [], []
+    for ek in e:
+        y = float(C[0] @ x + D[0, 0] * ek)
+        v = min(max(y, -u_max), u_max)
+        x = A @ x + B[:, 0] * ek + L[:, 0] * (v - y)
+        out.append(v)
+        states.append(x)
+    return np.array(out), np.array(states)
+
+
+@pytest.mark.parametrize("ctrl_name", ["pi", "eq-4.69"])
+def test_clamped_controller_step_matches_python_model(tmp_path: Path, ctrl_name: str) -> None:
+    import control
+
+    from servokit.export import FirmwareTable
+    from servokit.simulate.saturation import antiwindup_gain
+
+    # a PI with its integrator (pole at z = 1) winds up without the correction
+    pi = control.tf([1.5, -1.4], [1.0, -1.0], 1e-4)
+    ctrl = pi if ctrl_name == "pi" else controller_eq_4_69()
+    tables = statespace_tables(ctrl, "ss")
+    L = antiwindup_gain(tables[0].values, tables[2].values[0])
+    tables.append(FirmwareTable("ss_L", L[:, None], "anti-windup"))
+    rng = np.random.default_rng(1)
+    e = np.concatenate([np.full(150, 2.0), -np.full(50, 2.0), rng.standard_normal(100)])
+    u_max = 0.8
+    write_export(tables, tmp_path, "k", precision="double", step="ss", u_max=u_max)
+    got = _run_step(tmp_path, "k", "ss", e)
+    want, states = _clamped_model(tables, e, u_max)
+    np.testing.assert_allclose(got, want, rtol=1e-10, atol=1e-12)
+    assert np.max(np.abs(got)) <= u_max and np.sum(np.abs(got) == u_max) > 10
+    # no windup: the state levels off while clamped; without L (clamp only) it keeps growing
+    bare = [*tables[:4], FirmwareTable("ss_L", 0 * L[:, None], "off")]
+    _, wound = _clamped_model(bare, e, u_max)
+    if ctrl_name == "pi":
+        assert np.max(np.abs(states)) < 0.2 * np.max(np.abs(wound))
+        assert np.ptp(states[120:150]) < 1e-3 * np.ptp(wound[120:150])
+    # unsaturated (u_max above every output) the step is the linear controller
+    write_export(tables, tmp_path, "k", precision="double", step="ss", u_max=1e6)
+    num, den = np.asarray(ctrl.num[0][0], float), np.asarray(ctrl.den[0][0], float)
+    linear = signal.lfilter(num, den, e)
+    np.testing.assert_allclose(_run_step(tmp_path, "k", "ss", e), linear, rtol=1e-9, atol=1e-9)

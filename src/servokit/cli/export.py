@@ -50,12 +50,13 @@ def _check_common(out: str | Path, name: str, fmt: str, precision: str, qmn: boo
 
 
 def _finish(tables: list, out: Path, name: str, fmt: str, precision: str, step: str | None,
-            title: str, json_out: bool) -> None:  # fmt: skip
+            title: str, json_out: bool, u_max: float | None = None) -> None:  # fmt: skip
     """Write the files; report them and each table's quantisation error."""
     from servokit.export import FORMATS, quantize, write_export
 
     paths = write_export(
-        tables, out, name, file_format=fmt, precision=precision, step=step, title=title
+        tables, out, name, file_format=fmt, precision=precision, step=step, title=title,
+        u_max=u_max,
     )
     for p in paths:
         wrote(p)
@@ -130,7 +131,8 @@ def controller_cmd(
     out: OutOpt = "firmware",
     name: NameOpt = "ctrl",
     u_max: float | None = typer.Option(
-        None, "--u-max", help="fixed point: output saturation |u| <= u_max [controller output]"
+        None, "--u-max", help="output saturation |u| <= u_max [controller output] (float/double:"
+        " clamped ss step with anti-windup)"
     ),
     input_max: float = typer.Option(
         1.0, "--input-max", help="fixed point: declared input range |e| <= e_max [input unit]"
@@ -148,7 +150,9 @@ def controller_cmd(
 ) -> None:
     """A discrete controller's matrices or sections with a C step function.
 
-    float/double: the tables and a floating-point step. q15, q31, qM.N with --format c:
+    float/double: the tables and a floating-point step; with --u-max (--realization ss,
+    --format c) the step clamps its output and corrects the state by the observer
+    anti-windup of `simulate --anti-windup` (table <name>_ss_L). q15, q31, qM.N with --format c:
     fixed-point step functions (L1-scaled, integrator kept apart with anti-windup), the
     formats and the error bound against the float design.
 
@@ -179,18 +183,42 @@ def controller_cmd(
     make = statespace_tables if realization == "ss" else sos_tables
     tables = make(ctrl, "ss" if realization == "ss" else "sos")
     step = realization if fmt == "c" and precision in ("float", "double") else None
-    _finish(tables, out_dir, name, fmt, precision, step, f"controller {controller}", json_out)
+    if u_max is not None:
+        tables.append(_antiwindup_table(tables, realization, fmt))
+    title = f"controller {controller}" + (f", output clamped at +-{u_max:g}" if u_max else "")
+    _finish(tables, out_dir, name, fmt, precision, step, title, json_out, u_max)
+
+
+def _antiwindup_table(tables: list, realization: str, fmt: str) -> object:
+    """The observer anti-windup gain ``L`` of a clamped float/double state-space step."""
+    import numpy as np
+
+    from servokit.errors import ServokitValueError
+    from servokit.export import FirmwareTable
+    from servokit.simulate.saturation import antiwindup_gain
+
+    if realization != "ss" or fmt != "c":
+        raise ServokitValueError(
+            "--u-max: the clamped float/double step is C state space; use --realization ss "
+            "--format c"
+        )
+    a, c = tables[0].values, tables[2].values[0]
+    L = antiwindup_gain(a, c) if a.shape[0] else np.zeros(1)  # a static gain: no state
+    return FirmwareTable("ss_L", L.reshape(-1, 1), "anti-windup x += L (u_clamped - u_linear)")
 
 
 def _fixed_request(precision: str, fmt: str, u_max: float | None, input_max: float,
                    rounding: str, overflow: str, n_samples: int) -> dict | None:  # fmt: skip
     """Checked fixed-point flags, or None for a float/double (or table-only) export."""
-    from servokit.errors import ServokitValueError, check_count
+    from servokit.errors import ServokitValueError, check_count, check_positive
     from servokit.export.fixed_point import parse_qformat
 
     floating = precision in ("float", "double")
+    if floating and u_max is not None:
+        check_positive("--u-max", u_max)
     if floating or (fmt != "c" and precision in ("q15", "q31")):
-        given = [f for f, v, d in (("--u-max", u_max, None), ("--input-max", input_max, 1.0),
+        unused = None if floating else u_max
+        given = [f for f, v, d in (("--u-max", unused, None), ("--input-max", input_max, 1.0),
                  ("--rounding", rounding, "half-up"), ("--overflow", overflow, "saturate"),
                  ("--n-samples", n_samples, 10_000)) if v != d]  # fmt: skip
         if given:

@@ -112,6 +112,7 @@ def write_export(
     precision: str = "float",
     step: str | None = None,
     title: str = "",
+    u_max: float | None = None,
 ) -> list[Path]:
     """Write the export files into ``outdir``; return their paths.
 
@@ -132,6 +133,8 @@ def write_export(
         For C: also generate the controller step function.
     title : str
         A line describing the export.
+    u_max : float, optional
+        For a C ``step="ss"``: clamp the output at ``+-u_max`` with anti-windup.
 
     Returns
     -------
@@ -147,7 +150,7 @@ def write_export(
     outdir = Path(outdir)
     outdir.mkdir(parents=True, exist_ok=True)
     if file_format == "c":
-        header, source = c_files(tables, module, precision, step=step, title=title)
+        header, source = c_files(tables, module, precision, step=step, title=title, u_max=u_max)
         return [
             write_atomic(outdir / f"{module}.h", header),
             write_atomic(outdir / f"{module}.c", source),

@@ -36,7 +36,7 @@ import numpy as np
 from servokit.errors import ServokitValueError, check_positive
 from servokit.models.modal import ModalPlant
 
-__all__ = ["Actuator", "SaturatedResult", "simulate_saturated"]
+__all__ = ["Actuator", "SaturatedResult", "antiwindup_gain", "simulate_saturated"]
 
 
 @dataclass(frozen=True)
@@ -117,30 +117,56 @@ def _plant_matrices(plants: Sequence[ModalPlant], dt: float):
 def _controller(controller: Any, dt: float, act: Actuator):
     """``(Ac, Bc, Cc, Dc, L)`` of the controller; ``L`` the anti-windup gain (zeros if off)."""
     import control
-    from scipy.signal import place_poles
 
     ss = control.ss(controller)
     if ss.dt is None or ss.dt == 0 or not np.isclose(ss.dt, dt, rtol=1e-9):
         raise ServokitValueError(f"controller must be discrete with dt = {dt:g} s")
     Ac, Bc = np.asarray(ss.A), np.asarray(ss.B)[:, 0]
     Cc, Dc = np.asarray(ss.C)[0], float(np.asarray(ss.D)[0, 0])
+    if not act.anti_windup or Ac.shape[0] == 0:
+        return Ac, Bc, Cc, Dc, np.zeros(Ac.shape[0])
+    return Ac, Bc, Cc, Dc, antiwindup_gain(Ac, Cc, act.observer_poles)
+
+
+def antiwindup_gain(
+    Ac: np.ndarray, Cc: np.ndarray, poles: Sequence[float] | None = None
+) -> np.ndarray:
+    """Observer anti-windup gain ``L``: ``x <- A x + B e + L (u_applied - y)``.
+
+    While unsaturated ``u_applied = y`` and the controller is unchanged; while saturated
+    its state evolves with ``A - L C``, whose poles are ``poles`` (module docstring).
+
+    Parameters
+    ----------
+    Ac : numpy.ndarray
+        Controller state matrix, ``(nc, nc)``.
+    Cc : numpy.ndarray
+        Controller output row, ``(nc,)``.
+    poles : sequence of float, optional
+        Poles of ``A - L C`` (distinct, inside the unit circle); default evenly spaced in
+        [0.3, 0.5].
+
+    Returns
+    -------
+    numpy.ndarray
+        ``L``, shape ``(nc,)``.
+    """
+    from scipy.signal import place_poles
+
     nc = Ac.shape[0]
-    if not act.anti_windup or nc == 0:
-        return Ac, Bc, Cc, Dc, np.zeros(nc)
-    poles = np.linspace(0.3, 0.5, nc) if act.observer_poles is None else act.observer_poles
+    poles = np.linspace(0.3, 0.5, nc) if poles is None else poles
     poles = np.asarray(poles, dtype=float)
     if poles.size != nc or np.any(np.abs(poles) >= 1) or np.unique(poles).size != nc:
         raise ServokitValueError(
             f"observer_poles must be {nc} distinct values inside the unit circle"
         )
     try:
-        L = place_poles(Ac.T, Cc[:, None], poles).gain_matrix.T[:, 0]
+        return place_poles(Ac.T, np.asarray(Cc).reshape(-1, 1), poles).gain_matrix.T[:, 0]
     except (ValueError, np.linalg.LinAlgError):
         raise ServokitValueError(
             "anti_windup: the controller realisation is not observable from its output; "
             "pass a minimal controller or switch anti_windup off"
         ) from None
-    return Ac, Bc, Cc, Dc, L
 
 
 def _limit(v: np.ndarray, u_prev: np.ndarray, act: Actuator) -> np.ndarray:
