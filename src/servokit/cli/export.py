@@ -55,8 +55,7 @@ def _finish(tables: list, out: Path, name: str, fmt: str, precision: str, step: 
     from servokit.export import FORMATS, quantize, write_export
 
     paths = write_export(
-        tables, out, name, file_format=fmt, precision=precision, step=step, title=title,
-        u_max=u_max,
+        tables, out, name, file_format=fmt, precision=precision, step=step, title=title, u_max=u_max
     )
     for p in paths:
         wrote(p)
@@ -131,8 +130,10 @@ def controller_cmd(
     out: OutOpt = "firmware",
     name: NameOpt = "ctrl",
     u_max: float | None = typer.Option(
-        None, "--u-max", help="output saturation |u| <= u_max [controller output] (float/double:"
-        " clamped ss step with anti-windup)"
+        None,
+        "--u-max",
+        help="output saturation |u| <= u_max [controller output] (float/double:"
+        " clamped ss step with anti-windup)",
     ),
     input_max: float = typer.Option(
         1.0, "--input-max", help="fixed point: declared input range |e| <= e_max [input unit]"

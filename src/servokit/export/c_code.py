@@ -171,7 +171,10 @@ void {t}_reset({t}_state_t *s)
 
 
 def _steps(
-    module: str, tables: Sequence[FirmwareTable], step: str | None, fmt: str,
+    module: str,
+    tables: Sequence[FirmwareTable],
+    step: str | None,
+    fmt: str,
     u_max: float | None = None,
 ) -> tuple[str, str]:
     if step is None:
