@@ -244,6 +244,11 @@ CASES: list[tuple[list[str], str]] = [
     (["sweep", "--method", "robust"], "--u-max"),
     (["sweep", "--method", "robust", "--u-max", "0"], "--u-max"),
     (["sweep", "--method", "robust", "--u-max", "nan"], "--u-max"),
+    (["sweep", "--method", "fsc", "--u-max", "0"], "--u-max"),  # clip of any design
+    (["sweep", "--method", "fsc", "--u-max", "-1"], "--u-max"),
+    (["sweep", "--slew-max", "0"], "--slew-max"),
+    (["sweep", "--slew-max", "nan"], "--slew-max"),
+    (["sweep", "--slew-max", "abc"], "--slew-max"),
     (["sweep", "--chunk-size", "0"], "--chunk-size"),
     (["sweep", "--chunk-size", HUGE], "--chunk-size"),
     (["sweep", "--workers", "0"], "--workers"),

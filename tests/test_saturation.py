@@ -110,3 +110,25 @@ def test_bad_arguments():
             reference=[1.0],
             actuator=Actuator(u_max=1.0),
         )
+
+
+@settings(max_examples=40, deadline=None)
+@given(
+    u=st.lists(st.floats(-5, 5), min_size=1, max_size=40),
+    u_max=st.floats(0.1, 6),
+    slew=st.one_of(st.none(), st.floats(0.05, 3)),
+)
+def test_limit_input_holds_the_limits_from_rest_to_rest(u, u_max, slew):
+    from servokit.simulate.saturation import limit_input
+
+    applied, n = limit_input(np.array(u), Actuator(u_max, slew, anti_windup=False))
+    assert applied.size >= len(u) and np.all(np.abs(applied) <= u_max)
+    if slew is not None:  # at rest before and after: zeros padded on both ends
+        steps = np.diff(np.concatenate([[0.0], applied, [0.0]]))
+        assert np.all(np.abs(steps) <= slew * (1 + 1e-12))
+    else:  # amplitude only: a plain clip, its changed samples counted independently
+        np.testing.assert_array_equal(applied, np.clip(u, -u_max, u_max))
+        assert n == int(np.sum(np.abs(np.array(u)) > u_max))
+    loose = limit_input(np.array(u), Actuator(10.0, None if slew is None else 20.0))
+    np.testing.assert_array_equal(loose[0], u)
+    assert loose[1] == 0

@@ -171,3 +171,31 @@ def test_cli_on_a_dask_scheduler_with_worker_processes(monkeypatch, capsys):
     assert on_dask["backend"] == "dask" and in_proc["backend"] == "numpy"
     assert on_dask["percentiles_s"] == in_proc["percentiles_s"]
     assert on_dask["worst_index"] == in_proc["worst_index"]
+
+
+def test_cli_u_max_clips_the_held_input(monkeypatch, capsys, tmp_path: Path):
+    """--u-max above the peak changes nothing; below it the sweep runs the clipped input."""
+    design = tmp_path / "d.json"
+    design.write_text(json.dumps({"input": FF.u.tolist(), "dt": FF.dt}))
+    peak = float(np.abs(FF.u).max())
+    runs = {}
+    for lim in (None, 2 * peak, 0.5 * peak):
+        extra = () if lim is None else ("--u-max", repr(lim))
+        code, out, err = _cli(
+            monkeypatch, capsys, "--design", str(design), "--n-variants", "50", "--json", *extra
+        )
+        assert code == 0, err
+        runs[lim] = json.loads(out)
+    assert runs[2 * peak]["percentiles_s"] == runs[None]["percentiles_s"]
+    assert runs[2 * peak]["design"]["n_clipped"] == 0
+    clipped = runs[0.5 * peak]["design"]
+    assert clipped["n_clipped"] == int(np.sum(np.abs(FF.u) > 0.5 * peak)) > 0
+    assert clipped["peak_input"] == 0.5 * peak
+    direct = seek_time(
+        VSET.monte_carlo(50, seed=0),
+        dataclasses.replace(FF, u=np.clip(FF.u, -0.5 * peak, 0.5 * peak)),
+        1.0,
+        band=0.1,
+    )
+    assert runs[0.5 * peak]["n_unsettled"] == int(np.sum(~np.isfinite(direct))) == 50
+    # (an open-loop seek cannot land with half its peak current: every plant is unsettled)

@@ -147,6 +147,29 @@ def _client(scheduler: str | None, workers: int | None) -> Any:
     return connect_dask(scheduler, None if workers is None else check_count("--workers", workers))
 
 
+def _actuator(u_max: float | None, slew_max: float | None) -> Any:
+    """The checked --u-max/--slew-max limits, or None without either."""
+    from servokit.simulate.saturation import Actuator
+
+    if u_max is None and slew_max is None:
+        return None
+    if u_max is not None:
+        check_positive("--u-max", u_max)
+    if slew_max is not None:
+        check_positive("--slew-max", slew_max)
+    return Actuator(np.inf if u_max is None else u_max, slew_max, anti_windup=False)
+
+
+def _applied(d: _Design, actuator: Any) -> tuple[_Design, int]:
+    """The design's input as the actuator applies it, and the count of changed samples."""
+    from servokit.simulate.saturation import limit_input
+
+    if actuator is None:
+        return d, 0
+    u, n_clipped = limit_input(d.u, actuator)
+    return (_Design(u, d.dt, f"{d.source}, limited") if n_clipped else d), n_clipped
+
+
 @app.command(
     "sweep",
     epilog=example(
@@ -179,7 +202,18 @@ def sweep_cmd(
         typer.Option("--n-samples", help="step number N of the design [count] (default: searched)"),
     ] = None,
     u_max: Annotated[
-        float | None, typer.Option("--u-max", help="robust design: input limit [A]")
+        float | None,
+        typer.Option(
+            "--u-max",
+            help="actuator input limit [plant input unit]: the robust design respects it; "
+            "any other design is clipped at it before the sweep",
+        ),
+    ] = None,
+    slew_max: Annotated[
+        float | None,
+        typer.Option(
+            "--slew-max", help="actuator slew limit |u[k] - u[k-1]| [plant input unit per sample]"
+        ),
     ] = None,
     settle_band: Annotated[
         float, typer.Option("--settle-band", help="settling band half-width [track]")
@@ -234,10 +268,14 @@ def sweep_cmd(
 
     --variations FILE draws the plants from a variation file instead of the Table 2.3 box.
 
-    JSON keys: n_variants, seed, variations, backend, chunk_size, chunk_memory_mb (estimate), design
-    {source, n_samples, dt_s, peak_input}, target, settle_band, mean_s, percentiles_s {p50,
-    p90, p99, p99_9, p100}, worst_index, worst_seek_time_s, worst_plant {modes, gain},
-    n_unsettled, elapsed_s, plot.
+    --u-max / --slew-max: the held input is clipped (then rate-limited) as the actuator
+    would apply it, and the sweep runs on the applied input; design.n_clipped counts the
+    samples changed.
+
+    JSON keys: n_variants, seed, variations, backend, chunk_size, chunk_memory_mb (estimate),
+    design {source, n_samples, dt_s, peak_input, u_max, slew_max, n_clipped}, target,
+    settle_band, mean_s, percentiles_s {p50, p90, p99, p99_9, p100}, worst_index,
+    worst_seek_time_s, worst_plant {modes, gain}, n_unsettled, elapsed_s, plot.
     """
     from servokit.models import hdd_benchmark_variation_set, without_delay
     from servokit.seek.sweep import plan_chunks, sweep_seek_times
@@ -251,6 +289,7 @@ def sweep_cmd(
         raise ServokitValueError("--target must be non-zero (a seek distance)")
     if design is None:
         _check_design_args(method, n_samples, u_max, max_memory_mb)
+    actuator = _actuator(u_max, slew_max)
     if seed is not None and seed < 0:
         raise ServokitValueError(f"--seed must be >= 0 (got {seed})")
     if variations is not None:
@@ -272,6 +311,7 @@ def sweep_cmd(
         if design is not None
         else _from_method(method, tracks, n_samples, u_max, band, delay)
     )
+    d, n_clipped = _applied(d, actuator)
     chunks = f"--n-variants {n}, --chunk-size {chunk_size if chunk_size else 'auto'}: "
     with flag_names({}, prefix=chunks):  # refuse early, naming the flags that set the size
         plan_chunks(vset, d, n, chunk_size=chunk_size, max_memory_mb=max_memory_mb)
@@ -318,6 +358,9 @@ def sweep_cmd(
             "n_samples": int(d.u.size),
             "dt_s": d.dt,
             "peak_input": float(np.abs(d.u).max()),
+            "u_max": u_max,
+            "slew_max": slew_max,
+            "n_clipped": n_clipped,
         },
         "target": tracks,
         "settle_band": band,
@@ -338,4 +381,5 @@ def sweep_cmd(
         f"{res.chunk_mb:.0f} MB each) in {elapsed:.1f} s; seek time p50 {pct['p50'] * 1e3:.4f} "
         f"ms, p99 {pct['p99'] * 1e3:.4f} ms, worst {data['worst_seek_time_s'] * 1e3:.4f} ms "
         f"(plant {res.worst_index}); {res.n_unsettled} unsettled"
+        + (f"; input limited at {n_clipped} sample(s)" if actuator is not None else "")
     )

@@ -36,7 +36,7 @@ import numpy as np
 from servokit.errors import ServokitValueError, check_positive
 from servokit.models.modal import ModalPlant
 
-__all__ = ["Actuator", "SaturatedResult", "antiwindup_gain", "simulate_saturated"]
+__all__ = ["Actuator", "SaturatedResult", "antiwindup_gain", "limit_input", "simulate_saturated"]
 
 
 @dataclass(frozen=True)
@@ -248,3 +248,38 @@ def _padded(values: Any, K: int, *, hold: bool) -> np.ndarray:
     if a.size >= K:
         return a[:K]
     return np.concatenate([a, np.full(K - a.size, a[-1] if hold else 0.0)])
+
+
+def limit_input(u: np.ndarray, actuator: Actuator) -> tuple[np.ndarray, int]:
+    """An open-loop held input as the actuator applies it (amplitude, then slew limit).
+
+    The input is at rest (zero) before the first sample and returns to zero after the
+    last; a slew limit may need extra samples to get there, which are appended.
+
+    Parameters
+    ----------
+    u : numpy.ndarray
+        Demanded held input ``u[k]``, shape ``(N,)``.
+    actuator : Actuator
+        The limits (``anti_windup`` is irrelevant: there is no controller).
+
+    Returns
+    -------
+    applied : numpy.ndarray
+        The applied input, shape ``(N + extra,)``.
+    n_limited : int
+        Samples where the applied input differs from the demand.
+    """
+    u = np.asarray(u, dtype=float).ravel()
+    extra = 0
+    if actuator.slew_max is not None:  # from +-peak back to zero at the slew rate
+        peak = min(float(np.max(np.abs(u), initial=0.0)), actuator.u_max)
+        extra = int(np.ceil(2 * peak / actuator.slew_max)) + 1
+    demand = np.concatenate([u, np.zeros(extra)])
+    applied, prev = np.empty_like(demand), np.zeros(1)
+    for k, v in enumerate(demand):
+        prev = _limit(np.array([v]), prev, actuator)
+        applied[k] = prev[0]
+    n_limited = int(np.sum(applied != demand))
+    last = max(u.size, int(np.flatnonzero(applied)[-1]) + 1 if applied.any() else 0)
+    return applied[:last], n_limited
