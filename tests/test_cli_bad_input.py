@@ -509,6 +509,12 @@ CASES: list[tuple[list[str], str]] = [
     (["pes", "--plot", "RO/fig.png"], "--plot"),
     # ---- export
     ([*XFF, "--design", "3"], "--design"),
+    ([*XFF, "--design-json", "missing.json"], "--design-json"),
+    ([*XFF, "--design-json", "DIR"], "--design-json"),
+    ([*XFF, "--design-json", "GARBAGE.toml"], "--design-json"),
+    ([*XFF, "--design-json", "EMPTY.txt"], "--design-json"),
+    ([*XFF, "--design-json", "BAD.json"], "--design-json"),
+    ([*XFF, "--design-json", "BAD.json", "--n-samples", "5"], "--n-samples"),
     ([*XFF, "--design", "abc"], "--design"),
     ([*XFF, "--target", "nan"], "--target"),
     ([*XFF, "--target", "0"], "--target"),

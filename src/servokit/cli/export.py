@@ -82,7 +82,11 @@ def _finish(tables: list, out: Path, name: str, fmt: str, precision: str, step: 
 
 @export_app.command(
     "feedforward",
-    epilog=example("servokit export feedforward --design 2 --target 10 --format c --out fw"),
+    epilog=example(
+        "servokit export feedforward --design 2 --target 10 --format c --out fw",
+        "servokit seek --plant p.toml --variations box.toml --json > s.json; "
+        "servokit export feedforward --design-json s.json --out fw",
+    ),
 )
 def feedforward_cmd(
     design: int = typer.Option(2, "--design", help="1: FSC (2.40)-(2.42); 2: FFSC, Table 2.4"),
@@ -90,24 +94,42 @@ def feedforward_cmd(
     n_samples: int | None = typer.Option(
         None, "--n-samples", help="steps N (default: the book's N for 1 or 10 tracks)"
     ),
+    design_json: Path | None = typer.Option(
+        None,
+        "--design-json",
+        help="export this `servokit seek --json` output (input, dt_s) instead of a book design",
+        metavar="FILE",
+    ),
     fmt: FormatOpt = "c",
     precision: PrecisionOpt = "float",
     out: OutOpt = "firmware",
     name: NameOpt = "hdd_ff",
     json_out: JsonOpt = False,
 ) -> None:
-    """HDD benchmark feedforward table u_c[0..N-1] held at Ts = 37.879 us (book §2.4).
+    """HDD benchmark feedforward table u_c[0..N-1] held at Ts = 37.879 us (book §2.4),
+    or any seek input designed by `servokit seek` (--design-json FILE: e.g. your plant
+    over your variation box, `seek --plant P --variations V --json`).
 
     JSON keys: files, precision, tables (table, shape, scale, error_bound, max_error).
     """
+    from servokit.errors import ServokitValueError
     from servokit.export import feedforward_tables
-    from servokit.export.designs import hdd_feedforward
+    from servokit.export.designs import hdd_feedforward, read_seek_json
 
     out_dir = _check_common(out, name, fmt, precision)
-    ff = hdd_feedforward(design, target, n_samples)
-    tables = feedforward_tables(ff.u, ff.dt, name="u")
-    title = f"HDD benchmark Design {design}, {target:g} track(s), N = {ff.N} (book §2.4.2)"
-    _finish(tables, out_dir, name, fmt, precision, None, title, json_out)
+    if design_json is not None:
+        book = [f for f, v, d in (("--design", design, 2), ("--target", target, 10.0),
+                ("--n-samples", n_samples, None)) if v != d]  # fmt: skip
+        if book:
+            raise ServokitValueError(f"{book[0]}: picks a book design; not with --design-json")
+        u, dt = read_seek_json(design_json, "--design-json")
+        title = f"seek input of {design_json.name}, N = {u.size}, dt = {dt:.9g} s"
+    else:
+        ff = hdd_feedforward(design, target, n_samples)
+        u, dt = ff.u, ff.dt
+        title = f"HDD benchmark Design {design}, {target:g} track(s), N = {ff.N} (book §2.4.2)"
+    _finish(feedforward_tables(u, dt, name="u"), out_dir, name, fmt, precision, None, title,
+            json_out)  # fmt: skip
 
 
 @export_app.command(

@@ -4,7 +4,6 @@ Monte-Carlo variation set (Table 2.3 ranges), in bounded memory, in-process or o
 from __future__ import annotations
 
 import dataclasses
-import json
 import time
 from pathlib import Path
 from typing import Annotated, Any
@@ -45,22 +44,10 @@ class _Design:
 
 def _from_file(path: Path) -> _Design:
     """Held samples from a ``servokit seek --json`` output (``input`` and ``dt_s``/``dt``)."""
-    try:
-        data = json.loads(Path(path).read_text())
-        u = np.asarray(data["input"], dtype=float)
-        dt = float(data.get("dt_s", data.get("dt")))
-    except FileNotFoundError:
-        raise ServokitValueError(f"--design {path}: no such file") from None
-    except IsADirectoryError:
-        raise ServokitValueError(f"--design {path} is a directory; give a JSON file") from None
-    except (ValueError, KeyError, TypeError, AttributeError):
-        raise ServokitValueError(
-            f"--design {path}: expected the JSON of `servokit seek --json` (keys 'input' and "
-            "'dt_s')"
-        ) from None
-    if u.ndim != 1 or u.size == 0 or not np.all(np.isfinite(u)):
-        raise ServokitValueError(f"--design {path}: 'input' must be a non-empty list of numbers")
-    return _Design(u, check_positive("--design dt_s", dt, "s"), str(path))
+    from servokit.export.designs import read_seek_json
+
+    u, dt = read_seek_json(path, "--design")
+    return _Design(u, dt, str(path))
 
 
 def _from_method(

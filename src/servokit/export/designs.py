@@ -1,7 +1,9 @@
-"""Designs the export knows by name: the book's HDD feedforward inputs and IVC gains."""
+"""Designs the export knows: the book's HDD feedforward inputs and IVC gains, and a
+user's seek input from ``servokit seek --json``."""
 
 from __future__ import annotations
 
+from pathlib import Path
 from typing import TYPE_CHECKING
 
 import numpy as np
@@ -11,7 +13,43 @@ from servokit.errors import ServokitValueError, check_count, check_positive
 if TYPE_CHECKING:
     from servokit.feedforward import FeedforwardInput
 
-__all__ = ["book_ivc_gain", "hdd_feedforward"]
+__all__ = ["book_ivc_gain", "hdd_feedforward", "read_seek_json"]
+
+
+def read_seek_json(path: str | Path, flag: str) -> tuple[np.ndarray, float]:
+    """Held input samples of a ``servokit seek --json`` output (``input``, ``dt_s``).
+
+    Parameters
+    ----------
+    path : str or Path
+        The JSON file (``dt`` is accepted for ``dt_s``).
+    flag : str
+        The CLI flag that named the file, for error messages.
+
+    Returns
+    -------
+    u : numpy.ndarray
+        The held input ``u[k]`` [plant input unit], shape ``(N,)``.
+    dt : float
+        Hold period [s].
+    """
+    import json
+
+    try:
+        data = json.loads(Path(path).read_text())
+        u = np.asarray(data["input"], dtype=float)
+        dt = float(data.get("dt_s", data.get("dt")))
+    except FileNotFoundError:
+        raise ServokitValueError(f"{flag} {path}: no such file") from None
+    except IsADirectoryError:
+        raise ServokitValueError(f"{flag} {path} is a directory; give a JSON file") from None
+    except (ValueError, KeyError, TypeError, AttributeError, UnicodeDecodeError):
+        raise ServokitValueError(
+            f"{flag} {path}: expected the JSON of `servokit seek --json` (keys 'input' and 'dt_s')"
+        ) from None
+    if u.ndim != 1 or u.size == 0 or not np.all(np.isfinite(u)):
+        raise ServokitValueError(f"{flag} {path}: 'input' must be a non-empty list of numbers")
+    return u, check_positive(f"{flag} dt_s", dt, "s")
 
 
 def hdd_feedforward(design: int, target: float, n_samples: int | None = None) -> FeedforwardInput:
