@@ -44,7 +44,16 @@ def test_guide_commands_run_and_numbers_hold(tmp_path, monkeypatch, capsys):
     commands = [
         ln[2:] for block in _blocks("console") for ln in block.splitlines() if ln.startswith("$ ")
     ]
-    assert [c.split()[1] for c in commands] == ["fit", "seek", "sweep", "seek", "margins", "report"]
+    assert [c.split()[1] for c in commands] == [
+        "fit",
+        "seek",
+        "sweep",
+        "seek",
+        "margins",
+        "report",
+        "export",
+        "export",
+    ]
     _run(commands[0], monkeypatch, capsys)
     (tmp_path / "fitted" / "box.toml").write_text(_blocks("toml")[0])
     for line in commands[1:]:
@@ -67,6 +76,11 @@ def test_guide_commands_run_and_numbers_hold(tmp_path, monkeypatch, capsys):
     _check_robust_seek(plant)
     html = Path("report.html").read_text(encoding="utf-8")
     assert "Example stage design" in html and "book" not in html.lower()
+    # the exported seek input is the validated one; the controller step clamps at 40 V
+    header = Path("firmware/stage_ff.h").read_text()
+    n = len(json.loads(Path("seek.json").read_text())["input"])
+    assert f"#define STAGE_FF_U_LEN {n}" in header
+    assert "#define STAGE_CTRL_SS_U_MAX 4.0e+01f" in Path("firmware/stage_ctrl.h").read_text()
 
 
 def _check_robust_seek(plant) -> None:
