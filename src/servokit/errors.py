@@ -301,13 +301,7 @@ def check_input_file(path: str | Path, flag: str) -> Path:
     -------
     Path
     """
-    if str(path).strip() == "":
-        raise ServokitValueError(f"{flag} is empty; give a file name")
-    p = Path(path)
-    if p.is_dir():
-        raise ServokitValueError(f"{flag} {path} is a directory; give a file")
-    if not p.is_file():
-        raise ServokitValueError(f"{flag} {path}: no such file")
-    if not os.access(p, os.R_OK):
-        raise ServokitValueError(f"{flag} {path}: not readable (permissions)")
-    return p
+    from servokit._io import check_regular_file
+
+    # a FIFO, device or /dev/zero symlink is refused before it is opened; size is capped
+    return check_regular_file(path, flag)

@@ -7,9 +7,13 @@ mistakes into one line on stderr with exit status 2.
 
 from __future__ import annotations
 
+import contextlib
 import json
+import os
 import re
+import signal
 import sys
+import threading
 import warnings
 from collections.abc import Iterator, Mapping
 from contextlib import contextmanager
@@ -53,6 +57,7 @@ app = typer.Typer(
     pretty_exceptions_enable=False,
     # units are written "[s]"; rich markup would eat them (and strike the rest through)
     rich_markup_mode=None,
+    context_settings={"help_option_names": ["-h", "--help"]},
 )
 # piped output (make demo into a log) keeps the book-vs-servokit tables on one line each
 console = Console(width=None if sys.stdout.isatty() else 120)
@@ -168,26 +173,35 @@ def progress(total: int, description: str, *, enabled: bool = True) -> Iterator[
         yield lambda n=1: bar.advance(task, n)
 
 
-def load_plant(value: str, flag: str = "--plant") -> Any:
-    """A catalogue plant or plant file named on the command line; errors name ``flag``."""
+def _check_named_file(value: str, flag: str, kind: str) -> None:
+    """Refuse an empty name; check a file argument before the library reads it.
+
+    A name that is a path (exists, or ends ``.toml``/``.json``) must be a regular text file
+    of bounded size, encoding and nesting (:func:`servokit._io.read_input_text`), so a FIFO,
+    a device or a 1000-deep file fails here with one line naming ``flag`` and the file.
+    """
+    from servokit._io import read_input_text
     from servokit.errors import ServokitValueError
 
     if value.strip() in ("", "."):
-        raise ServokitValueError(f"{flag} {value!r}: give a catalogue name or a .toml plant file")
+        raise ServokitValueError(f"{flag} {value!r}: give a {kind}")
+    path = Path(value)
+    if os.path.lexists(path) or path.suffix.lower() in (".toml", ".json"):
+        read_input_text(path, flag, plain_utf8=True)  # the model reader decodes UTF-8
+
+
+def load_plant(value: str, flag: str = "--plant") -> Any:
+    """A catalogue plant or plant file named on the command line; errors name ``flag``."""
+    _check_named_file(value, flag, "catalogue name or a .toml plant file")
     from servokit.models import get_plant
 
-    if Path(value).is_dir():
-        raise ServokitValueError(f"{flag} {value} is a directory; give a .toml plant file")
     with flag_names({}, prefix=f"{flag}: "):
         return get_plant(value)
 
 
 def load_controller(value: str, dt: float | None = None, flag: str = "--controller") -> Any:
     """A book controller or controller file named on the command line; errors name ``flag``."""
-    from servokit.errors import ServokitValueError
-
-    if value.strip() in ("", ".") or Path(value).is_dir():
-        raise ServokitValueError(f"{flag} {value!r}: give a book name or a .toml controller file")
+    _check_named_file(value, flag, "book name or a .toml controller file")
     from servokit.models import get_discrete_controller
 
     with flag_names({}, prefix=f"{flag}: "):
@@ -262,8 +276,101 @@ def _usage_errors() -> tuple[type[BaseException], ...]:
     return tuple(found)
 
 
+#: Exit status of an interrupted run (128 + SIGINT), as a shell reports Ctrl-C.
+EXIT_INTERRUPTED = 130
+#: Seconds an interrupted run may spend unwinding (closing a Dask cluster, removing a
+#: staging directory) before the process is ended outright.
+INTERRUPT_GRACE_S = 0.5
+_announced = threading.Lock()
+
+
+def announce_interrupt() -> None:
+    """Print the one interrupt line (once per process, whoever notices the interrupt first)
+    and ignore further Ctrl-C so the unwinding is not cut short."""
+    with contextlib.suppress(ValueError):  # not on the main thread: already ignored
+        signal.signal(signal.SIGINT, signal.SIG_IGN)
+    if _announced.acquire(blocking=False):
+        sys.stderr.write("servokit: interrupted\n")
+        sys.stderr.flush()
+
+
+def _kill_children() -> None:
+    """SIGKILL the worker processes this process started (a local Dask cluster) and the
+    multiprocessing resource tracker, so none outlives the run or prints after it."""
+    import multiprocessing
+    from multiprocessing import resource_tracker
+
+    for child in multiprocessing.active_children():
+        with contextlib.suppress(OSError, ValueError):
+            child.kill()
+    pid = getattr(getattr(resource_tracker, "_resource_tracker", None), "_pid", None)
+    if pid:
+        with contextlib.suppress(OSError):
+            os.kill(pid, signal.SIGKILL)
+
+
+def _interrupted_exit() -> None:
+    """End the process now as interrupted (no cleanup, no traceback)."""
+    try:
+        announce_interrupt()
+        _kill_children()
+    finally:
+        os._exit(EXIT_INTERRUPTED)
+
+
+@contextmanager
+def quiet_children() -> Iterator[None]:
+    """Start worker processes (a local Dask cluster) that ignore Ctrl-C and log only errors.
+
+    Ctrl-C in a terminal reaches the whole process group; the workers must leave the
+    interrupt to this process (which closes them) instead of each printing a traceback.
+    An ignored SIGINT is inherited by the children across ``exec``.
+    """
+    on_main = threading.current_thread() is threading.main_thread()
+    before = signal.getsignal(signal.SIGINT) if on_main else None
+    os.environ.setdefault("DASK_LOGGING__DISTRIBUTED", "error")
+    try:
+        import dask
+
+        dask.config.refresh()
+    except ImportError:
+        pass
+    if on_main:
+        signal.signal(signal.SIGINT, signal.SIG_IGN)
+    try:
+        yield
+    finally:
+        if on_main:
+            signal.signal(signal.SIGINT, before)
+
+
+def _on_sigint(signum: int, frame: Any) -> None:
+    """First Ctrl-C: unwind through ``KeyboardInterrupt``; a watchdog ends the process if the
+    unwinding (or a swallowed interrupt) takes longer than :data:`INTERRUPT_GRACE_S`."""
+    signal.signal(signal.SIGINT, signal.SIG_IGN)  # a second Ctrl-C must not cut the cleanup
+    timer = threading.Timer(INTERRUPT_GRACE_S, _interrupted_exit)
+    timer.daemon = True
+    timer.start()
+    raise KeyboardInterrupt
+
+
+def _unraisable(info: Any) -> None:
+    """A ``KeyboardInterrupt`` raised inside a weakref callback or ``__del__`` is swallowed
+    by Python (printed as "Exception ignored"); end the run as interrupted instead."""
+    if isinstance(info.exc_value, KeyboardInterrupt):
+        _interrupted_exit()
+    sys.__unraisablehook__(info)
+
+
+def _install_interrupt_handling() -> None:
+    if threading.current_thread() is threading.main_thread():
+        signal.signal(signal.SIGINT, _on_sigint)
+    sys.unraisablehook = _unraisable
+
+
 def main() -> None:
     """Entry point of the ``servokit`` command."""
+    _install_interrupt_handling()
     from servokit.cli import _discover
 
     _discover()
@@ -275,22 +382,44 @@ def main() -> None:
     if code == 0:
         for w in caught:
             warn(str(w.message).splitlines()[0])
+    sys.stdout.flush()
     sys.exit(code)
+
+
+def _memory_message(argv: list[str]) -> str:
+    flag = "--max-memory-mb"
+    has = any(a == flag or a.startswith(flag + "=") for a in argv)
+    return (
+        "the request needs more memory than this machine (or the limit) allows; reduce the "
+        + ("sizes or lower the request" if has else f"sizes (the limit is {flag})")
+    )
 
 
 def _run(usage: tuple[type[BaseException], ...]) -> int:
     """Run the app; return the exit status (errors printed as one line)."""
     try:
-        app(standalone_mode=False)
+        # typer returns (not raises) the status of typer.Exit, and turns Ctrl-C into 130
+        code = app(standalone_mode=False)
+        code = code if isinstance(code, int) else 0
+        if code == EXIT_INTERRUPTED:
+            announce_interrupt()
+        return code
     except typer.Exit as exc:
         return int(exc.exit_code or 0)
-    except typer.Abort:
-        return 1
+    except (KeyboardInterrupt, typer.Abort):
+        announce_interrupt()
+        return EXIT_INTERRUPTED
     except OSError as exc:
-        where = f"{exc.filename}: " if exc.filename is not None else ""
-        typer.echo(f"servokit: error: {where}{exc.strerror or exc}", err=True)
+        typer.echo(f"servokit: error: {os_error_message(exc)}", err=True)
         return 2
-    except (ServokitError, ValueError, TypeError, OverflowError, MemoryError) as exc:
+    except RecursionError:
+        typer.echo("servokit: error: input nested too deeply to process", err=True)
+        return 2
+    except MemoryError:
+        typer.echo(f"servokit: error: {_memory_message(sys.argv[1:])}", err=True)
+        return 2
+    except (ServokitError, ValueError, TypeError, OverflowError, ZeroDivisionError,
+            FloatingPointError, np.linalg.LinAlgError) as exc:  # fmt: skip
         msg = str(exc).splitlines()[0] if str(exc) else type(exc).__name__
         typer.echo(f"servokit: error: {msg}", err=True)
         return 2
@@ -303,4 +432,14 @@ def _run(usage: tuple[type[BaseException], ...]) -> int:
             f"servokit: error: {text.strip().splitlines()[0] if text.strip() else exc}", err=True
         )
         return 2
-    return 0
+
+
+def os_error_message(exc: OSError) -> str:
+    """One line for a filesystem error, always naming the path (ENOSPC included)."""
+    import errno
+
+    where = exc.filename if exc.filename is not None else getattr(exc, "servokit_path", None)
+    text = exc.strerror or str(exc)
+    if exc.errno == errno.ENOSPC:
+        text += "; free space or choose another --out"
+    return f"{where}: {text}" if where else text

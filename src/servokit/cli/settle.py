@@ -42,14 +42,16 @@ BandOpt = Annotated[
 
 def _load(path: Path):
     """The judge file named by ``--judge``; every error names the flag."""
+    from servokit._io import check_regular_file
     from servokit.learn import SettlingJudge
 
     if path.is_dir():
         raise ServokitValueError(f"--judge {path} is a directory; give a .skops judge file")
-    if not path.is_file():
+    if not os.path.lexists(path):
         raise ServokitValueError(
             f"--judge {path} does not exist; run 'servokit settle train' first"
         )
+    check_regular_file(path, "--judge")
     try:
         return SettlingJudge.load(path)
     except ServokitError as exc:
@@ -69,6 +71,8 @@ def _check_out_file(out: Path) -> Path:
     parent = out.parent if str(out.parent) else Path(".")
     if not parent.is_dir():
         raise ServokitValueError(f"--out {out}: directory {parent} does not exist; create it first")
+    if os.path.lexists(out) and not out.is_file():
+        raise ServokitValueError(f"--out {out} is not a regular file (a pipe or device)")
     target = out if out.exists() else parent
     if not os.access(target, os.W_OK):
         raise ServokitValueError(f"--out {out}: {target} is not writable; choose another path")
@@ -237,6 +241,11 @@ def judge_cmd(
             ) from None
         if table.shape[1] != 7:
             raise ServokitValueError(f"--record {record}: need 7 columns (6 states, output)")
+        bad = np.flatnonzero(~np.all(np.isfinite(table), axis=1))
+        if bad.size:
+            raise ServokitValueError(
+                f"--record {record}: row {bad[0] + 1} holds NaN or inf; give finite samples"
+            )
         states, output, start = table[:, :6], table[:, 6], 0
     else:
         (r,) = _simulate([(target, n_samples)], "simulating")

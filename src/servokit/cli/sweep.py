@@ -24,6 +24,7 @@ from servokit.cli._app import (
     flag_names,
     plot_target,
     progress,
+    quiet_children,
     wrote,
 )
 from servokit.errors import (
@@ -44,8 +45,11 @@ class _Design:
 
 def _from_file(path: Path) -> _Design:
     """Held samples from a ``servokit seek --json`` output (``input`` and ``dt_s``/``dt``)."""
+    from servokit._io import read_input_text
+
+    text = read_input_text(path, "--design")  # regular file, size, encoding, nesting
     try:
-        data = json.loads(Path(path).read_text())
+        data = json.loads(text)
         u = np.asarray(data["input"], dtype=float)
         dt = float(data.get("dt_s", data.get("dt")))
     except FileNotFoundError:
@@ -159,7 +163,10 @@ def _client(scheduler: str | None, workers: int | None) -> Any:
         return None
     if scheduler is not None and workers is not None:
         raise ServokitValueError("give --scheduler ADDRESS or --workers N, not both")
-    return connect_dask(scheduler, None if workers is None else check_count("--workers", workers))
+    with quiet_children():
+        return connect_dask(
+            scheduler, None if workers is None else check_count("--workers", workers)
+        )
 
 
 @app.command(
