@@ -95,6 +95,59 @@ PlantOpt = Annotated[
 ]
 
 
+def _numeric_kind(param: Any) -> type | None:
+    """``float`` or ``int`` if the option's annotation is that number (or ``| None``)."""
+    import typing
+
+    ann = getattr(getattr(param, "type_descriptor", None), "annotation", None)
+    kinds = set(typing.get_args(ann) or (ann,)) - {type(None)}
+    return kinds.pop() if len(kinds) == 1 and kinds <= {int, float} else None
+
+
+def _physical_mb() -> float:
+    """Physical memory of this machine [MB] (a ``--max-memory-mb`` above it is refused)."""
+    try:
+        return os.sysconf("SC_PHYS_PAGES") * os.sysconf("SC_PAGE_SIZE") / 1e6
+    except (ValueError, OSError, AttributeError):
+        return float("inf")
+
+
+def _finite_callback(original: Any) -> Any:
+    """Wrap an option callback: refuse NaN and +-inf for a number flag, naming it."""
+
+    def check(ctx: Any, param: Any, value: Any) -> Any:
+        values = value if isinstance(value, list | tuple) else (value,)
+        for v in values:
+            if isinstance(v, float) and not np.isfinite(v):
+                raise typer.BadParameter(f"must be a finite number (got {v})")
+            if param.name == "max_memory_mb" and v is not None and v > _physical_mb():
+                raise typer.BadParameter(
+                    f"{v:g} MB is more than this machine's {_physical_mb():.0f} MB of memory"
+                )
+        return original(ctx, param, value) if original is not None else value
+
+    return check
+
+
+def build_command() -> Any:
+    """The click command tree of :data:`app`, every number flag refusing NaN and inf.
+
+    One rule for every command, present and future (docs/CONVENTIONS.md): a flag that
+    takes a number takes a finite one; a command needing "no limit" offers a switch.
+    """
+    import typer.main
+
+    root = typer.main.get_command(app)
+    stack = [root]
+    while stack:
+        cmd = stack.pop()
+        stack += list(getattr(cmd, "commands", {}).values())
+        for param in cmd.params:
+            if _numeric_kind(param) is float:
+                param.callback = _finite_callback(param.callback)
+    return root
+
+
 def _print_version(value: bool) -> None:
     if value:
         from importlib.metadata import PackageNotFoundError, version
@@ -399,7 +452,7 @@ def _run(usage: tuple[type[BaseException], ...]) -> int:
     """Run the app; return the exit status (errors printed as one line)."""
     try:
         # typer returns (not raises) the status of typer.Exit, and turns Ctrl-C into 130
-        code = app(standalone_mode=False)
+        code = build_command().main(prog_name="servokit", standalone_mode=False)
         code = code if isinstance(code, int) else 0
         if code == EXIT_INTERRUPTED:
             announce_interrupt()

@@ -320,6 +320,13 @@ def margins_cmd(
     p = load_plant(plant)
     ctrl = load_controller(controller)
     dt = float(ctrl.dt)
+    if delay > _MARGINS_MAX_DELAY_SAMPLES * dt:
+        # the phase of e^{-s delay} wraps once per 1/delay Hz: beyond this the grid cannot
+        # resolve a crossing and the search would not end
+        raise ServokitValueError(
+            f"--delay {delay:g} s is more than {_MARGINS_MAX_DELAY_SAMPLES} sampling periods "
+            f"({_MARGINS_MAX_DELAY_SAMPLES * dt:g} s) of the controller; give a smaller delay"
+        )
     loop: list[Any] = [p.discretize(dt), ctrl]
     for spec in filters or []:
         tf, f0 = parse_filter(spec)
@@ -349,6 +356,7 @@ def margins_cmd(
 
 
 #: Largest --n-freq of ``margins`` (the library's limit).
+_MARGINS_MAX_DELAY_SAMPLES = 1000
 _MARGINS_MAX_FREQ = 10_000_000
 
 #: Most excitation frequencies ``identify`` accepts (~40 ms each: about an hour).
