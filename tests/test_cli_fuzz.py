@@ -29,6 +29,11 @@ TIME_LIMIT_S = 30  # in-process, per case: a case still running is a hang
 #: book's case studies for minutes); their flags are fuzzed from an empty base instead.
 _PIPED = (";", ">", "|")
 SAMPLE = 60  # cases in the default suite
+#: extra arguments that make a slow example quick (the fuzzed flag still overrides them)
+QUICK = {
+    "identify": ["--fmin", "20000", "--fmax", "21000", "--freq-step", "500"],
+    "sweep": ["--n-variants", "200"],
+}
 
 
 def _leaf_commands() -> list[tuple[str, click.Command]]:
@@ -91,6 +96,8 @@ def _cases() -> list[tuple[str, list[str], str]]:
         if path == "reproduce":  # runs the book's cases: its flags are not numbers
             continue
         base = _base_args(path, cmd)
+        for i in range(0, len(QUICK.get(path, [])), 2):
+            base = _with(base, *QUICK[path][i : i + 2])
         for param in cmd.params:
             if _numeric(param):
                 flag = max(param.opts, key=len)

@@ -223,6 +223,10 @@ def read_input_text(
     return text
 
 
+#: Staging directories of runs in progress: removed by the CLI's interrupt watchdog too,
+#: when it has to end the process before the unwinding reached :func:`staged_output`.
+ACTIVE_STAGES: set[Path] = set()
+
 _MANIFEST = ".servokit-run.json"
 _LOCK = ".servokit.lock"
 
@@ -311,8 +315,10 @@ def staged_output(out: str | Path, flag: str = "--out") -> Iterator[Path]:
         for stale in out.glob(".staging-*"):  # left by a run that was killed
             shutil.rmtree(stale, ignore_errors=True)
         stage = Path(tempfile.mkdtemp(prefix=".staging-", dir=out))
+        ACTIVE_STAGES.add(stage)
         try:
             yield stage
             _swap_in(stage, out)
         finally:
             shutil.rmtree(stage, ignore_errors=True)
+            ACTIVE_STAGES.discard(stage)

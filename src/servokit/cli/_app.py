@@ -367,8 +367,19 @@ def _interrupted_exit() -> None:
     try:
         announce_interrupt()
         _kill_children()
+        _remove_stages()
     finally:
         os._exit(EXIT_INTERRUPTED)
+
+
+def _remove_stages() -> None:
+    """Remove the staging directories of unfinished output (the previous results stay)."""
+    import shutil
+
+    from servokit._io import ACTIVE_STAGES
+
+    for stage in list(ACTIVE_STAGES):
+        shutil.rmtree(stage, ignore_errors=True)
 
 
 @contextmanager
