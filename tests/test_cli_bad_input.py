@@ -159,6 +159,9 @@ CASES: list[tuple[list[str], str]] = [
     ([*SAMP, "--n-samples", "10000000"], "--n-samples"),
     ([*SAMP, "--fs-min", "10", "--fs-max", "5"], "--fs-min"),
     ([*SAMP, "--fs-min", "nan"], "--fs-min"),
+    ([*SAMP, "--dt-min", "1e-3", "--dt-max", "1e-4"], "--dt-min"),
+    ([*SAMP, "--dt-min", "nan"], "--dt-min"),
+    ([*SAMP, "--dt-max", "-1"], "--dt-max"),
     ([*TIME, "--n-samples-max", "0"], "--n-samples-max"),
     ([*TIME, "--n-samples-max", "10000000"], "--n-samples-max"),
     ([*TIME, "--n-samples-max", "10000"], "--n-samples-max"),
@@ -290,6 +293,9 @@ CASES: list[tuple[list[str], str]] = [
     ([*IDENT, "--fs", "0"], "--fs"),
     ([*IDENT, "--fs", "nan"], "--fs"),
     ([*IDENT, "--fs", "-3e4"], "--fs"),
+    ([*IDENT, "--dt", "0"], "--dt"),
+    ([*IDENT, "--dt", "1e-300"], "--dt"),
+    ([*IDENT, "--dt", "nan"], "--dt"),
     ([*IDENT, "--fmin", "0"], "--fmin"),
     ([*IDENT, "--fmin", "100", "--fmax", "10"], "--fmin"),
     ([*IDENT, "--fmax", "inf"], "--fmax"),
@@ -342,7 +348,27 @@ CASES: list[tuple[list[str], str]] = [
     ([*INV, "--pole-freq", "4775", "--pole-damping", "nan"], "--pole-damping"),
     ([*INV, "--pole-freq", "4775", "--dt", "0"], "--dt"),
     ([*INV, "--pole-freq", "4775", "--plot", "DIR/"], "--plot"),
+    # ---- hostile files as inputs (issue 23): refused before they are opened or parsed
+    *[
+        ([*cmd, flag, f], flag)
+        for cmd, flag in (
+            (["simulate", "--dt", "1e-4", "--duration", "0.01", "--step", "1"], "--plant"),
+            (["margins", "--plant", "hdd-sampled-data"], "--controller"),
+            (["margins", "--controller", "eq-4.69"], "--plant"),
+        )
+        for f in ("FIFO", "FIFO.toml", "ZERO.toml", "DEEP.toml", "LATIN.toml", "UTF16.toml")
+    ],
+    *[
+        (["sweep", "--design", f], "--design")
+        for f in ("FIFO", "FIFO.json", "ZERO.json", "DEEP.json", "BINARY.json")
+    ],
+    (["settle", "judge", "--record", "FIFO.csv"], "--record"),
+    (["settle", "evaluate", "--judge", "FIFO"], "--judge"),
+    (["settle", "train", "--judge", "FIFO"], "--judge"),
     # ---- margins
+    ([*MARG, "--loop-delay", "-1"], "--loop-delay"),
+    ([*MARG, "--loop-delay", "1e300"], "--loop-delay"),
+    ([*MARG, "--delay", "nan"], "--delay"),
     (["margins", "--plant", "no-such", "--controller", "eq-4.69"], "--plant"),
     (["margins", "--plant", "DIR", "--controller", "eq-4.69"], "--plant"),
     (["margins", "--plant", "hdd-sampled-data", "--controller", "no-such"], "--controller"),
@@ -423,12 +449,14 @@ CASES: list[tuple[list[str], str]] = [
     ([*VAR, "--dist-den", "x"], "--dist-den"),
     ([*VAR, "--dist-den", "0.01,1", "--delta", "nan"], "--delta"),
     ([*VAR, "--dist-den", "0.01,1", "--dt", "-1"], "--dt"),
-    ([*VAR, "--dist-den", "0.01,1", "--k", "0"], "--k"),
+    ([*VAR, "--dist-den", "0.01,1", "--rolloff-order", "0"], "--rolloff-order"),
+    ([*VAR, "--dist-den", "0.01,1", "--rolloff-order", "51"], "--rolloff-order"),
     (["limits", "dynamic-range", "--stroke-m", "0", "--accuracy-m", "3e-9"], "--stroke-m"),
     (["limits", "dynamic-range", "--stroke-m", "0.03", "--accuracy-m", "nan"], "--accuracy-m"),
     (["limits", "dynamic-range", "--stroke-m", "0.03", "--accuracy-m", "-1"], "--accuracy-m"),
     # ---- settle
     (["settle", "train", "--out", "DIR"], "--out"),
+    (["settle", "train", "--judge", "DIR"], "--judge"),
     (["settle", "train", "--out", "missing/judge.skops"], "--out"),
     (["settle", "train", "--out", "RO/judge.skops"], "--out"),
     (["settle", "train", "--n-distances", "1"], "--n-distances"),
@@ -436,8 +464,9 @@ CASES: list[tuple[list[str], str]] = [
     (["settle", "train", "--n-lengths", HUGE], "--n-lengths"),
     (["settle", "train", "--settle-band", "0"], "--settle-band"),
     (["settle", "train", "--settle-band", "nan"], "--settle-band"),
-    (["settle", "train", "--c", "0"], "--c"),
-    (["settle", "train", "--c", "nan"], "--c"),
+    (["settle", "train", "--svm-c", "0"], "--svm-c"),
+    (["settle", "train", "--svm-c", "nan"], "--svm-c"),
+    (["settle", "train", "--c", "nan"], "--c"),  # the deprecated old name still works
     (["settle", "train", "--coef0", "inf"], "--coef0"),
     (["settle", "evaluate", "--judge", "missing.skops"], "--judge"),
     (["settle", "evaluate", "--judge", "DIR"], "--judge"),
@@ -554,6 +583,19 @@ def _materialise(args: list[str], where: Path, monkeypatch: pytest.MonkeyPatch) 
     (where / "u.txt").write_text("1e-3\n-1e-3\n")
     (where / "BAD.json").write_text('{"input": "not numbers", "dt_s": "x"}\n')
     (where / "NAN.csv").write_text("1,nan\n2,3\n")
+    # hostile files (issue 23): a FIFO (reading or writing it would block), a symlink to an
+    # endless device, nesting 1100 deep, Latin-1, UTF-16 and binary bytes
+    for name in ("FIFO", "FIFO.toml", "FIFO.json", "FIFO.csv"):
+        if not (where / name).exists():
+            os.mkfifo(where / name)
+    for name in ("ZERO.toml", "ZERO.json"):
+        if not (where / name).is_symlink():
+            (where / name).symlink_to("/dev/zero")
+    (where / "DEEP.toml").write_text("a = " + "[" * 1100 + "]" * 1100 + "\n")
+    (where / "DEEP.json").write_text('{"input": ' + "[" * 1100 + "]" * 1100 + "}")
+    (where / "LATIN.toml").write_bytes('name = "caf\u00e9"\n'.encode("latin-1"))
+    (where / "UTF16.toml").write_bytes("[plant]\n".encode("utf-16"))
+    (where / "BINARY.json").write_bytes(bytes(range(256)))
     ro = where / "RO"
     ro.mkdir(exist_ok=True)
     ro.chmod(0o500)

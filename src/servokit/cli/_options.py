@@ -60,6 +60,9 @@ FLAG_RANGES: dict[str, tuple[float, float, str]] = {
     "--fmin": (0.0, 1e9, "Hz"),
     "--fmax": (0.0, 1e9, "Hz"),
     "--fs": (1e-3, 1e9, "Hz"),
+    "--dt-min": (1e-9, 1e3, "s"),
+    "--dt-max": (1e-9, 1e3, "s"),
+    "--loop-delay": (0.0, 1e3, "s"),
     "--fs-min": (0.0, 1e9, "Hz"),
     "--fs-max": (0.0, 1e9, "Hz"),
     "--zero-freq": (0.0, 1e9, "Hz"),
@@ -231,3 +234,52 @@ def harden(root: Any) -> Any:
     return root
 
 
+
+
+def old_name(flag: str, annotation: Any = float) -> Any:
+    """A hidden option keeping a renamed flag working (deprecated; see :func:`renamed`).
+
+    Parameters
+    ----------
+    flag : str
+        The old flag.
+    annotation : type
+        Its value type.
+
+    Returns
+    -------
+    typing.Annotated
+        The annotated option type, default ``None``.
+    """
+    return Annotated[annotation | None, typer.Option(flag, hidden=True)]
+
+
+def renamed(value: Any, old: Any, *, new_flag: str, old_flag: str, default: Any = None) -> Any:
+    """The value of a renamed flag: the new flag's, else the deprecated old flag's (warned).
+
+    Parameters
+    ----------
+    value : object
+        The new flag's value.
+    old : object
+        The old (hidden) flag's value, ``None`` if not given.
+    new_flag, old_flag : str
+        The two names.
+    default : object
+        The new flag's default (both given -> refused).
+
+    Returns
+    -------
+    object
+    """
+    import warnings
+
+    from servokit.errors import ServokitValueError
+
+    if old is None:
+        return value
+    if value != default:
+        raise ServokitValueError(f"give {new_flag} only ({old_flag} is its deprecated old name)")
+    # shown as one "servokit: warning:" line after a successful run (never before an error)
+    warnings.warn(f"{old_flag} is deprecated; use {new_flag}", FutureWarning, stacklevel=2)
+    return old

@@ -9,6 +9,7 @@ from typing import Annotated
 import numpy as np
 import typer
 
+from servokit.cli._options import old_name, renamed
 from servokit.cli._app import (
     JsonOpt,
     PlotOpt,
@@ -62,20 +63,20 @@ def _load(path: Path):
         ) from None
 
 
-def _check_out_file(out: Path) -> Path:
-    """Refuse an unusable ``--out`` judge file before training (nothing is written)."""
+def _check_out_file(out: Path, flag: str = "--judge") -> Path:
+    """Refuse an unusable judge file to write before training (nothing is written)."""
     if str(out).endswith(("/", "\\")) or out.is_dir():
-        raise ServokitValueError(f"--out {out} is a directory; give a file name ending .skops")
+        raise ServokitValueError(f"{flag} {out} is a directory; give a file name ending .skops")
     if out.suffix != ".skops":
-        raise ServokitValueError(f"--out {out}: use a file name ending .skops")
+        raise ServokitValueError(f"{flag} {out}: use a file name ending .skops")
     parent = out.parent if str(out.parent) else Path(".")
     if not parent.is_dir():
-        raise ServokitValueError(f"--out {out}: directory {parent} does not exist; create it first")
+        raise ServokitValueError(f"{flag} {out}: directory {parent} does not exist; create it first")
     if os.path.lexists(out) and not out.is_file():
-        raise ServokitValueError(f"--out {out} is not a regular file (a pipe or device)")
+        raise ServokitValueError(f"{flag} {out} is not a regular file (a pipe or device)")
     target = out if out.exists() else parent
     if not os.access(target, os.W_OK):
-        raise ServokitValueError(f"--out {out}: {target} is not writable; choose another path")
+        raise ServokitValueError(f"{flag} {out}: {target} is not writable; choose another path")
     return out
 
 
@@ -99,15 +100,19 @@ def _simulate(seeks: list[tuple[float, int]], what: str):
 @settle_app.command(
     "train",
     epilog=example(
-        "servokit settle train --out judge.skops", "add --cv to choose C and the offset"
+        "servokit settle train --judge judge.skops", "add --cv to choose C and the offset"
     ),
 )
 def train_cmd(
-    out: Path = typer.Option(Path("judge.skops"), "--out", help="judge file to write (.skops)"),
+    out: Path = typer.Option(
+        Path("judge.skops"), "--judge", help="judge file to write (.skops)", metavar="FILE"
+    ),
+    out_old: old_name("--out", Path) = None,
     n_distances: int = typer.Option(10, "--n-distances", help="distances 10-900 track", min=2),
     n_lengths: int = typer.Option(18, "--n-lengths", help="FSC lengths 24-130 samples", min=2),
     settle_band: BandOpt = 0.03,
-    c: float = typer.Option(10.0, "--c", help="SVM soft-margin weight C"),
+    c: float = typer.Option(10.0, "--svm-c", help="SVM soft-margin weight C [1]"),
+    c_old: old_name("--c") = None,
     coef0: float = typer.Option(0.5, "--coef0", help="polynomial kernel offset"),
     class1_weight: float = typer.Option(
         1.0, "--class1-weight", help="weight of class-1 errors (> 1: judge later, safer)"
@@ -120,11 +125,12 @@ def train_cmd(
     from servokit.learn import SettlingJudge, training_seeks, training_set
 
     # every flag and the output path are checked before the seeks are simulated
-    out = _check_out_file(out)
+    given = renamed(out, out_old, new_flag="--judge", old_flag="--out", default=Path("judge.skops"))
+    out = _check_out_file(given, "--out" if out_old is not None else "--judge")
     n_distances = check_count("--n-distances", n_distances, lo=2, hi=1000)
     n_lengths = check_count("--n-lengths", n_lengths, lo=2, hi=107)
     settle_band = check_positive("--settle-band", settle_band, "track")
-    c = check_positive("--c", c)
+    c = check_positive("--svm-c", renamed(c, c_old, new_flag="--svm-c", old_flag="--c", default=10.0))
     coef0 = float(check_finite("--coef0", coef0))
     class1_weight = check_positive("--class1-weight", class1_weight)
     judge = SettlingJudge(bound=settle_band, C=c, coef0=coef0, class1_weight=class1_weight)
