@@ -12,6 +12,7 @@ from __future__ import annotations
 
 import os
 import re
+import typing
 from collections.abc import Iterator, Mapping
 from contextlib import contextmanager
 from pathlib import Path
@@ -63,6 +64,7 @@ FLAG_RANGES: dict[str, tuple[float, float, str]] = {
     "--dt-min": (1e-9, 1e3, "s"),
     "--dt-max": (1e-9, 1e3, "s"),
     "--loop-delay": (0.0, 1e3, "s"),
+    "--max-memory-mb": (1.0, 1e12, "MB"),
     "--fs-min": (0.0, 1e9, "Hz"),
     "--fs-max": (0.0, 1e9, "Hz"),
     "--zero-freq": (0.0, 1e9, "Hz"),
@@ -181,8 +183,6 @@ def flag_names(mapping: Mapping[str, str] | None = None, prefix: str = "") -> It
 
 def _numeric_kind(param: Any) -> type | None:
     """``float`` or ``int`` if the option's annotation is that number (or ``| None``)."""
-    import typing
-
     ann = getattr(getattr(param, "type_descriptor", None), "annotation", None)
     kinds = set(typing.get_args(ann) or (ann,)) - {type(None)}
     return kinds.pop() if len(kinds) == 1 and kinds <= {int, float} else None
@@ -196,8 +196,9 @@ def _physical_mb() -> float:
         return float("inf")
 
 
-def _finite_callback(original: Any) -> Any:
-    """Wrap an option callback: refuse NaN and +-inf for a number flag, naming it."""
+def _number_callback(original: Any) -> Any:
+    """Wrap an option callback: refuse NaN and +-inf for a number flag, and a value outside
+    :data:`FLAG_RANGES` (zero passes where it means "automatic", below a lowest of 1)."""
 
     def check(ctx: Any, param: Any, value: Any) -> Any:
         values = value if isinstance(value, list | tuple) else (value,)
@@ -206,7 +207,8 @@ def _finite_callback(original: Any) -> Any:
                 raise typer.BadParameter(f"must be a finite number (got {v})")
             flag = max(param.opts, key=len)
             lo, hi, unit = FLAG_RANGES.get(flag, (-np.inf, np.inf, ""))
-            if isinstance(v, int | float) and not lo <= abs(v) <= hi and v != 0:
+            zero_ok = v == 0 and lo < 1
+            if isinstance(v, int | float) and not lo <= abs(v) <= hi and not zero_ok:
                 raise typer.BadParameter(f"|{v:g}| is outside {lo:g}..{hi:g} {unit}")
             if param.name == "max_memory_mb" and v is not None and v > _physical_mb():
                 raise typer.BadParameter(
@@ -229,9 +231,39 @@ def harden(root: Any) -> Any:
         cmd = stack.pop()
         stack += list(getattr(cmd, "commands", {}).values())
         for param in cmd.params:
-            if _numeric_kind(param) is float:
-                param.callback = _finite_callback(param.callback)
+            _metavar(param)
+            _plain_help(param)
+            if _numeric_kind(param) is None:
+                continue
+            param.callback = _number_callback(param.callback)
     return root
+
+
+def _plain_help(param: Any) -> None:
+    """Keep typer's internals out of the help: ``<int range>``/``x>=1.0`` become ``<int>``,
+    ``<list[str]>`` becomes ``<str>`` (the option is repeatable; its help says so)."""
+    kind = _numeric_kind(param)
+    ann = getattr(getattr(param, "type_descriptor", None), "annotation", None)
+    inner = [a for a in typing.get_args(ann) if a is not type(None)]
+    if kind is not None:
+        param.display_type = lambda ctx, _k=kind.__name__: f"<{_k}>"
+        param.display_type_rich = param.display_type
+        param._get_number_range_help_str = lambda: None
+    elif typing.get_origin(ann) is list and inner:
+        name = getattr(inner[0], "__name__", "str")
+        param.display_type = lambda ctx, _k=name: f"<{_k}>"
+        param.display_type_rich = param.display_type
+
+
+def _metavar(param: Any) -> None:
+    """One metavar per kind of argument (:data:`METAVAR`): files, directories, names."""
+    if getattr(param, "metavar", None) or not getattr(param, "opts", None):
+        return
+    ann = getattr(getattr(param, "type_descriptor", None), "annotation", None)
+    if param.name in ("plant", "controller", "loop_plant"):
+        param.metavar = METAVAR["plant"]
+    elif ann is not None and "Path" in str(ann):
+        param.metavar = METAVAR["dir"] if param.name == "out" else METAVAR["file"]
 
 
 

@@ -7,7 +7,6 @@ from typing import Annotated
 import numpy as np
 import typer
 
-from servokit.cli._options import old_name, renamed
 from servokit.cli._app import (
     JsonOpt,
     PlotOpt,
@@ -19,6 +18,7 @@ from servokit.cli._app import (
     sub_app,
     wrote,
 )
+from servokit.cli._options import old_name, renamed
 from servokit.errors import ServokitValueError, check_count, check_positive
 
 limits_app = sub_app("limits", "Performance limits: waterbed, Bode integrals, variance (§6.3).")
@@ -170,7 +170,8 @@ def variance_cmd(
         from servokit.limits.plots import variance_plot
 
         wrote(variance_plot(loop, dist, omega_hz, plot))
-    with flag_names({"bandwidth_hz": "the roll-off bandwidth", "delta": "--delta", "k": "--rolloff-order"}):
+    names = {"bandwidth_hz": "the roll-off bandwidth", "delta": "--delta", "k": "--rolloff-order"}
+    with flag_names(names):
         vb = variance_lower_bound(dist, omega_hz, delta=delta, k=k, dt=dt)
     var = output_variance(loop, dist)
     data = {

@@ -10,7 +10,6 @@ from typing import TYPE_CHECKING, Annotated, Any
 import numpy as np
 import typer
 
-from servokit.cli._options import old_name, renamed
 from servokit.cli._app import (
     JsonOpt,
     MaxMemoryOpt,
@@ -26,6 +25,7 @@ from servokit.cli._app import (
     sub_app,
     wrote,
 )
+from servokit.cli._options import old_name, renamed
 from servokit.errors import (
     ServokitValueError,
     check_count,
@@ -371,9 +371,10 @@ _IDENTIFY_MAX_FREQ = 100_000
 @app.command(
     "identify",
     epilog=example(
-        "servokit identify --plant vcm-dual-stage --controller table-5.2 --dt 33.3333e-6 --fmax 60e3",
+        "servokit identify --plant vcm-dual-stage --controller table-5.2 "
+        "--fmax 60e3",
         "servokit identify --plant pzt-active-suspension --loop-plant vcm-dual-stage "
-        "--controller table-5.2 --dt 33.3333e-6 --json",
+        "--controller table-5.2 --json",
     ),
     help="Identify a continuous plant above the Nyquist frequency from a simulated"
     " closed-loop measurement (book §5.2.1.2, eqs. 5.10-5.11): Sd measured with a T-held"

@@ -9,7 +9,6 @@ from typing import Annotated
 import numpy as np
 import typer
 
-from servokit.cli._options import old_name, renamed
 from servokit.cli._app import (
     JsonOpt,
     PlotOpt,
@@ -22,6 +21,7 @@ from servokit.cli._app import (
     sub_app,
     wrote,
 )
+from servokit.cli._options import old_name, renamed
 from servokit.errors import (
     ServokitError,
     ServokitValueError,
@@ -71,7 +71,9 @@ def _check_out_file(out: Path, flag: str = "--judge") -> Path:
         raise ServokitValueError(f"{flag} {out}: use a file name ending .skops")
     parent = out.parent if str(out.parent) else Path(".")
     if not parent.is_dir():
-        raise ServokitValueError(f"{flag} {out}: directory {parent} does not exist; create it first")
+        raise ServokitValueError(
+            f"{flag} {out}: directory {parent} does not exist; create it first"
+        )
     if os.path.lexists(out) and not out.is_file():
         raise ServokitValueError(f"{flag} {out} is not a regular file (a pipe or device)")
     target = out if out.exists() else parent
@@ -130,7 +132,8 @@ def train_cmd(
     n_distances = check_count("--n-distances", n_distances, lo=2, hi=1000)
     n_lengths = check_count("--n-lengths", n_lengths, lo=2, hi=107)
     settle_band = check_positive("--settle-band", settle_band, "track")
-    c = check_positive("--svm-c", renamed(c, c_old, new_flag="--svm-c", old_flag="--c", default=10.0))
+    c = renamed(c, c_old, new_flag="--svm-c", old_flag="--c", default=10.0)
+    c = check_positive("--c" if c_old is not None else "--svm-c", c)
     coef0 = float(check_finite("--coef0", coef0))
     class1_weight = check_positive("--class1-weight", class1_weight)
     judge = SettlingJudge(bound=settle_band, C=c, coef0=coef0, class1_weight=class1_weight)

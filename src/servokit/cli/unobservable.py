@@ -6,7 +6,6 @@ from typing import Annotated
 
 import typer
 
-from servokit.cli._options import old_name, renamed
 from servokit.cli._app import (
     DampingOpt,
     DtOpt,
@@ -23,6 +22,7 @@ from servokit.cli._app import (
     sub_app,
     wrote,
 )
+from servokit.cli._options import old_name, renamed
 from servokit.errors import (
     DEFAULT_MAX_MEMORY_MB,
     ServokitValueError,
