@@ -4,13 +4,14 @@ from __future__ import annotations
 
 import os
 from pathlib import Path
-from typing import Annotated
+from typing import Annotated, Any
 
 import numpy as np
 import typer
 
 from servokit.cli._app import (
     JsonOpt,
+    MaxMemoryOpt,
     PlotOpt,
     SeedOpt,
     console,
@@ -23,11 +24,13 @@ from servokit.cli._app import (
 )
 from servokit.cli._options import old_name, renamed
 from servokit.errors import (
+    DEFAULT_MAX_MEMORY_MB,
     ServokitError,
     ServokitValueError,
     check_count,
     check_finite,
     check_input_file,
+    check_memory,
     check_positive,
 )
 
@@ -226,17 +229,21 @@ def judge_cmd(
         "then the output [track], target at 0 (replaces the simulated seek)",
     ),
     level: float = typer.Option(0.0, "--level", help="decision level (0, or -0.8 safe side)"),
+    max_memory_mb: MaxMemoryOpt = DEFAULT_MAX_MEMORY_MB,
     json_out: JsonOpt = False,
 ) -> None:
     """Judge one seek (simulated, or a recorded state sequence).
 
-    JSON: n_judge, n0, n_conventional (samples; -1 = never).
+    JSON: n_judge, n0, n_conventional (samples; null = does not settle) and reason (why a
+    count is null, else null).
     """
-    from servokit.learn import conventional_judgement, settled_index
-
     if float(check_finite("--target", target)) == 0:
         raise ServokitValueError("--target must be non-zero [track] (got 0)")
     n_samples = check_count("--n-samples", n_samples, lo=4, hi=100_000)
+    if record is None:  # the FSC design holds a few N x N matrices
+        check_memory(
+            4 * 8.0 * n_samples**2, what=f"--n-samples {n_samples}", max_memory_mb=max_memory_mb
+        )
     if record is not None:
         record = check_input_file(record, "--record")
     level = float(check_finite("--level", level))
@@ -259,15 +266,40 @@ def judge_cmd(
     else:
         (r,) = _simulate([(target, n_samples)], "simulating")
         states, output, start = r.states, r.output, 0
-    res = {
-        "n_judge": judge.judge(states, output, level, start=start),
-        "n_conventional": conventional_judgement(output, judge.bound, start=start),
-        "n0": settled_index(output, judge.bound) if abs(output[-1]) <= judge.bound else -1,
-    }
+    res = _judgement(judge, states, output, level, start)
     if json_out:
         emit_json(res)
         return
+    if res["reason"]:
+        console.print(f"does not settle: {res['reason']}")
     console.print(
-        f"SVM judges settled at sample {res['n_judge']}, 5-in-a-row at "
-        f"{res['n_conventional']}; actual settling N0 = {res['n0']}"
+        f"SVM judges settled at sample {_or_never(res['n_judge'])}, 5-in-a-row at "
+        f"{_or_never(res['n_conventional'])}; actual settling N0 = {_or_never(res['n0'])}"
     )
+
+
+def _or_never(n: int | None) -> str:
+    return "never" if n is None else str(n)
+
+
+def _judgement(judge: Any, states: Any, output: Any, level: float, start: int) -> dict:
+    """The three settling counts; a count that never happens is None with a reason (a
+    sentinel -1 would read as a sample index)."""
+    from servokit.learn import conventional_judgement, settled_index
+
+    def count(n: int) -> int | None:
+        return None if n is None or n < 0 else int(n)
+
+    settled = abs(output[-1]) <= judge.bound
+    res = {
+        "n_judge": count(judge.judge(states, output, level, start=start)),
+        "n_conventional": count(conventional_judgement(output, judge.bound, start=start)),
+        "n0": count(settled_index(output, judge.bound)) if settled else None,
+    }
+    res["reason"] = (
+        None
+        if res["n0"] is not None
+        else f"the output ends {abs(output[-1]):.3g} from the target, outside the band "
+        f"+-{judge.bound:g}"
+    )
+    return res
