@@ -200,7 +200,7 @@ def _run(usage: tuple[type[BaseException], ...]) -> int:
     except (ServokitError, ValueError, TypeError, OverflowError, ZeroDivisionError,
             FloatingPointError, np.linalg.LinAlgError) as exc:  # fmt: skip
         msg = str(exc).splitlines()[0] if str(exc) else type(exc).__name__
-        typer.echo(f"servokit: error: {msg}", err=True)
+        typer.echo(f"servokit: error: {internal_names_to_flags(msg)}", err=True)
         return 2
     except usage as exc:
         text = exc.format_message() if hasattr(exc, "format_message") else str(exc)
@@ -211,6 +211,22 @@ def _run(usage: tuple[type[BaseException], ...]) -> int:
             f"servokit: error: {text.strip().splitlines()[0] if text.strip() else exc}", err=True
         )
         return 2
+
+
+def internal_names_to_flags(message: str) -> str:
+    """Rewrite library parameter names that escaped a command's own translation.
+
+    Only names that cannot be English words are replaced (those with an underscore or a
+    capital, e.g. ``n_samples``, ``N_range``); a plain word such as "target" is left alone.
+    """
+    import re
+
+    from servokit.cli._options import PARAM_FLAGS
+
+    for name in sorted(PARAM_FLAGS, key=len, reverse=True):
+        if "_" in name or name != name.lower() or name in ("workers", "substeps"):
+            message = re.sub(rf"(?<![\w-]){re.escape(name)}(?![\w-])", PARAM_FLAGS[name], message)
+    return message
 
 
 def os_error_message(exc: OSError) -> str:

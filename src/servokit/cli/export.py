@@ -63,8 +63,26 @@ def _check_common(out: str | Path, name: str, fmt: str, precision: str) -> Path:
     return check_out_dir(out)
 
 
+def _check_representable(tables: list, precision: str) -> None:
+    """Refuse a table the chosen number format cannot hold: C would get ``inff``/``nan``,
+    which no compiler accepts as a constant (and firmware must not run on)."""
+    import numpy as np
+
+    for t in tables:
+        values = np.asarray(t.values, dtype=float)
+        if not np.all(np.isfinite(values)):
+            raise ServokitValueError(f"table {t.name!r} holds NaN or inf; nothing to export")
+        biggest = float(np.max(np.abs(values))) if values.size else 0.0
+        if precision == "float" and biggest > float(np.finfo(np.float32).max):
+            raise ServokitValueError(
+                f"--precision float: table {t.name!r} holds {biggest:.3g}, beyond single "
+                "precision (3.4e38); use --precision double or rescale"
+            )
+
+
 def _finish(tables: list, out: Path, name: str, fmt: str, precision: str, step: str | None,
             title: str, json_out: bool) -> None:  # fmt: skip
+    _check_representable(tables, precision)
     """Write the files; report them and each table's quantisation error."""
     from servokit.export import FORMATS, quantize, write_export
 
@@ -266,8 +284,12 @@ def _read_tables(path: Path) -> list:
     else:
         raise ServokitValueError(f"--input {path}: use a .json or .csv file")
     try:
-        return [FirmwareTable(k, np.asarray(v, dtype=float)) for k, v in items]
+        tables = [FirmwareTable(k, np.asarray(v, dtype=float)) for k, v in items]
     except (TypeError, ValueError) as exc:
         if isinstance(exc, ServokitValueError):
             raise ServokitValueError(f"--input {path}: {exc}") from None
         raise ServokitValueError(f"--input {path}: tables must be arrays of numbers") from None
+    for t in tables:
+        if not np.all(np.isfinite(t.values)):
+            raise ServokitValueError(f"--input {path}: table {t.name!r} holds NaN or inf")
+    return tables

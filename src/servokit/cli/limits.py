@@ -164,6 +164,12 @@ def variance_cmd(
     k = check_count("--rolloff-order", k, lo=1, hi=50)
     loop = _loop(num, den, dt)
     dist = _loop(dist_num, dist_den, dt, ("--dist-num", "--dist-den"))
+    if dt is None and len(dist_num.split(",")) >= len(dist_den.split(",")):
+        raise ServokitValueError(
+            "--dist-num/--dist-den: a continuous disturbance filter must be strictly proper "
+            "(fewer --dist-num than --dist-den coefficients): white noise through it has "
+            "unbounded variance"
+        )
     with flag_names({"delta": "--delta", "k": "--rolloff-order"}):
         omega_hz = rolloff_bandwidth(loop, delta=delta, k=k)
     if plot is not None:
@@ -174,6 +180,14 @@ def variance_cmd(
     with flag_names(names):
         vb = variance_lower_bound(dist, omega_hz, delta=delta, k=k, dt=dt)
     var = output_variance(loop, dist)
+    if not (np.isfinite(var) and var >= 0):
+        # an improper or non-strictly-proper disturbance filter (white noise in, unbounded
+        # power out) or an unstable loop: the integral (6.13) diverges
+        raise ServokitValueError(
+            f"--dist-num/--dist-den and --num/--den give an unbounded output variance "
+            f"(computed {var:.3g}); the disturbance filter must be strictly proper and the "
+            "closed loop stable"
+        )
     data = {
         "bandwidth_hz": omega_hz,
         "variance": var,

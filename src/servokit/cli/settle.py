@@ -135,6 +135,10 @@ def train_cmd(
     n_distances = check_count("--n-distances", n_distances, lo=2, hi=1000)
     n_lengths = check_count("--n-lengths", n_lengths, lo=2, hi=107)
     settle_band = check_positive("--settle-band", settle_band, "track")
+    if not 1e-3 <= settle_band <= 10:  # the labels need seeks both in and out of the band
+        raise ServokitValueError(
+            f"--settle-band must be 0.001..10 track (got {settle_band:g}); the book uses 0.1"
+        )
     c = renamed(c, c_old, new_flag="--svm-c", old_flag="--c", default=10.0)
     c = check_positive("--c" if c_old is not None else "--svm-c", c)
     coef0 = float(check_finite("--coef0", coef0))

@@ -400,6 +400,12 @@ def cost_map_cmd(
     a = np.linspace(*acc, n_points) if with_acc else np.zeros(1)
     axes, second = ((1, 2), a) if with_acc else ((1, 0), np.array([position]))
     cmap = switching_cost_map(loop, K, base, axes, v, second)
+    if not (np.any(np.isfinite(cmap.ju)) or np.any(np.isfinite(cmap.jy))):
+        # every cell overflowed: the map would be all null, which answers nothing
+        raise ServokitValueError(
+            f"--position {position:g}: the switching cost overflows at every grid point; "
+            "give a position (and --vel-range/--acc-range) of the plant's scale"
+        )
     M = switching_cost_matrix(loop, K, loop.Cu)
     free = [1, 2] if with_acc else [1]
     best = optimal_condition(M, base, free)
