@@ -33,6 +33,7 @@ SAMPLE = 60  # cases in the default suite
 QUICK = {
     "identify": ["--fmin", "20000", "--fmax", "21000", "--freq-step", "500"],
     "sweep": ["--n-variants", "200"],
+    "settle train": ["--n-distances", "2", "--n-lengths", "2"],
 }
 
 

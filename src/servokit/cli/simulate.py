@@ -53,7 +53,7 @@ _ARRAYS_PER_FINE_STEP = 3
         "servokit simulate --plant hdd-sampled-data --dt 153.5e-6 --duration 0.02 --step 1 "
         "--controller eq-4.69 --json"
     )
-    + "  JSON: plants, final, peak, settling_time_s, worst_plant, worst_settling_time_s "
+    + "  JSON: plants, final_out, peak_out, settling_time_s, worst_plant, worst_settling_time_s "
     "(null: does not settle), reason, plot.",
 )
 def simulate_cmd(
@@ -137,8 +137,8 @@ def simulate_cmd(
     worst = None if reason else float(max(times))
     data = {
         "plants": [p.name for p in plants],
-        "final": res.yc[:, -1],
-        "peak": met.peak,
+        "final_out": res.yc[:, -1],
+        "peak_out": met.peak,
         "settling_time_s": times,
         "worst_plant": plants[met.worst].name,
         "worst_settling_time_s": worst,

@@ -262,8 +262,8 @@ def admissible_cmd(
 
     The 2-D slice is over the first two plant states (rigid-body position and velocity
     of a catalogue plant), the others at rest. JSON keys: t_star, n_inequalities,
-    polygon_ivc, polygon_zero_reset (vertices [position, velocity]), conditions (with
-    admissible_ivc, admissible_zero_reset, needed_u_ivc, needed_u_zero_reset).
+    polygon_ivc, polygon_zero_reset (vertices [position, velocity]), conditions (position_out,
+    velocity_out_per_s, admissible_ivc, admissible_zero_reset, needed_u_ivc, needed_u_zero_reset).
     """
     from servokit.switching import ivc_jmin, max_output_admissible_set
 
@@ -289,8 +289,8 @@ def admissible_cmd(
         need = {k: float(s.gauge(x)[0]) * u_max for k, s in sets.items()}
         rows.append(
             {
-                "position": x[0],
-                "velocity": x[1],
+                "position_out": x[0],
+                "velocity_out_per_s": x[1],
                 "admissible_ivc": need["ivc"] <= u_max * (1 + 1e-9),
                 "admissible_zero_reset": need["zero_reset"] <= u_max * (1 + 1e-9),
                 "needed_u_ivc": need["ivc"],
@@ -372,7 +372,7 @@ def cost_map_cmd(
     """Squared H2 norms of the input and output after the switch over initial states
     (book §3.3.3, (3.65)-(3.81), Fig. 3.13) and the best free states for --position (3.81).
 
-    JSON keys: velocity, acceleration (grid), ju, jy (maps, rows over acceleration),
+    JSON keys: velocity_out_per_s, acceleration_out_per_s2 (grid), ju, jy (maps, rows over acceleration),
     optimal_state (plant states minimising Ju with state 1 fixed).
     """
     from servokit.switching import (
@@ -409,7 +409,10 @@ def cost_map_cmd(
     M = switching_cost_matrix(loop, K, loop.Cu)
     free = [1, 2] if with_acc else [1]
     best = optimal_condition(M, base, free)
-    out = {"velocity": v, "acceleration": a, "ju": cmap.ju, "jy": cmap.jy, "optimal_state": best}
+    out = {
+        "velocity_out_per_s": v,
+        "acceleration_out_per_s2": a,
+        "ju": cmap.ju, "jy": cmap.jy, "optimal_state": best}
     if json_out:
         emit_json(out)
         return
