@@ -327,3 +327,48 @@ def renamed(value: Any, old: Any, *, new_flag: str, old_flag: str, default: Any 
     # shown as one "servokit: warning:" line after a successful run (never before an error)
     warnings.warn(f"{old_flag} is deprecated; use {new_flag}", FutureWarning, stacklevel=2)
     return old
+
+
+def given_on_command_line(name: str) -> bool:
+    """Whether the user typed the option whose Python parameter is ``name`` (not a default).
+
+    Parameters
+    ----------
+    name : str
+        The command function's parameter name.
+
+    Returns
+    -------
+    bool
+    """
+    import typer._click.core as click_core
+    from typer._click.globals import get_current_context
+
+    ctx = get_current_context(silent=True)
+    if ctx is None:
+        return False
+    return ctx.get_parameter_source(name) == click_core.ParameterSource.COMMANDLINE
+
+
+def refuse_inapplicable(
+    choice_flag: str, choice: str, applies: Mapping[str, tuple[str, tuple[str, ...]]]
+) -> None:
+    """Refuse flags the user gave that the chosen method ignores (never silently drop them).
+
+    Parameters
+    ----------
+    choice_flag : str
+        The flag that chose (``"--method"``).
+    choice : str
+        Its value.
+    applies : mapping
+        Parameter name -> (its flag, the choices it applies to).
+    """
+    from servokit.errors import ServokitValueError
+
+    for name, (flag, choices) in applies.items():
+        if choice not in choices and given_on_command_line(name):
+            raise ServokitValueError(
+                f"{flag} applies only to {choice_flag} {'/'.join(choices)}, not {choice}; "
+                f"drop {flag}"
+            )

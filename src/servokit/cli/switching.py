@@ -372,8 +372,8 @@ def cost_map_cmd(
     """Squared H2 norms of the input and output after the switch over initial states
     (book §3.3.3, (3.65)-(3.81), Fig. 3.13) and the best free states for --position (3.81).
 
-    JSON keys: velocity_out_per_s, acceleration_out_per_s2 (grid), ju, jy (maps, rows over acceleration),
-    optimal_state (plant states minimising Ju with state 1 fixed).
+    JSON keys: velocity_out_per_s, acceleration_out_per_s2 (grid), ju, jy (maps, rows over
+    acceleration), optimal_state (plant states minimising Ju with state 1 fixed).
     """
     from servokit.switching import (
         ivc_jmin,

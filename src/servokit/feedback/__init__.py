@@ -22,10 +22,13 @@ from servokit.feedback.filters import (
     pseudo_plant,
 )
 from servokit.feedback.margins import Margins, loop_response, stability_margins
+from servokit.feedback.peak_filtered import PeakFilterSpec, peak_filtered_controller
 
 __all__ = [
     "DualStageLoops",
     "Margins",
+    "PeakFilterSpec",
+    "peak_filtered_controller",
     "complex_lag",
     "design_peak_filter",
     "discretize_filter",

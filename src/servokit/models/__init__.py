@@ -7,7 +7,6 @@ from servokit.models.catalogue import (
     HDD_BENCHMARK_TS,
     HDD_SAMPLED_DATA_TS,
     galvano_scanner,
-    get_plant,
     hdd_benchmark,
     hdd_benchmark_variants,
     hdd_benchmark_variation_set,
@@ -24,12 +23,14 @@ from servokit.models.controllers import (
     controller_eq_4_69,
     controller_fig_4_57,
     cpc_eq_4_72,
-    get_discrete_controller,
-    require_proper,
     vcm_controller_table_5_2,
-    zpk,
 )
-from servokit.models.disturbances import BenchmarkDisturbances, DisturbanceRecord, band_powers
+from servokit.models.disturbances import (
+    BenchmarkDisturbances,
+    DisturbanceRecord,
+    band_powers,
+    disturbance_magnitude,
+)
 from servokit.models.files import (
     PlantFileError,
     load_controller,
@@ -37,7 +38,9 @@ from servokit.models.files import (
     save_controller,
     save_plant,
 )
-from servokit.models.modal import ModalPlant, Mode, modal_matrices
+from servokit.models.lookup import get_discrete_controller, get_plant
+from servokit.models.modal import ModalPlant, Mode, modal_matrices, without_delay
+from servokit.models.tf import require_proper, zpk
 from servokit.models.variations import Perturbation, VariationSet
 
 __all__ = [
@@ -45,6 +48,7 @@ __all__ = [
     "BenchmarkDisturbances",
     "DisturbanceRecord",
     "band_powers",
+    "disturbance_magnitude",
     "benchmark_controller",
     "CATALOGUE",
     "CONTROLLERS",
@@ -78,5 +82,6 @@ __all__ = [
     "svm_head_plant",
     "vcm_controller_table_5_2",
     "vcm_dual_stage",
+    "without_delay",
     "zpk",
 ]

@@ -8,12 +8,10 @@ Each entry cites its source (book table / section) in its docstring and in
 from __future__ import annotations
 
 from collections.abc import Callable
-from pathlib import Path
 
 import control
 import numpy as np
 
-from servokit.errors import ServokitValueError
 from servokit.models.modal import ModalPlant, Mode
 from servokit.models.variations import Perturbation, VariationSet
 
@@ -30,7 +28,6 @@ __all__ = [
     "galvano_scanner",
     "personal_mobility_robot",
     "CATALOGUE",
-    "get_plant",
 ]
 
 #: HDD benchmark sampling period: 7200 rpm, 220 servo sectors per revolution (§2.4.1) [s].
@@ -332,36 +329,11 @@ CATALOGUE: dict[str, Callable[[], ModalPlant]] = {
 }
 
 
-def get_plant(name_or_file: str | Path) -> ModalPlant:
-    """A catalogue plant by name (``hdd-benchmark``, ...) or a plant TOML file by path.
+def __getattr__(name: str) -> object:
+    # The old import path of get_plant, now in servokit.models.lookup (above this
+    # module); resolved on attribute access so this module imports nothing above it.
+    if name == "get_plant":
+        from servokit.models import lookup
 
-    Parameters
-    ----------
-    name_or_file : str or Path
-        A key of :data:`CATALOGUE` (``"hdd-benchmark"``, ``"hdd-sampled-data"``,
-        ``"vcm-dual-stage"``, ``"pzt-active-suspension"``, ``"svm-head-plant"``,
-        ``"galvano-scanner"``), or the path of a plant file (a ``.toml`` name or an existing
-        file; :func:`~servokit.models.files.load_plant`).
-
-    Returns
-    -------
-    ModalPlant
-        A new copy of the catalogue plant, or the plant loaded from the file.
-
-    Raises
-    ------
-    ServokitValueError
-        If the name is neither a catalogue key nor a plant file; a file's own errors as
-        :class:`~servokit.models.files.PlantFileError`.
-    """
-    key = str(name_or_file)
-    if key in CATALOGUE:
-        return CATALOGUE[key]()
-    path = Path(key)
-    if path.suffix == ".toml" or path.exists():
-        from servokit.models.files import load_plant
-
-        return load_plant(path)
-    raise ServokitValueError(
-        f"unknown plant {key!r}: choose one of {', '.join(CATALOGUE)} or give a .toml plant file"
-    )
+        return lookup.get_plant
+    raise AttributeError(f"module {__name__!r} has no attribute {name!r}")

@@ -20,7 +20,7 @@ import numpy as np
 from servokit.errors import ServokitValueError
 from servokit.models.modal import ModalPlant, Mode
 
-__all__ = ["Perturbation", "VariationSet", "Level"]
+__all__ = ["Perturbation", "VariationSet"]
 
 Param = Literal["freq", "damping", "residue"]
 #: One level of a row: pairs of (index into ``VariationSet.ranges``, "low" | "high").
