@@ -365,6 +365,12 @@ CASES: list[tuple[list[str], str]] = [
     (["settle", "judge", "--record", "FIFO.csv"], "--record"),
     (["settle", "evaluate", "--judge", "FIFO"], "--judge"),
     (["settle", "train", "--judge", "FIFO"], "--judge"),
+    # ---- flags that do not apply to the chosen method are refused, not ignored
+    (["seek", "--method", "fsc", "--margin", "0.3"], "--margin"),
+    (["seek", "--method", "ffsc", "--u-max", "3"], "--u-max"),
+    (["seek", "--method", "fsc", "--objective", "energy"], "--objective"),
+    (["sweep", "--method", "fsc", "--u-max", "3"], "--u-max"),
+    (["sweep", "--design", "u.txt", "--method", "ffsc"], "--method"),
     # ---- margins
     ([*MARG, "--loop-delay", "-1"], "--loop-delay"),
     ([*MARG, "--loop-delay", "1e300"], "--loop-delay"),

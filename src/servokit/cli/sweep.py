@@ -27,6 +27,7 @@ from servokit.cli._app import (
     quiet_children,
     wrote,
 )
+from servokit.cli._options import given_on_command_line, refuse_inapplicable
 from servokit.errors import (
     ServokitValueError,
     check_count,
@@ -107,6 +108,7 @@ def _check_design_args(
     """Refuse bad design flags before the design (minutes for a huge --n-samples) starts."""
     if method not in ("fsc", "ffsc", "robust"):
         raise ServokitValueError(f"--method must be 'fsc', 'ffsc' or 'robust', got {method!r}")
+    refuse_inapplicable("--method", method, {"u_max": ("--u-max", ("robust",))})
     if n_samples is not None:
         n_s = check_count("--n-samples", n_samples, lo=1)
         # the design solves for N samples against an N x N (and larger) system
@@ -250,6 +252,11 @@ def sweep_cmd(
         raise ServokitValueError("--target must be non-zero (a seek distance)")
     if design is None:
         _check_design_args(method, n_samples, u_max, max_memory_mb)
+    else:  # the design comes from the file: the design flags would be silently ignored
+        for name, flag in (("method", "--method"), ("n_samples", "--n-samples"),
+                           ("u_max", "--u-max")):  # fmt: skip
+            if given_on_command_line(name):
+                raise ServokitValueError(f"{flag} does not apply with --design FILE; drop it")
     if seed < 0:
         raise ServokitValueError(f"--seed must be >= 0 (got {seed})")
     vset = hdd_benchmark_variation_set()
