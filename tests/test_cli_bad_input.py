@@ -101,7 +101,9 @@ CASES: list[tuple[list[str], str]] = [
     ([*POLY, "--n-samples", "40", "--dt", "1e-4", "--plot", "noext"], "--plot"),
     ([*MJ, "--dt", "0"], "--dt"),
     ([*MJ, "--dt", "2", "--move-time", "1"], "--dt"),
-    ([*MJ, "--dt", "1e-12", "--move-time", "1"], "--max-memory-mb"),
+    ([*MJ, "--dt", "1e-9", "--move-time", "1"], "--max-memory-mb"),
+    ([*MJ, "--dt", "1e-12", "--move-time", "1"], "--dt"),  # below the 1 ns period floor
+    ([*ADM, "--dt", "1e-9"], "--dt"),  # 2e6 samples per crossover cycle: singular
     ([*MJ, "--dt", "0.1", "--move-time", "0"], "--move-time"),
     ([*MJ, "--dt", "0.1", "--move-time", "inf"], "--move-time"),
     ([*MJ, "--dt", "0.1", "--target", "nan"], "--target"),

@@ -56,6 +56,12 @@ DtOpt = Annotated[
 ]
 
 
+#: Samples per cycle of the lead-lag crossover --freq accepted with --dt (below: beyond
+#: Nyquist margin; above: the discretisation is numerically singular).
+_MIN_SAMPLES_PER_CYCLE = 4
+_MAX_SAMPLES_PER_CYCLE = 1e5
+
+
 def _build_loop(plant: str, controller: str, freq: float, dt: float | None) -> SwitchedLoop:
     """Discretise the plant at the controller's (or --dt) period and close the loop."""
     from servokit.switching import switched_loop
@@ -67,8 +73,17 @@ def _build_loop(plant: str, controller: str, freq: float, dt: float | None) -> S
     if controller == "lead-lag":
         if dt is None:
             raise ServokitValueError("--controller lead-lag needs --dt [s]")
-        pd = p.discretize(check_positive("--dt", dt, "s"))
-        return switched_loop(pd, lead_lag(pd, check_positive("--freq", freq, "Hz")))
+        dt = check_positive("--dt", dt, "s")
+        freq = check_positive("--freq", freq, "Hz")
+        if not _MIN_SAMPLES_PER_CYCLE <= 1.0 / (dt * freq) <= _MAX_SAMPLES_PER_CYCLE:
+            # outside this the discretised lead-lag is singular to double precision (poles
+            # at 1 - 1e-7 and closer) and LAPACK's eigenvalue search may not return
+            raise ServokitValueError(
+                f"--dt {dt:g} s gives {1.0 / (dt * freq):.3g} samples per cycle of --freq "
+                f"{freq:g} Hz; use {_MIN_SAMPLES_PER_CYCLE}..{_MAX_SAMPLES_PER_CYCLE:.0e}"
+            )
+        pd = p.discretize(dt)
+        return switched_loop(pd, lead_lag(pd, freq))
     ctrl = load_controller(controller, dt)
     return switched_loop(p.discretize(float(ctrl.dt)), ctrl)
 
