@@ -30,6 +30,7 @@ PARAM_FLAGS: dict[str, str] = {
     "N_range": "--n-samples range",
     "N_max": "--n-samples-max",
     "max_terms": "the alias-sum term limit",
+    "t_max": "--t-max",
     "dt": "--dt",
     "ts": "--dt",
     "Ts": "--dt",
@@ -173,13 +174,15 @@ def flag_names(mapping: Mapping[str, str] | None = None, prefix: str = "") -> It
     """Re-raise library errors with Python parameter names replaced by the CLI flags.
 
     ``mapping`` maps a parameter name (``"n_samples"``) to the flag the user typed
-    (``"--n-samples"``), on top of the shared table :data:`PARAM_FLAGS`; ``prefix`` is put
+    (``"--n-samples"``); without one the shared table :data:`PARAM_FLAGS` is used; ``prefix`` is put
     before the message (e.g. the flag and value). Filesystem errors become a
     :class:`~servokit.errors.ServokitValueError` as well.
     """
     from servokit.errors import ServokitError, ServokitTypeError, ServokitValueError
 
-    table = {**PARAM_FLAGS, **(mapping or {})}
+    # the shared table only when the command gives none: a given mapping is exact (a
+    # plant-file error such as "field 'modes[0].damping'" must keep its words)
+    table = PARAM_FLAGS if mapping is None else dict(mapping)
     try:
         yield
     except ServokitError as exc:

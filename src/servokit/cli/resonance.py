@@ -433,7 +433,8 @@ def identify_cmd(
     try:
         ctrl = get_discrete_controller(controller, dt=1.0 / fs)
     except ServokitValueError as exc:
-        raise ServokitValueError(f"--dt {1 / fs:g} s: {exc}") from None
+        typed = f"--fs {fs:g} Hz" if fs_old is not None else f"--dt {1 / fs:g} s"
+        raise ServokitValueError(f"{typed}: {exc}") from None
     freq = fmin + step * np.arange(int(np.floor((fmax - fmin) / step + 1e-9)) + 1)
     chunk = 150
     with progress(
