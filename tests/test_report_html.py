@@ -12,10 +12,10 @@ import matplotlib.pyplot as plt
 import pytest
 from PIL import Image
 from report_page import Page, chromium, rendered_dom
-from servokit.report.files import write_report
 
 from servokit._figures import also_save_as, save_figure
 from servokit.report import CaseResult, Comparison
+from servokit.report.files import write_report
 from servokit.report.html import figure_caption, render_html
 
 

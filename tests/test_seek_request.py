@@ -103,3 +103,17 @@ def test_old_paths_still_resolve_with_a_deprecation_warning() -> None:
         assert sk.feedforward.robust_minimum_time is robust_minimum_time
     with pytest.raises(AttributeError):
         _ = servokit.robust.nothing_here
+
+
+def test_limits_reach_the_constrained_design() -> None:
+    from servokit.feedforward import InputLimit
+
+    free = fsc_input(PLANTS[0], HDD_BENCHMARK_TS, 14, 1.0, model="rigid-body")
+    cap = 0.8 * float(np.abs(free.u).max())
+    req = SeekRequest(PLANTS, HDD_BENCHMARK_TS, 1.0, N=14, limits=[InputLimit(cap)])
+    ref = fsc_input(
+        PLANTS[0], HDD_BENCHMARK_TS, 14, 1.0, model="rigid-body", constraints=[InputLimit(cap)]
+    )
+    u = design_seek(req).ff.u
+    np.testing.assert_array_equal(u, ref.u)
+    assert np.abs(u).max() <= cap * (1 + 1e-6)

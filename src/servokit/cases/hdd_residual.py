@@ -342,6 +342,16 @@ def _rank(values: list[float]) -> list[int]:
 
 def _section_4_5_4(outdir: Path) -> tuple[list[Comparison], list[Path], dict]:
     setup = tdof_setup()
+    rows = _mf_rows(setup)
+    runs = tdof_seeks(setup)
+    rows += _rank_rows(runs)
+    extra = _loop_extra(setup, runs)
+    rows += _loop_spec_rows(extra)
+    return rows, _section_4_5_4_figures(setup, runs, outdir), extra
+
+
+def _mf_rows(setup: TdofSetup) -> list[Comparison]:
+    """Zeros, pole pair and gain of the feedforward model Mf against (4.75)."""
     mf = control.ss2tf(setup.mf)
     zeros = np.sort(np.real_if_close(control.zeros(mf)).real)
     poles = control.poles(mf)
@@ -392,7 +402,12 @@ def _section_4_5_4(outdir: Path) -> tuple[list[Comparison], list[Path], dict]:
             f"{100 * (gain / -3.157e-6 - 1):+.2g} % from the printed gain",
         )
     )
-    runs = tdof_seeks(setup)
+    return rows
+
+
+def _rank_rows(runs: list[SeekRun]) -> list[Comparison]:
+    """Ranks of the residual SRS and of the simulated residual per tau_ff (Figs. 4.61-4.63)."""
+    rows: list[Comparison] = []
     srs_rank = _rank([r.srs_at_mode for r in runs])
     res_rank = _rank([r.residual for r in runs])
     for run, b_rank, s_rank, r_rank in zip(runs, (1, 3, 2), srs_rank, res_rank, strict=True):
@@ -415,6 +430,11 @@ def _section_4_5_4(outdir: Path) -> tuple[list[Comparison], list[Path], dict]:
                 "§4.5.4.4, Figs. 4.62-4.63",
             ),
         ]
+    return rows
+
+
+def _loop_extra(setup: TdofSetup, runs: list[SeekRun]) -> dict:
+    """The loop's margins at the fitted gain and the outcome of each seek."""
     margins = control.stability_margins(
         control.ss(setup.plant.discretize(setup.tau_fb)) * control.ss(setup.controller)
     )
@@ -438,8 +458,13 @@ def _section_4_5_4(outdir: Path) -> tuple[list[Comparison], list[Path], dict]:
             for r in runs
         ],
     }
+    return extra
+
+
+def _loop_spec_rows(extra: dict) -> list[Comparison]:
+    """The §4.5.4.1 specifications: PM > 40 deg at 1 kHz, GM > 5 dB."""
     spec = {"kind": "spec", "rel_tol": 0.0, "bound": "min", "source": "§4.5.4.1"}
-    rows += [
+    return [
         Comparison(
             "phase margin at 1 kHz", 40.0, extra["phase_margin_at_1kHz_deg"], "deg",
             book_text="40", note="book: 'more than 40 deg phase margin at 1 kHz'; the loop "
@@ -451,6 +476,10 @@ def _section_4_5_4(outdir: Path) -> tuple[list[Comparison], list[Path], dict]:
             **spec,
         ),
     ]  # fmt: skip
+
+
+def _section_4_5_4_figures(setup: TdofSetup, runs: list[SeekRun], outdir: Path) -> list[Path]:
+    """Figs. 4.60-4.62: the feedforward inputs, their residual SRS and the TDOF seeks."""
     f = np.linspace(100.0, 10e3, 2000)
     spectra = [
         shock_response_spectrum(r.accel * setup.plant.gain, r.tau_ff, f, SRS_DAMPING) for r in runs
@@ -469,7 +498,7 @@ def _section_4_5_4(outdir: Path) -> tuple[list[Comparison], list[Path], dict]:
     _seek_plot(runs, fig2)
     fig3 = outdir / "hdd_residual_fig4_60_feedforward.png"
     _inputs_plot(runs, setup, fig3)
-    return rows, [fig3, fig1, fig2], extra
+    return [fig3, fig1, fig2]
 
 
 def _inputs_plot(runs: list[SeekRun], setup: TdofSetup, path: Path) -> None:

@@ -17,6 +17,7 @@ simulated from the command instant are reported next to them.
 
 from __future__ import annotations
 
+from dataclasses import dataclass
 from pathlib import Path
 
 import numpy as np
@@ -103,6 +104,115 @@ def _n_row(d: SeekDesign, search: NSearchResult, outcome: SeekOutcome, src: str)
     )
 
 
+@dataclass(frozen=True, eq=False)
+class _Runs:
+    """Every design of §2.4.2 simulated without and with the delay, its N search, figures."""
+
+    outcome: dict[str, SeekOutcome]
+    delayed: dict[str, SeekOutcome]
+    searches: dict[str, NSearchResult]
+    figures: list[Path]
+
+
+def _run_designs(plants: list, outdir: Path) -> _Runs:
+    """Design 1-2 at 1 and 10 tracks: seek outcomes, N searches and Figs. 2.14-2.21."""
+    nominal = plants[0]
+    undelayed = without_delay(plants)
+    runs = _Runs({}, {}, {}, [])
+    for fig_no, d in enumerate(DESIGNS):
+        ff = d.design(nominal)
+        runs.outcome[d.key] = simulate_seek(undelayed, ff, d.tracks)
+        runs.delayed[d.key] = simulate_seek(plants, ff, d.tracks)
+        runs.searches[d.key] = choose_N(
+            undelayed,
+            HDD_BENCHMARK_TS,
+            d.tracks,
+            search_range(d.tracks),
+            design_plant=nominal,
+            band=BAND,
+            band_weights=d.band_weights(),
+            model="rigid-body",
+        )
+        figs = ("2.14-2.15", "2.16-2.17", "2.18-2.19", "2.20-2.21")[fig_no]
+        runs.figures.append(
+            seek_plot(
+                runs.outcome[d.key],
+                d.tracks,
+                f"{d.label}, N = {d.N} (cf. book Figs. {figs})",
+                outdir / f"hdd_seek_{d.key}.png",
+                resonances_hz=nominal.resonances_hz(),
+                bands=d.band_weights(),
+            )
+        )
+    runs.figures.append(_search_plot(runs.searches, outdir / "hdd_seek_N_search.png"))
+    return runs
+
+
+_BOOK_MS = {"d1-1": "0.333", "d1-10": "0.879", "d2-1": "0.280", "d2-10": "0.538"}
+_UNDELAYED_NOTE = "book convention: the input reaches the plant at t = 0 (no 10 us delay)"
+
+
+def _seek_rows(runs: _Runs, src: str) -> list[Comparison]:
+    """The rows of §2.4.2: seek times, improvements, Max(y), delayed seeks, searched N."""
+    outcome = runs.outcome
+    comps = [
+        Comparison.printed(
+            f"{d.label}: worst seek time (10 us input delay not simulated)",
+            _BOOK_MS[d.key],
+            outcome[d.key].worst * 1e3,
+            unit="ms",
+            source=src,
+            note=_UNDELAYED_NOTE,
+        )
+        for d in DESIGNS
+    ]
+    comps += _improvement_rows(outcome, src)
+    comps.append(
+        Comparison.printed(
+            "Design 1, 1 track: Max(y) over the 18 plants (10 us input delay not simulated)",
+            "1.045537",
+            float(outcome["d1-1"].y.max()),
+            unit="track",
+            source="book Fig. 2.15",
+            note=_UNDELAYED_NOTE,
+        )
+    )
+    comps += [
+        Comparison.printed(
+            f"{d.label}: worst seek time, 10 us input delay simulated",
+            _BOOK_MS[d.key],
+            runs.delayed[d.key].worst * 1e3,
+            unit="ms",
+            source=src,
+            kind="informational",
+            note="sensitivity study, not judged: the plant input delayed 10 us from the "
+            "command, as in (2.73); the book's numbers are computed without the delay (the "
+            "undelayed rows above match them)",
+        )
+        for d in DESIGNS
+    ]
+    return comps + [_n_row(d, runs.searches[d.key], outcome[d.key], src) for d in DESIGNS]
+
+
+def _improvement_rows(outcome: dict[str, SeekOutcome], src: str) -> list[Comparison]:
+    """FFSC over FSC seek-time improvement [%] at 1 and 10 tracks (consistency rows)."""
+    rows = []
+    for tracks, book_pct, k1, k2 in ((1, "16", "d1-1", "d2-1"), (10, "39", "d1-10", "d2-10")):
+        gain = 100.0 * (1.0 - outcome[k2].worst / outcome[k1].worst)
+        rows.append(
+            Comparison.printed(
+                f"FFSC seek-time improvement, {tracks} track(s)",
+                book_pct,
+                gain,
+                unit="%",
+                source=src,
+                kind="consistency",
+                note="computed from the two seek-time rows above, not an independent number",
+            )
+        )
+    return rows
+
+
 @register("hdd-seek", order=0)
 def hdd_seek_case(outdir: Path) -> CaseResult:
     """Reproduce §2.4.2: seek times of Designs 1-2, the improvement and Fig. 2.15's peak.
@@ -126,110 +236,28 @@ def hdd_seek_case(outdir: Path) -> CaseResult:
     outdir = Path(outdir)
     outdir.mkdir(parents=True, exist_ok=True)
     plants = hdd_benchmark_variants()
-    nominal = plants[0]
-    undelayed = without_delay(plants)
-    resonances = nominal.resonances_hz()
-    src = "book §2.4.2"
-
-    outcome: dict[str, SeekOutcome] = {}
-    delayed: dict[str, SeekOutcome] = {}
-    searches: dict[str, NSearchResult] = {}
-    figures: list[Path] = []
-    for fig_no, d in enumerate(DESIGNS):
-        ff = d.design(nominal)
-        outcome[d.key] = simulate_seek(undelayed, ff, d.tracks)
-        delayed[d.key] = simulate_seek(plants, ff, d.tracks)
-        searches[d.key] = choose_N(
-            undelayed,
-            HDD_BENCHMARK_TS,
-            d.tracks,
-            search_range(d.tracks),
-            design_plant=nominal,
-            band=BAND,
-            band_weights=d.band_weights(),
-            model="rigid-body",
-        )
-        figs = ("2.14-2.15", "2.16-2.17", "2.18-2.19", "2.20-2.21")[fig_no]
-        figures.append(
-            seek_plot(
-                outcome[d.key],
-                d.tracks,
-                f"{d.label}, N = {d.N} (cf. book Figs. {figs})",
-                outdir / f"hdd_seek_{d.key}.png",
-                resonances_hz=resonances,
-                bands=d.band_weights(),
-            )
-        )
-    figures.append(_search_plot(searches, outdir / "hdd_seek_N_search.png"))
-
-    book_ms = {"d1-1": "0.333", "d1-10": "0.879", "d2-1": "0.280", "d2-10": "0.538"}
-    undelayed_note = "book convention: the input reaches the plant at t = 0 (no 10 us delay)"
-    comps = [
-        Comparison.printed(
-            f"{d.label}: worst seek time (10 us input delay not simulated)",
-            book_ms[d.key],
-            outcome[d.key].worst * 1e3,
-            unit="ms",
-            source=src,
-            note=undelayed_note,
-        )
-        for d in DESIGNS
-    ]
-    for tracks, book_pct, k1, k2 in ((1, "16", "d1-1", "d2-1"), (10, "39", "d1-10", "d2-10")):
-        gain = 100.0 * (1.0 - outcome[k2].worst / outcome[k1].worst)
-        comps.append(
-            Comparison.printed(
-                f"FFSC seek-time improvement, {tracks} track(s)",
-                book_pct,
-                gain,
-                unit="%",
-                source=src,
-                kind="consistency",
-                note="computed from the two seek-time rows above, not an independent number",
-            )
-        )
-    comps.append(
-        Comparison.printed(
-            "Design 1, 1 track: Max(y) over the 18 plants (10 us input delay not simulated)",
-            "1.045537",
-            float(outcome["d1-1"].y.max()),
-            unit="track",
-            source="book Fig. 2.15",
-            note=undelayed_note,
-        )
-    )
-    comps += [
-        Comparison.printed(
-            f"{d.label}: worst seek time, 10 us input delay simulated",
-            book_ms[d.key],
-            delayed[d.key].worst * 1e3,
-            unit="ms",
-            source=src,
-            kind="informational",
-            note="sensitivity study, not judged: the plant input delayed 10 us from the "
-            "command, as in (2.73); the book's numbers are computed without the delay (the "
-            "undelayed rows above match them)",
-        )
-        for d in DESIGNS
-    ]
-    comps += [_n_row(d, searches[d.key], outcome[d.key], src) for d in DESIGNS]
+    runs = _run_designs(plants, outdir)
+    comps = _seek_rows(runs, "book §2.4.2")
     extra = {
         "delay_convention": "headline seek times simulate the plants without the 10 us input "
         "delay (the book's numbers match that to all printed digits)",
-        "seek_time_ms": {d.key: outcome[d.key].worst * 1e3 for d in DESIGNS},
-        "seek_time_with_delay_ms": {d.key: delayed[d.key].worst * 1e3 for d in DESIGNS},
-        "worst_plant": {d.key: plants[outcome[d.key].worst_plant].name for d in DESIGNS},
+        "seek_time_ms": {d.key: runs.outcome[d.key].worst * 1e3 for d in DESIGNS},
+        "seek_time_with_delay_ms": {d.key: runs.delayed[d.key].worst * 1e3 for d in DESIGNS},
+        "worst_plant": {d.key: plants[runs.outcome[d.key].worst_plant].name for d in DESIGNS},
         "auto_N": {
-            d.key: {"N": searches[d.key].N, "seek_time_ms": searches[d.key].seek_time * 1e3}
+            d.key: {
+                "N": runs.searches[d.key].N,
+                "seek_time_ms": runs.searches[d.key].seek_time * 1e3,
+            }
             for d in DESIGNS
         },
-        "peak_track": {d.key: float(outcome[d.key].y.max()) for d in DESIGNS},
+        "peak_track": {d.key: float(runs.outcome[d.key].y.max()) for d in DESIGNS},
     }
     return CaseResult(
         "hdd-seek",
         "HDD benchmark track seek: FSC vs FFSC (book §2.4)",
         comps,
-        figures,
+        runs.figures,
         extra,
         chapter=2,
     )

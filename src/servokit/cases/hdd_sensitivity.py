@@ -29,7 +29,12 @@ import numpy as np
 
 from servokit._figures import save_figure
 from servokit.cases import register
-from servokit.models import HDD_SAMPLED_DATA_TS, controller_eq_4_69, hdd_sampled_data
+from servokit.models import (
+    HDD_SAMPLED_DATA_TS,
+    controller_eq_4_69,
+    hdd_sampled_data,
+    without_delay,
+)
 from servokit.report import CaseResult, Comparison
 from servokit.sampled import (
     Multirate,
@@ -243,7 +248,7 @@ def _margins(mr: Multirate, n: int = 20_000, *, delay: bool = True) -> dict[str,
     dt = HDD_SAMPLED_DATA_TS
     f = np.linspace(1.0, 0.5 / dt, n)
     z = np.exp(2j * np.pi * f * dt)
-    plant = hdd_sampled_data() if delay else hdd_sampled_data().replace(delay=0.0)
+    plant = hdd_sampled_data() if delay else without_delay(hdd_sampled_data())[0]
     loop = eval_discrete(mr.discretize(plant, dt), z) * eval_discrete(controller_eq_4_69(), z)
     mag = np.abs(loop)
     ic = int(np.flatnonzero((mag[:-1] >= 1) & (mag[1:] < 1))[0])
@@ -308,6 +313,40 @@ def _ratio_miss(book_text: str, exact: float, f_hz: float) -> dict[str, str]:
     }
 
 
+def _ratio_rows(f_hz: float, eq: str, sim: dict, mr: Multirate) -> list[Comparison]:
+    """The four ratios of (4.70)-(4.71) at ``f_hz``: by simulation and by the formulas."""
+    plant, ctrl, dt = hdd_sampled_data(), controller_eq_4_69(), HDD_SAMPLED_DATA_TS
+    at = sampled_data_sensitivity(plant, ctrl, dt, [f_hz], multirate=mr)
+    comps: list[Comparison] = []
+    label = "3.6 kHz" if f_hz == FILTER_HZ else f"fs - 3.6 kHz = {f_hz:.2f} Hz"
+    for key, book in BOOK[f_hz].items():
+        attr, feq = _FORMULA[key]
+        val = float(np.abs(getattr(at, attr))[0])
+        text = f"{book:.2f}"
+        comps.append(
+            Comparison.printed(
+                f"||{key}||/||dc|| at {label}, simulation",
+                text,
+                sim["simulation"][key],
+                source=f"eq. ({eq})",
+                note="steady-state peak of the hybrid simulation, as the book's simulation",
+                **_ratio_miss(text, sim["steady_state"][key], f_hz),
+            )
+        )
+        comps.append(
+            Comparison.printed(
+                f"||{key}||/||dc|| at {label}, formula ({feq})",
+                text,
+                val,
+                source=f"eq. ({eq}) vs ({feq})",
+                kind="consistency",
+                note="the same quantity from the formula: a cross-check of the simulation row",
+                **_ratio_miss(text, val, f_hz),
+            )
+        )
+    return comps
+
+
 @register("hdd-sensitivity", order=20)
 def run(outdir: Path) -> CaseResult:
     """§4.5.2: Figs. 4.41-4.51 and the disturbance ratios (4.70)-(4.71).
@@ -362,34 +401,8 @@ def run(outdir: Path) -> CaseResult:
     extra["max_Sd_below_500Hz"] = float(np.abs(res.Sd[low]).max())
     comps += _spec_rows(extra)
     for f_hz, eq, fig in ((3600.0, "4.70", "4.50"), (ALIAS_HZ, "4.71", "4.51")):
-        at = sampled_data_sensitivity(plant, ctrl, dt, [f_hz], multirate=mr)
         sim = disturbance_ratios(f_hz)
-        label = "3.6 kHz" if f_hz == FILTER_HZ else f"fs - 3.6 kHz = {f_hz:.2f} Hz"
-        for key, book in BOOK[f_hz].items():
-            attr, feq = _FORMULA[key]
-            val = float(np.abs(getattr(at, attr))[0])
-            text = f"{book:.2f}"
-            comps.append(
-                Comparison.printed(
-                    f"||{key}||/||dc|| at {label}, simulation",
-                    text,
-                    sim["simulation"][key],
-                    source=f"eq. ({eq})",
-                    note="steady-state peak of the hybrid simulation, as the book's simulation",
-                    **_ratio_miss(text, sim["steady_state"][key], f_hz),
-                )
-            )
-            comps.append(
-                Comparison.printed(
-                    f"||{key}||/||dc|| at {label}, formula ({feq})",
-                    text,
-                    val,
-                    source=f"eq. ({eq}) vs ({feq})",
-                    kind="consistency",
-                    note="the same quantity from the formula: a cross-check of the simulation row",
-                    **_ratio_miss(text, val, f_hz),
-                )
-            )
+        comps += _ratio_rows(f_hz, eq, sim, mr)
         extra[f"steady_state_{f_hz:g}Hz"] = sim["steady_state"]
         extra[f"simulation_{f_hz:g}Hz"] = sim["simulation"]
         figures.append(

@@ -62,6 +62,11 @@ def _yui_vs_fs_figure(
 
 
 def _section_4_3(outdir: Path) -> tuple[list[Comparison], list[Path]]:
+    return _section_4_3_rows(), _section_4_3_figures(outdir)
+
+
+def _section_4_3_rows() -> list[Comparison]:
+    """yu at three frequencies, the unacceptable sampling frequencies and tau*Ns (§4.3)."""
     tau = 25e-6
     rows = []
     for label, f, mn, mx in (
@@ -112,6 +117,12 @@ def _section_4_3(outdir: Path) -> tuple[list[Comparison], list[Path]]:
             "samples); the book reads 'more than 0.26 ms' off the figure",
         )
     )
+    return rows
+
+
+def _section_4_3_figures(outdir: Path) -> list[Path]:
+    """Figs. 4.3, 4.21, 4.23 and 4.24 (tau = 25 us, zeta = 0.01)."""
+    tau = 25e-6
     fig = _yui_vs_fs_figure(
         40e3,
         0.01,
@@ -153,7 +164,7 @@ def _section_4_3(outdir: Path) -> tuple[list[Comparison], list[Path]]:
         title="Fig. 4.23: yui (tau = 25 us, zeta = 0.01)",
         path=fig2,
     )
-    return rows, [fig0, fig1, fig2, fig]
+    return [fig0, fig1, fig2, fig]
 
 
 def _section_4_4(outdir: Path) -> tuple[list[Comparison], list[Path]]:
@@ -286,12 +297,17 @@ def _section_4_5_3(outdir: Path) -> tuple[list[Comparison], list[Path]]:
         "Fig. 4.54: yui vs sampling frequency (4.1 kHz mode, zeta = 0.01)",
         outdir / "hdd_residual_fig4_54_yui_vs_fs_hdd.png",
     )
+    fig2 = _fig_4_55(f, zeta, outdir / "hdd_residual_fig4_55_yui_vs_time_hdd.png")
+    return rows, [fig1, fig2]
+
+
+def _fig_4_55(f: float, zeta: float, fig2: Path) -> Path:
+    """Fig. 4.55: yui against the measurement time for three sampling periods."""
     times = {}
     for fs_k in (4.1e3, 4.3e3, 4.5e3):
         r = required_measurement_time(f, 1 / fs_k, zeta, 0.1, max_samples=40)
         times[f"tau = {1e6 / fs_k:.0f} us"] = r.rms
     ns = np.arange(1, 41)
-    fig2 = outdir / "hdd_residual_fig4_55_yui_vs_time_hdd.png"
     # Curves share the Ns axis; plot each against its own tau * Ns.
     import matplotlib.pyplot as plt
 
@@ -307,7 +323,7 @@ def _section_4_5_3(outdir: Path) -> tuple[list[Comparison], list[Path]]:
     ax.grid(True, alpha=0.3)
     ax.legend()
     save_figure(figure, fig2)
-    return rows, [fig1, fig2]
+    return fig2
 
 
 @register("sampled-oscillations", order=30)

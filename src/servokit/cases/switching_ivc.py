@@ -257,22 +257,13 @@ def _pole_row(pole_b0: float) -> Comparison:
     )
 
 
-def _section_332(outdir: Path) -> tuple[list[Comparison], list[Path], dict]:
-    def numbers(loop: SwitchedLoop) -> np.ndarray:
-        cpoles = _real_sorted(np.linalg.eigvals(loop.Ac))
-        design = ivc_additional_input(loop, 0.6)
-        y, _, _ = additional_input_response(loop, design, np.array([1.0, 0, 0]), 3)
-        # y0 = (q1 z + q0)/(z - p): y[0] = q1, y[1] = q0 + q1 p -> zero at -q0/q1
-        zero = -(y[1] - 0.6 * y[0]) / y[0]
-        return np.array([cpoles[0], cpoles[1], zero])
-
-    loop = book_loop(POLES_332)
-    got, spread = numbers(loop), _spread(numbers, POLES_332)
+def _rows_332(loop: SwitchedLoop) -> list[Comparison]:
+    """The fitted plant zeros and the placed closed-loop poles of §3.3.2."""
     pz = _real_sorted(siso_zeros(loop.A, loop.Bu, loop.C))
     cl = np.sort_complex(loop.poles())
     dev = np.max(np.abs(cl - np.sort_complex(np.array(_expand(POLES_332)))))
     fit = "Td/dt fitted to the plant zeros -56.79, -0.235"
-    rows = [
+    return [
         Comparison.printed(
             "plant zero of r' -> y",
             "-56.79",
@@ -301,6 +292,12 @@ def _section_332(outdir: Path) -> tuple[list[Comparison], list[Path], dict]:
             kind="consistency",
             note="controller placed on the printed poles",
         ),
+    ]
+
+
+def _predicted_rows_332(got: np.ndarray, spread: np.ndarray) -> list[Comparison]:
+    """Controller pole and zeros of §3.3.2 predicted from the printed poles."""
+    return [
         _pole_row(got[1]),
         _row(
             "controller pole = zero of r' -> y",
@@ -319,6 +316,20 @@ def _section_332(outdir: Path) -> tuple[list[Comparison], list[Path], dict]:
             "d[z] = (z - 0.6) x stable zeros of Nru, as the printed pole list implies",
         ),
     ]
+
+
+def _section_332(outdir: Path) -> tuple[list[Comparison], list[Path], dict]:
+    def numbers(loop: SwitchedLoop) -> np.ndarray:
+        cpoles = _real_sorted(np.linalg.eigvals(loop.Ac))
+        design = ivc_additional_input(loop, 0.6)
+        y, _, _ = additional_input_response(loop, design, np.array([1.0, 0, 0]), 3)
+        # y0 = (q1 z + q0)/(z - p): y[0] = q1, y[1] = q0 + q1 p -> zero at -q0/q1
+        zero = -(y[1] - 0.6 * y[0]) / y[0]
+        return np.array([cpoles[0], cpoles[1], zero])
+
+    loop = book_loop(POLES_332)
+    got, spread = numbers(loop), _spread(numbers, POLES_332)
+    rows = _rows_332(loop) + _predicted_rows_332(got, spread)
     figs, first_order = _figures_3_10_3_11(loop, outdir)
     rows.append(
         Comparison(

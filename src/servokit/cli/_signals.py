@@ -23,6 +23,8 @@ EXIT_INTERRUPTED = 130
 #: Seconds an interrupted run may spend unwinding (closing a Dask cluster, removing a
 #: staging directory) before the process is ended outright.
 INTERRUPT_GRACE_S = 0.5
+#: The process that installed the handler; forked workers inherit the handler, not the role.
+_MAIN_PID = os.getpid()
 _announced = threading.Lock()
 
 
@@ -100,6 +102,8 @@ def quiet_children() -> Iterator[None]:
 def _on_sigint(signum: int, frame: Any) -> None:
     """First Ctrl-C: unwind through ``KeyboardInterrupt``; a watchdog ends the process if the
     unwinding (or a swallowed interrupt) takes longer than :data:`INTERRUPT_GRACE_S`."""
+    if os.getpid() != _MAIN_PID:  # a forked worker (case runner pool): leave quietly
+        os._exit(EXIT_INTERRUPTED)
     signal.signal(signal.SIGINT, signal.SIG_IGN)  # a second Ctrl-C must not cut the cleanup
     timer = threading.Timer(INTERRUPT_GRACE_S, _interrupted_exit)
     timer.daemon = True
@@ -117,6 +121,8 @@ def _unraisable(info: Any) -> None:
 
 def install() -> None:
     """Install the SIGINT handler (main thread) and the unraisable-exception hook."""
+    global _MAIN_PID
+    _MAIN_PID = os.getpid()
     if threading.current_thread() is threading.main_thread():
         signal.signal(signal.SIGINT, _on_sigint)
     sys.unraisablehook = _unraisable

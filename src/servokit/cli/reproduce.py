@@ -40,6 +40,7 @@ def reproduce(
     json_out: bool = typer.Option(
         False, "--json", help="print results.json on stdout (nothing else on stdout)"
     ),
+    svg: bool = typer.Option(False, "--svg", help="also save every figure as SVG"),
 ) -> None:
     """Reproduce the book's published numbers and figures; write report.html and results.json.
 
@@ -48,7 +49,7 @@ def reproduce(
     ratio, tolerance, within_tolerance, kind, note, bound) and summary (counts per chapter).
     """
     from servokit._io import staged_output
-    from servokit.cases.runner import run_cases, select_cases
+    from servokit.cases.runner import iter_cases, select_cases
     from servokit.report.files import write_report
 
     out_dir = check_out_dir(out)  # "" refused (typer would have made it ".")
@@ -58,12 +59,13 @@ def reproduce(
     # leaves the previous report intact; a concurrent run on the same --out is refused
     with staged_output(out_dir) as stage:
         with progress(len(names), "reproducing") as advance:
-            for i, name in enumerate(names, start=1):
-                # one line per case as it starts (stderr: --json output stays clean)
-                typer.echo(f"[{i}/{len(names)}] {name} ...", err=True)
-                done, seconds = run_cases(stage, [name])
+            # cases in parallel processes when there are cores; one line per case as it is
+            # collected, in run order (stderr: --json output stays clean)
+            cases = iter_cases(stage, names, svg=svg)
+            for i, (name, done, seconds) in enumerate(cases, start=1):
+                typer.echo(f"[{i}/{len(names)}] {name} done ({seconds:.1f} s)", err=True)
                 results += done
-                runtimes |= seconds
+                runtimes[name] = seconds
                 advance()
         doc = json.loads(write_report(results, stage, runtimes)[0].read_text(encoding="utf-8"))
     json_path, html_path = out_dir / "results.json", out_dir / "report.html"

@@ -6,10 +6,13 @@ the old submodule paths ``servokit.robust.sweep``, ``servokit.robust.feedforward
 ``servokit.robust._matrices`` are aliases of their :mod:`servokit.seek` modules.
 """
 
-import importlib
 import sys
 import warnings
 from typing import Any
+
+import servokit.seek._matrices
+import servokit.seek.robust
+import servokit.seek.sweep  # noqa: F401  (the modules the old paths alias)
 
 #: old submodule -> its module in servokit.seek
 _MODULES = {
@@ -28,7 +31,7 @@ __all__ = ["NoFeasibleSeekError", "RobustFeedforwardInput", "robust_minimum_time
 
 # `from servokit.robust.sweep import X` keeps working: the old module paths are aliases
 for _old, _new in _MODULES.items():
-    sys.modules[f"{__name__}.{_old}"] = importlib.import_module(_new)
+    sys.modules[f"{__name__}.{_old}"] = sys.modules[_new]
 
 
 def __getattr__(name: str) -> Any:

@@ -69,6 +69,10 @@ class SeekRequest:
         FSC/FFSC design model (the book designs on the rigid body).
     u_max, slew_max : float, optional
         Robust: input limit (required) and per-sample slew limit.
+    limits : sequence of constraint objects
+        Limits of §2.6 (:class:`~servokit.feedforward.VoltageLimit`,
+        :class:`~servokit.feedforward.InputLimit`, ...): the ``constraints`` of the
+        FSC/FFSC design (the constrained QP) or the ``limits`` of the robust LP.
     margin : float
         Robust: band shrink in [0, 1).
     objective : {"peak", "energy"}
@@ -92,6 +96,7 @@ class SeekRequest:
     model: str = "rigid-body"
     u_max: float | None = None
     slew_max: float | None = None
+    limits: Sequence[object] = ()
     margin: float = 0.2
     objective: str = "peak"
     simulate_delay: bool = True
@@ -212,6 +217,8 @@ def design_seek(
         return SeekDesignResult(_robust(request), None, request)
     design = request.plants[0] if request.design_plant is None else request.design_plant
     kw: dict[str, Any] = {"band_weights": list(request.band_weights), "model": request.model}
+    if request.limits:
+        kw["constraints"] = tuple(request.limits)
     if request.N != "auto":
         ff = fsc_input(design, request.dt, int(request.N), request.target, **kw)
         return SeekDesignResult(ff, None, request)
@@ -247,5 +254,6 @@ def _robust(request: SeekRequest) -> RobustFeedforwardInput:
         N_max=request.N_max,
         margin=request.margin,
         slew_max=request.slew_max,
+        limits=tuple(request.limits) or None,
         objective=request.objective,  # type: ignore[arg-type]
     )
