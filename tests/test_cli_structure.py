@@ -17,10 +17,10 @@ LIMIT = 40
 OVER: dict[str, int] = {
     "seek.seek_cmd": 102,
     "sweep.sweep_cmd": 95,
-    "resonance.identify_cmd": 75,
+    "resonance.identify_cmd": 76,
     "switching.admissible_cmd": 64,
     "simulate.simulate_cmd": 61,
-    "reproduce.reproduce": 58,
+    "reproduce.reproduce": 59,
     "unobservable.sampling_cmd": 58,
     "dual_stage.dual_stage_cmd": 57,
     "srs.srs_cmd": 54,
