@@ -78,6 +78,10 @@ FLAG_RANGES: dict[str, tuple[float, float, str]] = {
     "--settle-band": (1e-12, 1e12, "output unit"),
     "--target": (1e-12, 1e12, "output unit"),
     "--tol": (1e-15, 1.0, "1"),
+    # circuit components of the self-sensing bridges (ssa): physical part values
+    **{f: (1e-15, 1.0, "F") for f in ("--c", "--c1", "--c2", "--c3", "--c-pzt")},
+    **{f: (1e-3, 1e12, "ohm") for f in ("--r", "--r1", "--r3")},
+    "--k": (1e-6, 1e6, "1"),
     "--fs-min": (1e-6, 1e9, "Hz"),
     "--fs-max": (1e-6, 1e9, "Hz"),
     "--zero-freq": (1e-6, 1e9, "Hz"),
