@@ -8,7 +8,22 @@ from typing import Annotated
 
 import typer
 
-from servokit.cli._app import JsonOpt, emit_json, example, sub_app, wrote
+from servokit.cli._app import (
+    JsonOpt,
+    MaxMemoryOpt,
+    emit_json,
+    example,
+    flag_names,
+    sub_app,
+    wrote,
+)
+from servokit.cli._options import old_name, renamed
+from servokit.errors import (
+    DEFAULT_MAX_MEMORY_MB,
+    ServokitValueError,
+    check_count,
+    check_memory,
+)
 
 export_app = sub_app(
     "export",
@@ -29,7 +44,7 @@ PrecisionOpt = Annotated[
     ),
 ]
 # a str, not a Path: typer turns an empty --out "" into Path("."), the working directory
-OutOpt = Annotated[str, typer.Option("--out", help="output directory")]
+OutOpt = Annotated[str, typer.Option("--out", help="output directory", metavar="DIR")]
 NameOpt = Annotated[str, typer.Option("--name", help="C prefix and file stem (a C identifier)")]
 
 
@@ -49,8 +64,26 @@ def _check_common(out: str | Path, name: str, fmt: str, precision: str, qmn: boo
     return check_out_dir(out)
 
 
+def _check_representable(tables: list, precision: str) -> None:
+    """Refuse a table the chosen number format cannot hold: C would get ``inff``/``nan``,
+    which no compiler accepts as a constant (and firmware must not run on)."""
+    import numpy as np
+
+    for t in tables:
+        values = np.asarray(t.values, dtype=float)
+        if not np.all(np.isfinite(values)):
+            raise ServokitValueError(f"table {t.name!r} holds NaN or inf; nothing to export")
+        biggest = float(np.max(np.abs(values))) if values.size else 0.0
+        if precision == "float" and biggest > float(np.finfo(np.float32).max):
+            raise ServokitValueError(
+                f"--precision float: table {t.name!r} holds {biggest:.3g}, beyond single "
+                "precision (3.4e38); use --precision double or rescale"
+            )
+
+
 def _finish(tables: list, out: Path, name: str, fmt: str, precision: str, step: str | None,
             title: str, json_out: bool) -> None:  # fmt: skip
+    _check_representable(tables, precision)
     """Write the files; report them and each table's quantisation error."""
     from servokit.export import FORMATS, quantize, write_export
 
@@ -80,12 +113,27 @@ def _finish(tables: list, out: Path, name: str, fmt: str, precision: str, step: 
         typer.echo(f"{row['table']}: shape {tuple(row['shape'])}{extra}")
 
 
+def _design_number(method: str, design_old: int | None) -> int:
+    """Book design number (1: FSC, 2: FFSC) from --method, or the deprecated --design."""
+    methods = {"fsc": 1, "ffsc": 2}
+    if method not in methods:
+        raise ServokitValueError(f"--method {method!r}: use fsc or ffsc")
+    if design_old is None:
+        return methods[method]
+    if design_old not in (1, 2):
+        raise ServokitValueError(f"--design {design_old}: use --method fsc or --method ffsc")
+    return renamed(methods[method], design_old, new_flag="--method", old_flag="--design", default=2)
+
+
 @export_app.command(
     "feedforward",
-    epilog=example("servokit export feedforward --design 2 --target 10 --format c --out fw"),
+    epilog=example("servokit export feedforward --method ffsc --target 10 --format c --out fw"),
 )
 def feedforward_cmd(
-    design: int = typer.Option(2, "--design", help="1: FSC (2.40)-(2.42); 2: FFSC, Table 2.4"),
+    method: str = typer.Option(
+        "ffsc", "--method", help="fsc (Design 1, (2.40)-(2.42)) or ffsc (Design 2, Table 2.4)"
+    ),
+    design_old: old_name("--design", int) = None,
     target: float = typer.Option(10.0, "--target", help="seek distance [track]"),
     n_samples: int | None = typer.Option(
         None, "--n-samples", help="steps N (default: the book's N for 1 or 10 tracks)"
@@ -94,6 +142,7 @@ def feedforward_cmd(
     precision: PrecisionOpt = "float",
     out: OutOpt = "firmware",
     name: NameOpt = "hdd_ff",
+    max_memory_mb: MaxMemoryOpt = DEFAULT_MAX_MEMORY_MB,
     json_out: JsonOpt = False,
 ) -> None:
     """HDD benchmark feedforward table u_c[0..N-1] held at Ts = 37.879 us (book §2.4).
@@ -103,8 +152,16 @@ def feedforward_cmd(
     from servokit.export import feedforward_tables
     from servokit.export.designs import hdd_feedforward
 
+    design = _design_number(method, design_old)
     out_dir = _check_common(out, name, fmt, precision)
-    ff = hdd_feedforward(design, target, n_samples)
+    if n_samples is not None:
+        n_samples = check_count("--n-samples", n_samples, lo=2)
+        # the FSC/FFSC least squares hold a few N x N matrices
+        check_memory(
+            4 * 8.0 * n_samples**2, what=f"--n-samples {n_samples}", max_memory_mb=max_memory_mb
+        )
+    with flag_names({"design": "--method", "N": "--n-samples"}):
+        ff = hdd_feedforward(design, target, n_samples)
     tables = feedforward_tables(ff.u, ff.dt, name="u")
     title = f"HDD benchmark Design {design}, {target:g} track(s), N = {ff.N} (book §2.4.2)"
     _finish(tables, out_dir, name, fmt, precision, None, title, json_out)
@@ -319,8 +376,12 @@ def _read_tables(path: Path) -> list:
     else:
         raise ServokitValueError(f"--input {path}: use a .json or .csv file")
     try:
-        return [FirmwareTable(k, np.asarray(v, dtype=float)) for k, v in items]
+        tables = [FirmwareTable(k, np.asarray(v, dtype=float)) for k, v in items]
     except (TypeError, ValueError) as exc:
         if isinstance(exc, ServokitValueError):
             raise ServokitValueError(f"--input {path}: {exc}") from None
         raise ServokitValueError(f"--input {path}: tables must be arrays of numbers") from None
+    for t in tables:
+        if not np.all(np.isfinite(t.values)):
+            raise ServokitValueError(f"--input {path}: table {t.name!r} holds NaN or inf")
+    return tables
