@@ -4,7 +4,7 @@ BIN := $(VENV)/bin
 STAMP := $(VENV)/.installed
 OUT ?= out
 
-.PHONY: demo test test-all bench lint clean
+.PHONY: demo test test-dask test-all bench lint clean
 
 $(BIN)/python:
 	$(PY) -m venv $(VENV)
@@ -24,6 +24,15 @@ demo: $(VENV)/.installed-demo
 
 test: $(STAMP)
 	MPLBACKEND=Agg $(BIN)/python -m pytest
+	$(MAKE) test-dask
+
+# the distributed backend against real worker processes (slow-marked, so selected here):
+# a local cluster, a scheduler with worker processes, a worker killed mid-sweep, Ctrl-C
+test-dask: $(STAMP)
+	MPLBACKEND=Agg $(BIN)/python -c "import distributed" || \
+		(echo "make test-dask: the dask extra is missing (pip install -e '.[dask]')" && exit 1)
+	MPLBACKEND=Agg $(BIN)/python -m pytest -m "" tests/test_cli_dask.py \
+		tests/test_sweep.py tests/test_cli_interrupts.py -k "dask or distributed"
 
 test-all: $(STAMP)
 	MPLBACKEND=Agg $(BIN)/python -m pytest -m ""
@@ -32,6 +41,7 @@ bench: $(STAMP)
 	MPLBACKEND=Agg $(BIN)/python bench/run.py
 	MPLBACKEND=Agg $(BIN)/python bench/robust_seek.py
 	MPLBACKEND=Agg $(BIN)/python bench/fit_modal.py
+	MPLBACKEND=Agg $(BIN)/python bench/startup.py
 
 lint: $(STAMP)
 	$(BIN)/ruff check src tests bench

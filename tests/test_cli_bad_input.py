@@ -103,7 +103,9 @@ CASES: list[tuple[list[str], str]] = [
     ([*POLY, "--n-samples", "40", "--dt", "1e-4", "--plot", "noext"], "--plot"),
     ([*MJ, "--dt", "0"], "--dt"),
     ([*MJ, "--dt", "2", "--move-time", "1"], "--dt"),
-    ([*MJ, "--dt", "1e-12", "--move-time", "1"], "--max-memory-mb"),
+    ([*MJ, "--dt", "1e-9", "--move-time", "1"], "--max-memory-mb"),
+    ([*MJ, "--dt", "1e-12", "--move-time", "1"], "--dt"),  # below the 1 ns period floor
+    ([*ADM, "--dt", "1e-9"], "--dt"),  # 2e6 samples per crossover cycle: singular
     ([*MJ, "--dt", "0.1", "--move-time", "0"], "--move-time"),
     ([*MJ, "--dt", "0.1", "--move-time", "inf"], "--move-time"),
     ([*MJ, "--dt", "0.1", "--target", "nan"], "--target"),
@@ -132,10 +134,9 @@ CASES: list[tuple[list[str], str]] = [
     (["report", "--plant", "no-such", "--seek", "BAD.json"], "--plant"),
     (["report", "--plant", "hdd-benchmark", "--seek", "BAD.json"], "--seek"),
     (["report", "--plant", "hdd-benchmark", "--seek", "missing.json"], "--seek"),
-    (["report", "--plant", "hdd-benchmark", "--seek", "BAD.json", "--out", "r.png"], "--out"),
-    (["report", "--plant", "hdd-benchmark", "--seek", "BAD.json", "--out", "DIR"], "--out"),
-    (["report", "--plant", "hdd-benchmark", "--seek", "BAD.json", "--out", "RO/r.html"], "--out"),
-    (["report", "--plant", "hdd-benchmark", "--seek", "BAD.json", "--out", "no/r.html"], "--out"),
+    (["report", "--plant", "hdd-benchmark", "--seek", "BAD.json", "--out", "u.txt"], "--out"),
+    (["report", "--plant", "hdd-benchmark", "--seek", "BAD.json", "--out", "RO/r"], "--out"),
+    (["report", "--plant", "hdd-benchmark", "--seek", "BAD.json", "--out", ""], "--out"),
     (["report", "--plant", "hdd-benchmark", "--seek", "BAD.json", "--n-plants", "0"], "--n-plants"),
     (["report", "--plant", "hdd-benchmark", "--frf", "missing.csv"], "missing.csv"),
     (["report", "--plant", "hdd-benchmark", "--controller", "no-such"], "--controller"),
@@ -185,6 +186,9 @@ CASES: list[tuple[list[str], str]] = [
     ([*SAMP, "--n-samples", "10000000"], "--n-samples"),
     ([*SAMP, "--fs-min", "10", "--fs-max", "5"], "--fs-min"),
     ([*SAMP, "--fs-min", "nan"], "--fs-min"),
+    ([*SAMP, "--dt-min", "1e-3", "--dt-max", "1e-4"], "--dt-min"),
+    ([*SAMP, "--dt-min", "nan"], "--dt-min"),
+    ([*SAMP, "--dt-max", "-1"], "--dt-max"),
     ([*TIME, "--n-samples-max", "0"], "--n-samples-max"),
     ([*TIME, "--n-samples-max", "10000000"], "--n-samples-max"),
     ([*TIME, "--n-samples-max", "10000"], "--n-samples-max"),
@@ -322,6 +326,9 @@ CASES: list[tuple[list[str], str]] = [
     ([*IDENT, "--fs", "0"], "--fs"),
     ([*IDENT, "--fs", "nan"], "--fs"),
     ([*IDENT, "--fs", "-3e4"], "--fs"),
+    ([*IDENT, "--dt", "0"], "--dt"),
+    ([*IDENT, "--dt", "1e-300"], "--dt"),
+    ([*IDENT, "--dt", "nan"], "--dt"),
     ([*IDENT, "--fmin", "0"], "--fmin"),
     ([*IDENT, "--fmin", "100", "--fmax", "10"], "--fmin"),
     ([*IDENT, "--fmax", "inf"], "--fmax"),
@@ -374,7 +381,33 @@ CASES: list[tuple[list[str], str]] = [
     ([*INV, "--pole-freq", "4775", "--pole-damping", "nan"], "--pole-damping"),
     ([*INV, "--pole-freq", "4775", "--dt", "0"], "--dt"),
     ([*INV, "--pole-freq", "4775", "--plot", "DIR/"], "--plot"),
+    # ---- hostile files as inputs (issue 23): refused before they are opened or parsed
+    *[
+        ([*cmd, flag, f], flag)
+        for cmd, flag in (
+            (["simulate", "--dt", "1e-4", "--duration", "0.01", "--step", "1"], "--plant"),
+            (["margins", "--plant", "hdd-sampled-data"], "--controller"),
+            (["margins", "--controller", "eq-4.69"], "--plant"),
+        )
+        for f in ("FIFO", "FIFO.toml", "ZERO.toml", "DEEP.toml", "LATIN.toml", "UTF16.toml")
+    ],
+    *[
+        (["sweep", "--design", f], "--design")
+        for f in ("FIFO", "FIFO.json", "ZERO.json", "DEEP.json", "BINARY.json")
+    ],
+    (["settle", "judge", "--record", "FIFO.csv"], "--record"),
+    (["settle", "evaluate", "--judge", "FIFO"], "--judge"),
+    (["settle", "train", "--judge", "FIFO"], "--judge"),
+    # ---- flags that do not apply to the chosen method are refused, not ignored
+    (["seek", "--method", "fsc", "--margin", "0.3"], "--margin"),
+    (["seek", "--method", "ffsc", "--u-max", "3"], "--u-max"),
+    (["seek", "--method", "fsc", "--objective", "energy"], "--objective"),
+    (["sweep", "--method", "fsc", "--u-max", "3"], "--u-max"),
+    (["sweep", "--design", "u.txt", "--method", "ffsc"], "--method"),
     # ---- margins
+    ([*MARG, "--loop-delay", "-1"], "--loop-delay"),
+    ([*MARG, "--loop-delay", "1e300"], "--loop-delay"),
+    ([*MARG, "--delay", "nan"], "--delay"),
     (["margins", "--plant", "no-such", "--controller", "eq-4.69"], "--plant"),
     (["margins", "--plant", "DIR", "--controller", "eq-4.69"], "--plant"),
     (["margins", "--plant", "hdd-sampled-data", "--controller", "no-such"], "--controller"),
@@ -455,12 +488,14 @@ CASES: list[tuple[list[str], str]] = [
     ([*VAR, "--dist-den", "x"], "--dist-den"),
     ([*VAR, "--dist-den", "0.01,1", "--delta", "nan"], "--delta"),
     ([*VAR, "--dist-den", "0.01,1", "--dt", "-1"], "--dt"),
-    ([*VAR, "--dist-den", "0.01,1", "--k", "0"], "--k"),
+    ([*VAR, "--dist-den", "0.01,1", "--rolloff-order", "0"], "--rolloff-order"),
+    ([*VAR, "--dist-den", "0.01,1", "--rolloff-order", "51"], "--rolloff-order"),
     (["limits", "dynamic-range", "--stroke-m", "0", "--accuracy-m", "3e-9"], "--stroke-m"),
     (["limits", "dynamic-range", "--stroke-m", "0.03", "--accuracy-m", "nan"], "--accuracy-m"),
     (["limits", "dynamic-range", "--stroke-m", "0.03", "--accuracy-m", "-1"], "--accuracy-m"),
     # ---- settle
     (["settle", "train", "--out", "DIR"], "--out"),
+    (["settle", "train", "--judge", "DIR"], "--judge"),
     (["settle", "train", "--out", "missing/judge.skops"], "--out"),
     (["settle", "train", "--out", "RO/judge.skops"], "--out"),
     (["settle", "train", "--n-distances", "1"], "--n-distances"),
@@ -468,8 +503,9 @@ CASES: list[tuple[list[str], str]] = [
     (["settle", "train", "--n-lengths", HUGE], "--n-lengths"),
     (["settle", "train", "--settle-band", "0"], "--settle-band"),
     (["settle", "train", "--settle-band", "nan"], "--settle-band"),
-    (["settle", "train", "--c", "0"], "--c"),
-    (["settle", "train", "--c", "nan"], "--c"),
+    (["settle", "train", "--svm-c", "0"], "--svm-c"),
+    (["settle", "train", "--svm-c", "nan"], "--svm-c"),
+    (["settle", "train", "--c", "nan"], "--c"),  # the deprecated old name still works
     (["settle", "train", "--coef0", "inf"], "--coef0"),
     (["settle", "evaluate", "--judge", "missing.skops"], "--judge"),
     (["settle", "evaluate", "--judge", "DIR"], "--judge"),
@@ -509,12 +545,12 @@ CASES: list[tuple[list[str], str]] = [
     (["pes", "--plot", "RO/fig.png"], "--plot"),
     # ---- export
     ([*XFF, "--design", "3"], "--design"),
-    ([*XFF, "--design-json", "missing.json"], "--design-json"),
-    ([*XFF, "--design-json", "DIR"], "--design-json"),
-    ([*XFF, "--design-json", "GARBAGE.toml"], "--design-json"),
-    ([*XFF, "--design-json", "EMPTY.txt"], "--design-json"),
-    ([*XFF, "--design-json", "BAD.json"], "--design-json"),
-    ([*XFF, "--design-json", "BAD.json", "--n-samples", "5"], "--n-samples"),
+    ([*XFF, "--seek", "missing.json"], "--seek"),
+    ([*XFF, "--seek", "DIR"], "--seek"),
+    ([*XFF, "--seek", "GARBAGE.toml"], "--seek"),
+    ([*XFF, "--seek", "EMPTY.txt"], "--seek"),
+    ([*XFF, "--seek", "BAD.json"], "--seek"),
+    ([*XFF, "--seek", "BAD.json", "--n-samples", "5"], "--n-samples"),
     ([*XFF, "--design", "abc"], "--design"),
     ([*XFF, "--target", "nan"], "--target"),
     ([*XFF, "--target", "0"], "--target"),
@@ -703,6 +739,19 @@ def _materialise(args: list[str], where: Path, monkeypatch: pytest.MonkeyPatch) 
     (where / "BADVAR.toml").write_text(
         'kind = "variations"\nplant = "hdd-benchmark"\n[[modes]]\nfreq_hz = 3333\nfreq_rel = 0.1\n'
     )
+    # hostile files (issue 23): a FIFO (reading or writing it would block), a symlink to an
+    # endless device, nesting 1100 deep, Latin-1, UTF-16 and binary bytes
+    for name in ("FIFO", "FIFO.toml", "FIFO.json", "FIFO.csv"):
+        if not (where / name).exists():
+            os.mkfifo(where / name)
+    for name in ("ZERO.toml", "ZERO.json"):
+        if not (where / name).is_symlink():
+            (where / name).symlink_to("/dev/zero")
+    (where / "DEEP.toml").write_text("a = " + "[" * 1100 + "]" * 1100 + "\n")
+    (where / "DEEP.json").write_text('{"input": ' + "[" * 1100 + "]" * 1100 + "}")
+    (where / "LATIN.toml").write_bytes('name = "caf\u00e9"\n'.encode("latin-1"))
+    (where / "UTF16.toml").write_bytes("[plant]\n".encode("utf-16"))
+    (where / "BINARY.json").write_bytes(bytes(range(256)))
     ro = where / "RO"
     ro.mkdir(exist_ok=True)
     ro.chmod(0o500)

@@ -50,7 +50,7 @@ def test_simulate_closed_loop_step_json():
     )
     assert r.returncode == 0, r.stderr
     data = json.loads(r.stdout)
-    assert data["final"][0] == pytest.approx(1.0, abs=1e-3)  # integral action
+    assert data["final_out"][0] == pytest.approx(1.0, abs=1e-3)  # integral action
 
 
 def test_simulate_input_file(tmp_path: Path):

@@ -95,9 +95,9 @@ def test_cli_report_builds_every_section(tmp_path):
     )
     args = ["report", "--plant", str(tmp_path / "p.toml"), "--frf", str(tmp_path / "frf.csv")]
     args += ["--controller", str(tmp_path / "c.toml"), "--seek", str(tmp_path / "seek.json")]
-    args += ["--out", str(tmp_path / "r.html")]
+    args += ["--out", str(tmp_path / "r")]
     res = CliRunner().invoke(app, args)
     assert res.exit_code == 0, res.output
-    html = (tmp_path / "r.html").read_text()
+    html = (tmp_path / "r" / "report.html").read_text()
     assert html.count("data:image/png;base64,") == 4
     assert 'median |model / measured - 1|</th><td class="num">0 %' in html

@@ -223,15 +223,15 @@ def test_cli_bad_table_file(monkeypatch, capsys, tmp_path: Path) -> None:
     assert code == 2 and "--input" in err and len(err.strip().splitlines()) == 1
 
 
-def test_cli_feedforward_design_json_exports_the_seek_input(
+def test_cli_feedforward_seek_file_exports_the_seek_input(
     monkeypatch, capsys, tmp_path: Path
 ) -> None:
-    """--design-json: a `seek --json` input (any plant) exported exactly, float32-rounded."""
+    """--seek: a `seek --json` input (any plant) exported exactly, float32-rounded."""
     u = np.random.default_rng(3).standard_normal(37) * 12.5
     src = tmp_path / "seek.json"
     src.write_text(json.dumps({"input": u.tolist(), "dt_s": 5e-5, "method": "robust"}))
     code, out, err = _cli(
-        monkeypatch, capsys, "feedforward", "--design-json", str(src), "--format", "json",
+        monkeypatch, capsys, "feedforward", "--seek", str(src), "--format", "json",
         "--out", str(tmp_path), "--name", "stage_ff", "--json",
     )  # fmt: skip
     assert code == 0, err
@@ -239,6 +239,6 @@ def test_cli_feedforward_design_json_exports_the_seek_input(
     written = json.loads((tmp_path / "stage_ff.json").read_text())
     values = np.asarray(written["tables"][0]["values"], dtype=float)
     np.testing.assert_array_equal(values.astype(np.float32), u.astype(np.float32))
-    code, _, err = _cli(monkeypatch, capsys, "feedforward", "--design-json", str(src),
+    code, _, err = _cli(monkeypatch, capsys, "feedforward", "--seek", str(src),
                         "--target", "1", "--out", str(tmp_path))  # fmt: skip
-    assert code == 2 and "--target" in err and "--design-json" in err
+    assert code == 2 and "--target" in err and "--seek" in err

@@ -74,7 +74,7 @@ def test_guide_commands_run_and_numbers_hold(tmp_path, monkeypatch, capsys):
     assert design["seek_time_s"] >= bang_bang
     assert Path("fit.png").stat().st_size > 0 and Path("sweep.png").stat().st_size > 0
     _check_robust_seek(plant)
-    html = Path("report.html").read_text(encoding="utf-8")
+    html = Path("design/report.html").read_text(encoding="utf-8")
     assert "Example stage design" in html and "book" not in html.lower()
     # the exported seek input is the validated one; the controller step clamps at 40 V
     header = Path("firmware/stage_ff.h").read_text()

@@ -151,9 +151,8 @@ def _package_graph() -> dict[str, set[str]]:
 
 def test_the_graph_sees_imports_at_module_level_and_inside_functions() -> None:
     graph, shims = _graph()
-    assert "servokit.models.lookup" in graph["servokit.cli._app"] or any(
-        "servokit.models" in t for t in graph["servokit.cli._app"]
-    )
+    # cli/_options imports servokit.models lazily, inside load_plant
+    assert any("servokit.models" in t for t in graph["servokit.cli._options"])
     # cli/seek imports servokit.seek lazily, inside a function
     assert "servokit.seek" in graph["servokit.cli.seek"]
     assert "servokit.seek" in shims["servokit.simulate"]

@@ -25,6 +25,7 @@ __all__ = [
 ]
 
 import os
+import stat
 from pathlib import Path
 
 import numpy as np
@@ -301,13 +302,53 @@ def check_input_file(path: str | Path, flag: str) -> Path:
     -------
     Path
     """
+    # a FIFO, device or /dev/zero symlink is refused before it is opened; size is capped
+    return check_regular_file(path, flag)
+
+
+#: Largest input file read (plants, controllers, designs, records) [bytes].
+MAX_INPUT_BYTES = 50 * 1024 * 1024
+
+
+def check_regular_file(path: str | Path, flag: str, max_bytes: int = MAX_INPUT_BYTES) -> Path:
+    """Return ``path`` if it is a readable regular file no larger than ``max_bytes``.
+
+    Checked with ``stat`` before anything is opened, so a FIFO (which would block the open),
+    a device such as ``/dev/zero`` (endless) or a symlink to one is refused, not read.
+
+    Parameters
+    ----------
+    path : str or Path
+        The file as typed.
+    flag : str
+        The flag that named it (in the error).
+    max_bytes : int
+        Size cap.
+
+    Returns
+    -------
+    Path
+    """
     if str(path).strip() == "":
         raise ServokitValueError(f"{flag} is empty; give a file name")
     p = Path(path)
-    if p.is_dir():
+    try:
+        st = os.stat(p)
+    except FileNotFoundError:
+        raise ServokitValueError(f"{flag} {path}: no such file") from None
+    except OSError as exc:
+        raise ServokitValueError(f"{flag} {path}: {exc.strerror or exc}") from None
+    if stat.S_ISDIR(st.st_mode):
         raise ServokitValueError(f"{flag} {path} is a directory; give a file")
-    if not p.is_file():
-        raise ServokitValueError(f"{flag} {path}: no such file")
+    if not stat.S_ISREG(st.st_mode):
+        raise ServokitValueError(
+            f"{flag} {path} is not a regular file (a pipe, socket or device); give a file"
+        )
+    if st.st_size > max_bytes:
+        raise ServokitValueError(
+            f"{flag} {path} is {st.st_size / 1e6:.4g} MB, above the {max_bytes / 1e6:g} MB "
+            "input limit; give a smaller file"
+        )
     if not os.access(p, os.R_OK):
         raise ServokitValueError(f"{flag} {path}: not readable (permissions)")
     return p

@@ -7,20 +7,55 @@ mistakes into one line on stderr with exit status 2.
 
 from __future__ import annotations
 
-import json
-import re
 import sys
 import warnings
-from collections.abc import Iterator, Mapping
-from contextlib import contextmanager
-from pathlib import Path
 from typing import Annotated, Any
 
 import numpy as np
 import typer
-from rich.console import Console
 from typer.core import TyperGroup
 
+from servokit.cli._options import (  # noqa: F401  (re-exported: one import for commands)
+    MAX_CORNERS,
+    ControllerOpt,
+    DampingOpt,
+    DtOpt,
+    DurationOpt,
+    FmaxOpt,
+    FminOpt,
+    FreqOpt,
+    JsonOpt,
+    MaxMemoryOpt,
+    NFreqOpt,
+    NSamplesOpt,
+    OutDirOpt,
+    PlantOpt,
+    PlotOpt,
+    SeedOpt,
+    SettleBandOpt,
+    VariationsOpt,
+    flag_names,
+    harden,
+    load_controller,
+    load_plant,
+    load_variations,
+    plot_target,
+    variation_corners,
+)
+from servokit.cli._render import (  # noqa: F401
+    console,
+    emit_json,
+    fail,
+    progress,
+    warn,
+    wrote,
+)
+from servokit.cli._signals import (  # noqa: F401
+    EXIT_INTERRUPTED,
+    announce_interrupt,
+    quiet_children,
+)
+from servokit.cli._signals import install as _install_interrupt_handling
 from servokit.errors import ServokitError
 
 #: Commands listed first in ``servokit --help``, in the order a new user meets them;
@@ -53,50 +88,13 @@ app = typer.Typer(
     pretty_exceptions_enable=False,
     # units are written "[s]"; rich markup would eat them (and strike the rest through)
     rich_markup_mode=None,
+    context_settings={"help_option_names": ["-h", "--help"]},
 )
-# piped output (make demo into a log) keeps the book-vs-servokit tables on one line each
-console = Console(width=None if sys.stdout.isatty() else 120)
+def build_command() -> Any:
+    """The click command tree of :data:`app` with the number-flag rules applied."""
+    import typer.main
 
-
-# ---- shared options: one name, one help text per concept (docs/CONVENTIONS.md) ----
-JsonOpt = Annotated[
-    bool, typer.Option("--json", help="machine-readable JSON on stdout (nothing else on stdout)")
-]
-PlotOpt = Annotated[
-    Path | None,
-    typer.Option("--plot", help="write the figure to this file (.png or .svg)", metavar="FILE"),
-]
-MaxMemoryOpt = Annotated[
-    float,
-    typer.Option(
-        "--max-memory-mb", help="refuse requests estimated above this memory [MB]", min=1.0
-    ),
-]
-SeedOpt = Annotated[int, typer.Option("--seed", help="random seed")]
-DtOpt = Annotated[float, typer.Option("--dt", help="sampling (hold) period [s]")]
-NSamplesOpt = Annotated[int, typer.Option("--n-samples", help="number of samples [count]")]
-NFreqOpt = Annotated[int, typer.Option("--n-freq", help="number of frequency points [count]")]
-FminOpt = Annotated[float, typer.Option("--fmin", help="lowest frequency [Hz]")]
-FmaxOpt = Annotated[float, typer.Option("--fmax", help="highest frequency [Hz]")]
-FreqOpt = Annotated[float, typer.Option("--freq", help="oscillation frequency [Hz]")]
-DampingOpt = Annotated[float, typer.Option("--damping", help="damping ratio [1]")]
-DurationOpt = Annotated[float, typer.Option("--duration", help="simulated time [s]")]
-SettleBandOpt = Annotated[
-    float,
-    typer.Option("--settle-band", help="settling band half-width around the target [output unit]"),
-]
-VariationsOpt = Annotated[
-    Path | None,
-    typer.Option(
-        "--variations",
-        help='variation file (TOML, kind = "variations"): the plant set; its nominal is '
-        "the file's plant, else --plant",
-        metavar="FILE",
-    ),
-]
-PlantOpt = Annotated[
-    str, typer.Option("--plant", help="catalogue name or .toml plant file", metavar="NAME_OR_TOML")
-]
+    return harden(typer.main.get_command(app))
 
 
 def _print_version(value: bool) -> None:
@@ -135,152 +133,6 @@ def example(*lines: str) -> str:
     return "Example: " + "  |  ".join(lines)
 
 
-def plot_target(path: Path | None) -> Path | None:
-    """Validate a ``--plot`` path before any work (directory/extension refused)."""
-    from servokit.errors import check_plot_path
-
-    return None if path is None else check_plot_path(path)
-
-
-def wrote(path: Path | str) -> None:
-    """Report a written file with its real path (on stderr when stdout carries JSON)."""
-    typer.echo(f"wrote {Path(path)}", err=True)
-
-
-def warn(message: str) -> None:
-    """One warning line on stderr."""
-    typer.echo(f"servokit: warning: {message}", err=True)
-
-
-@contextmanager
-def progress(total: int, description: str, *, enabled: bool = True) -> Iterator[Any]:
-    """A rich progress bar on stderr; yields ``advance(n=1)``.
-
-    Use it for work that may take more than a few seconds; it never writes to stdout, so
-    ``--json`` output stays clean.
-    """
-    if not enabled or total <= 1:
-        yield lambda n=1: None
-        return
-    from rich.progress import BarColumn, Progress, TextColumn, TimeRemainingColumn
-
-    bar = Progress(
-        TextColumn("{task.description}"),
-        BarColumn(),
-        TextColumn("{task.completed}/{task.total}"),
-        TimeRemainingColumn(),
-        console=Console(stderr=True),
-        transient=True,
-    )
-    with bar:
-        task = bar.add_task(description, total=total)
-        yield lambda n=1: bar.advance(task, n)
-
-
-def load_plant(value: str, flag: str = "--plant") -> Any:
-    """A catalogue plant or plant file named on the command line; errors name ``flag``."""
-    from servokit.errors import ServokitValueError
-
-    if value.strip() in ("", "."):
-        raise ServokitValueError(f"{flag} {value!r}: give a catalogue name or a .toml plant file")
-    from servokit.models import get_plant
-
-    if Path(value).is_dir():
-        raise ServokitValueError(f"{flag} {value} is a directory; give a .toml plant file")
-    with flag_names({}, prefix=f"{flag}: "):
-        return get_plant(value)
-
-
-def load_controller(value: str, dt: float | None = None, flag: str = "--controller") -> Any:
-    """A book controller or controller file named on the command line; errors name ``flag``."""
-    from servokit.errors import ServokitValueError
-
-    if value.strip() in ("", ".") or Path(value).is_dir():
-        raise ServokitValueError(f"{flag} {value!r}: give a book name or a .toml controller file")
-    from servokit.models import get_discrete_controller
-
-    with flag_names({}, prefix=f"{flag}: "):
-        return get_discrete_controller(value, dt)
-
-
-#: Most corner plants a command builds from ``--variations`` (3^7: seven ranges, 3 levels).
-MAX_CORNERS = 2187
-
-
-def variation_corners(vset: Any, flag: str = "--variations") -> list:
-    """Every corner of a variation set (nominal first), refused above :data:`MAX_CORNERS`."""
-    from servokit.errors import ServokitValueError
-
-    if vset.n_corners > MAX_CORNERS:
-        raise ServokitValueError(
-            f"{flag}: {vset.n_corners} corner plants, above {MAX_CORNERS}; give fewer ranges "
-            "(or use servokit sweep for Monte-Carlo sets)"
-        )
-    return [p.replace(name=f"{vset.name} corner {i}") for i, p in enumerate(vset.corners())]
-
-
-def load_variations(value: Path | str, fallback: Any = None, flag: str = "--variations") -> Any:
-    """A variation file named on the command line (:func:`~servokit.models.read_variations`);
-    ``fallback`` is the nominal plant when the file names none.  Errors name ``flag``."""
-    from servokit.errors import check_input_file
-
-    path = check_input_file(value, flag)
-    from servokit.models import read_variations
-
-    with flag_names({}, prefix=f"{flag} "):
-        return read_variations(path, fallback=fallback)
-
-
-@contextmanager
-def flag_names(mapping: Mapping[str, str], prefix: str = "") -> Iterator[None]:
-    """Re-raise library errors with Python parameter names replaced by the CLI flags.
-
-    ``mapping`` maps a parameter name (``"n_samples"``) to the flag the user typed
-    (``"--n-samples"``); ``prefix`` is put before the message (e.g. the flag and value).
-    Filesystem errors become a :class:`~servokit.errors.ServokitValueError` as well.
-    """
-    from servokit.errors import ServokitError, ServokitTypeError, ServokitValueError
-
-    try:
-        yield
-    except ServokitError as exc:
-        msg = str(exc)
-        for name, flag in mapping.items():
-            msg = re.sub(rf"(?<![\w-]){re.escape(name)}(?![\w-])", flag, msg)
-        cls = ServokitTypeError if isinstance(exc, TypeError) else ServokitValueError
-        raise cls(prefix + msg) from None
-    except OSError as exc:
-        where = exc.filename if exc.filename is not None else ""
-        raise ServokitValueError(f"{prefix}{where}: {exc.strerror or exc}") from None
-
-
-def _jsonable(obj: Any) -> Any:
-    if isinstance(obj, dict):
-        return {str(k): _jsonable(v) for k, v in obj.items()}
-    if isinstance(obj, list | tuple):
-        return [_jsonable(v) for v in obj]
-    if isinstance(obj, np.ndarray):
-        return _jsonable(obj.tolist())
-    if isinstance(obj, np.generic):
-        return obj.item()
-    if isinstance(obj, complex):
-        return {"re": obj.real, "im": obj.imag}
-    if isinstance(obj, float) and not np.isfinite(obj):
-        return None
-    return obj
-
-
-def emit_json(data: Any) -> None:
-    """Print ``data`` as JSON on stdout (numpy arrays and scalars converted)."""
-    typer.echo(json.dumps(_jsonable(data), indent=2))
-
-
-def fail(message: str) -> None:
-    """Print one line on stderr and exit with status 2."""
-    typer.echo(f"servokit: error: {message}", err=True)
-    raise typer.Exit(code=2)
-
-
 def _usage_errors() -> tuple[type[BaseException], ...]:
     """Usage-error classes of the installed typer (own copy of click) or of click."""
     found: list[type[BaseException]] = []
@@ -301,6 +153,7 @@ def _usage_errors() -> tuple[type[BaseException], ...]:
 
 def main() -> None:
     """Entry point of the ``servokit`` command."""
+    _install_interrupt_handling()
     from servokit.cli import _discover
 
     _discover()
@@ -312,24 +165,46 @@ def main() -> None:
     if code == 0:
         for w in caught:
             warn(str(w.message).splitlines()[0])
+    sys.stdout.flush()
     sys.exit(code)
+
+
+def _memory_message(argv: list[str]) -> str:
+    flag = "--max-memory-mb"
+    has = any(a == flag or a.startswith(flag + "=") for a in argv)
+    return (
+        "the request needs more memory than this machine (or the limit) allows; reduce the "
+        + ("sizes or lower the request" if has else f"sizes (the limit is {flag})")
+    )
 
 
 def _run(usage: tuple[type[BaseException], ...]) -> int:
     """Run the app; return the exit status (errors printed as one line)."""
     try:
-        app(standalone_mode=False)
+        # typer returns (not raises) the status of typer.Exit, and turns Ctrl-C into 130
+        code = build_command().main(prog_name="servokit", standalone_mode=False)
+        code = code if isinstance(code, int) else 0
+        if code == EXIT_INTERRUPTED:
+            announce_interrupt()
+        return code
     except typer.Exit as exc:
         return int(exc.exit_code or 0)
-    except typer.Abort:
-        return 1
+    except (KeyboardInterrupt, typer.Abort):
+        announce_interrupt()
+        return EXIT_INTERRUPTED
     except OSError as exc:
-        where = f"{exc.filename}: " if exc.filename is not None else ""
-        typer.echo(f"servokit: error: {where}{exc.strerror or exc}", err=True)
+        typer.echo(f"servokit: error: {os_error_message(exc)}", err=True)
         return 2
-    except (ServokitError, ValueError, TypeError, OverflowError, MemoryError) as exc:
+    except RecursionError:
+        typer.echo("servokit: error: input nested too deeply to process", err=True)
+        return 2
+    except MemoryError:
+        typer.echo(f"servokit: error: {_memory_message(sys.argv[1:])}", err=True)
+        return 2
+    except (ServokitError, ValueError, TypeError, OverflowError, ZeroDivisionError,
+            FloatingPointError, np.linalg.LinAlgError) as exc:  # fmt: skip
         msg = str(exc).splitlines()[0] if str(exc) else type(exc).__name__
-        typer.echo(f"servokit: error: {msg}", err=True)
+        typer.echo(f"servokit: error: {internal_names_to_flags(msg)}", err=True)
         return 2
     except usage as exc:
         text = exc.format_message() if hasattr(exc, "format_message") else str(exc)
@@ -340,4 +215,30 @@ def _run(usage: tuple[type[BaseException], ...]) -> int:
             f"servokit: error: {text.strip().splitlines()[0] if text.strip() else exc}", err=True
         )
         return 2
-    return 0
+
+
+def internal_names_to_flags(message: str) -> str:
+    """Rewrite library parameter names that escaped a command's own translation.
+
+    Only names that cannot be English words are replaced (those with an underscore or a
+    capital, e.g. ``n_samples``, ``N_range``); a plain word such as "target" is left alone.
+    """
+    import re
+
+    from servokit.cli._options import PARAM_FLAGS
+
+    for name in sorted(PARAM_FLAGS, key=len, reverse=True):
+        if "_" in name or name != name.lower() or name in ("workers", "substeps"):
+            message = re.sub(rf"(?<![\w-]){re.escape(name)}(?![\w-])", PARAM_FLAGS[name], message)
+    return message
+
+
+def os_error_message(exc: OSError) -> str:
+    """One line for a filesystem error, always naming the path (ENOSPC included)."""
+    import errno
+
+    where = exc.filename if exc.filename is not None else getattr(exc, "servokit_path", None)
+    text = exc.strerror or str(exc)
+    if exc.errno == errno.ENOSPC:
+        text += "; free space or choose another --out"
+    return f"{where}: {text}" if where else text

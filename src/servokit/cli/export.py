@@ -8,7 +8,22 @@ from typing import Annotated
 
 import typer
 
-from servokit.cli._app import JsonOpt, emit_json, example, sub_app, wrote
+from servokit.cli._app import (
+    JsonOpt,
+    MaxMemoryOpt,
+    emit_json,
+    example,
+    flag_names,
+    sub_app,
+    wrote,
+)
+from servokit.cli._options import given_on_command_line, old_name, renamed
+from servokit.errors import (
+    DEFAULT_MAX_MEMORY_MB,
+    ServokitValueError,
+    check_count,
+    check_memory,
+)
 
 export_app = sub_app(
     "export",
@@ -29,7 +44,7 @@ PrecisionOpt = Annotated[
     ),
 ]
 # a str, not a Path: typer turns an empty --out "" into Path("."), the working directory
-OutOpt = Annotated[str, typer.Option("--out", help="output directory")]
+OutOpt = Annotated[str, typer.Option("--out", help="output directory", metavar="DIR")]
 NameOpt = Annotated[str, typer.Option("--name", help="C prefix and file stem (a C identifier)")]
 
 
@@ -49,11 +64,29 @@ def _check_common(out: str | Path, name: str, fmt: str, precision: str, qmn: boo
     return check_out_dir(out)
 
 
+def _check_representable(tables: list, precision: str) -> None:
+    """Refuse a table the chosen number format cannot hold: C would get ``inff``/``nan``,
+    which no compiler accepts as a constant (and firmware must not run on)."""
+    import numpy as np
+
+    for t in tables:
+        values = np.asarray(t.values, dtype=float)
+        if not np.all(np.isfinite(values)):
+            raise ServokitValueError(f"table {t.name!r} holds NaN or inf; nothing to export")
+        biggest = float(np.max(np.abs(values))) if values.size else 0.0
+        if precision == "float" and biggest > float(np.finfo(np.float32).max):
+            raise ServokitValueError(
+                f"--precision float: table {t.name!r} holds {biggest:.3g}, beyond single "
+                "precision (3.4e38); use --precision double or rescale"
+            )
+
+
 def _finish(tables: list, out: Path, name: str, fmt: str, precision: str, step: str | None,
             title: str, json_out: bool, u_max: float | None = None) -> None:  # fmt: skip
     """Write the files; report them and each table's quantisation error."""
     from servokit.export import FORMATS, quantize, write_export
 
+    _check_representable(tables, precision)
     paths = write_export(
         tables, out, name, file_format=fmt, precision=precision, step=step, title=title, u_max=u_max
     )
@@ -80,23 +113,38 @@ def _finish(tables: list, out: Path, name: str, fmt: str, precision: str, step: 
         typer.echo(f"{row['table']}: shape {tuple(row['shape'])}{extra}")
 
 
+def _design_number(method: str, design_old: int | None) -> int:
+    """Book design number (1: FSC, 2: FFSC) from --method, or the deprecated --design."""
+    methods = {"fsc": 1, "ffsc": 2}
+    if method not in methods:
+        raise ServokitValueError(f"--method {method!r}: use fsc or ffsc")
+    if design_old is None:
+        return methods[method]
+    if design_old not in (1, 2):
+        raise ServokitValueError(f"--design {design_old}: use --method fsc or --method ffsc")
+    return renamed(methods[method], design_old, new_flag="--method", old_flag="--design", default=2)
+
+
 @export_app.command(
     "feedforward",
     epilog=example(
-        "servokit export feedforward --design 2 --target 10 --format c --out fw",
+        "servokit export feedforward --method ffsc --target 10 --format c --out fw",
         "servokit seek --plant p.toml --variations box.toml --json > s.json; "
-        "servokit export feedforward --design-json s.json --out fw",
+        "servokit export feedforward --seek s.json --out fw",
     ),
 )
 def feedforward_cmd(
-    design: int = typer.Option(2, "--design", help="1: FSC (2.40)-(2.42); 2: FFSC, Table 2.4"),
+    method: str = typer.Option(
+        "ffsc", "--method", help="fsc (Design 1, (2.40)-(2.42)) or ffsc (Design 2, Table 2.4)"
+    ),
+    design_old: old_name("--design", int) = None,
     target: float = typer.Option(10.0, "--target", help="seek distance [track]"),
     n_samples: int | None = typer.Option(
         None, "--n-samples", help="steps N (default: the book's N for 1 or 10 tracks)"
     ),
-    design_json: Path | None = typer.Option(
+    seek: Path | None = typer.Option(
         None,
-        "--design-json",
+        "--seek",
         help="export this `servokit seek --json` output (input, dt_s) instead of a book design",
         metavar="FILE",
     ),
@@ -104,32 +152,41 @@ def feedforward_cmd(
     precision: PrecisionOpt = "float",
     out: OutOpt = "firmware",
     name: NameOpt = "hdd_ff",
+    max_memory_mb: MaxMemoryOpt = DEFAULT_MAX_MEMORY_MB,
     json_out: JsonOpt = False,
 ) -> None:
     """HDD benchmark feedforward table u_c[0..N-1] held at Ts = 37.879 us (book §2.4),
-    or any seek input designed by `servokit seek` (--design-json FILE: e.g. your plant
-    over your variation box, `seek --plant P --variations V --json`).
+    or any seek input designed by `servokit seek` (--seek FILE: e.g. your plant over your
+    variation box, `seek --plant P --variations V --json`).
 
     JSON keys: files, precision, tables (table, shape, scale, error_bound, max_error).
     """
-    from servokit.errors import ServokitValueError
     from servokit.export import feedforward_tables
     from servokit.export.designs import hdd_feedforward, read_seek_json
 
+    design = _design_number(method, design_old)
     out_dir = _check_common(out, name, fmt, precision)
-    if design_json is not None:
-        book = [f for f, v, d in (("--design", design, 2), ("--target", target, 10.0),
-                ("--n-samples", n_samples, None)) if v != d]  # fmt: skip
-        if book:
-            raise ServokitValueError(f"{book[0]}: picks a book design; not with --design-json")
-        u, dt = read_seek_json(design_json, "--design-json")
-        title = f"seek input of {design_json.name}, N = {u.size}, dt = {dt:.9g} s"
-    else:
+    if seek is not None:
+        for param, flag in (("method", "--method"), ("design_old", "--design"),
+                            ("target", "--target"), ("n_samples", "--n-samples")):  # fmt: skip
+            if given_on_command_line(param):
+                raise ServokitValueError(f"{flag} picks a book design; drop it with --seek FILE")
+        u, dt = read_seek_json(seek, "--seek")
+        title = f"seek input of {seek.name}, N = {u.size}, dt = {dt:.9g} s"
+        _finish(feedforward_tables(u, dt, name="u"), out_dir, name, fmt, precision, None, title,
+                json_out)  # fmt: skip
+        return
+    if n_samples is not None:
+        n_samples = check_count("--n-samples", n_samples, lo=2)
+        # the FSC/FFSC least squares hold a few N x N matrices
+        check_memory(
+            4 * 8.0 * n_samples**2, what=f"--n-samples {n_samples}", max_memory_mb=max_memory_mb
+        )
+    with flag_names({"design": "--method", "N": "--n-samples"}):
         ff = hdd_feedforward(design, target, n_samples)
-        u, dt = ff.u, ff.dt
-        title = f"HDD benchmark Design {design}, {target:g} track(s), N = {ff.N} (book §2.4.2)"
-    _finish(feedforward_tables(u, dt, name="u"), out_dir, name, fmt, precision, None, title,
-            json_out)  # fmt: skip
+    tables = feedforward_tables(ff.u, ff.dt, name="u")
+    title = f"HDD benchmark Design {design}, {target:g} track(s), N = {ff.N} (book §2.4.2)"
+    _finish(tables, out_dir, name, fmt, precision, None, title, json_out)
 
 
 @export_app.command(
@@ -154,8 +211,8 @@ def controller_cmd(
     u_max: float | None = typer.Option(
         None,
         "--u-max",
-        help="output saturation |u| <= u_max [controller output] (float/double:"
-        " clamped ss step with anti-windup)",
+        help="output saturation |u| <= u_max [controller output] (float/double: clamped ss "
+        "step with anti-windup)",
     ),
     input_max: float = typer.Option(
         1.0, "--input-max", help="fixed point: declared input range |e| <= e_max [input unit]"
@@ -370,8 +427,12 @@ def _read_tables(path: Path) -> list:
     else:
         raise ServokitValueError(f"--input {path}: use a .json or .csv file")
     try:
-        return [FirmwareTable(k, np.asarray(v, dtype=float)) for k, v in items]
+        tables = [FirmwareTable(k, np.asarray(v, dtype=float)) for k, v in items]
     except (TypeError, ValueError) as exc:
         if isinstance(exc, ServokitValueError):
             raise ServokitValueError(f"--input {path}: {exc}") from None
         raise ServokitValueError(f"--input {path}: tables must be arrays of numbers") from None
+    for t in tables:
+        if not np.all(np.isfinite(t.values)):
+            raise ServokitValueError(f"--input {path}: table {t.name!r} holds NaN or inf")
+    return tables

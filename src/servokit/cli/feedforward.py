@@ -38,7 +38,7 @@ _ARRAYS_PER_SAMPLE = 8
 @feedforward_app.command(
     "polynomial",
     epilog=example("servokit feedforward polynomial --order 3 --n-samples 40 --dt 25e-6 --json")
-    + "  JSON: order, n_samples, dt_s, target, formula, peak_abs_u, u (u[0..N]).",
+    + "  JSON: order, n_samples, dt_s, target_out, formula, peak_input, u (u[0..N]).",
 )
 def polynomial_cmd(
     n_samples: NSamplesOpt,
@@ -72,9 +72,9 @@ def polynomial_cmd(
                 "order": order,
                 "n_samples": n,
                 "dt_s": dt,
-                "target": target,
+                "target_out": target,
                 "formula": formula,
-                "peak_abs_u": peak,
+                "peak_input": peak,
                 "u": u,
             }
         )
@@ -104,7 +104,7 @@ def _polynomial_plot(u, n: int, dt: float, order: int, path) -> None:  # noqa: A
 @feedforward_app.command(
     "minimum-jerk",
     epilog=example("servokit feedforward minimum-jerk --move-time 1 --dt 0.1 --json")
-    + "  JSON: move_time_s, dt_s, target, final_error, final_velocity_per_s, n_samples.",
+    + "  JSON: move_time_s, dt_s, target_out, final_error, final_velocity_per_s, n_samples.",
 )
 def minimum_jerk_cmd(
     dt: DtOpt,
@@ -143,7 +143,7 @@ def minimum_jerk_cmd(
     data = {
         "move_time_s": T,
         "dt_s": tau,
-        "target": target,
+        "target_out": target,
         "final_error": res.final_error,
         "final_velocity_per_s": res.final_velocity,
         "n_samples": int(res.u.size),

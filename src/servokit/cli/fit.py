@@ -133,7 +133,7 @@ def fit_cmd(
         ),
     ],
     out: Annotated[
-        Path, typer.Option("--out", help="directory to write plant.toml into", metavar="DIR")
+        str, typer.Option("--out", help="directory to write plant.toml into", metavar="DIR")
     ],
     modes: Annotated[
         str, typer.Option("--modes", help="number of resonances [count] or auto (BIC)")

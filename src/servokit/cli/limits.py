@@ -18,6 +18,7 @@ from servokit.cli._app import (
     sub_app,
     wrote,
 )
+from servokit.cli._options import old_name, renamed
 from servokit.errors import ServokitValueError, check_count, check_positive
 
 limits_app = sub_app("limits", "Performance limits: waterbed, Bode integrals, variance (§6.3).")
@@ -144,7 +145,8 @@ def variance_cmd(
     dist_den: str = typer.Option(..., "--dist-den", help="disturbance filter denominator"),
     dt: DtOpt = None,
     delta: float = typer.Option(0.5, "--delta", help="roll-off constant delta of (6.14)"),
-    k: int = typer.Option(1, "--k", help="roll-off order k of (6.14)", min=1),
+    k: int = typer.Option(1, "--rolloff-order", help="roll-off order k of (6.14) [count]"),
+    k_old: old_name("--k", int) = None,
     plot: PlotOpt = None,
     json_out: JsonOpt = False,
 ) -> None:
@@ -158,18 +160,34 @@ def variance_cmd(
     delta = check_positive("--delta", delta)
     if delta >= 1:
         raise ServokitValueError(f"--delta must be < 1 (got {delta:g}); the book uses 0.5")
-    k = check_count("--k", k, lo=1, hi=50)
+    k = renamed(k, k_old, new_flag="--rolloff-order", old_flag="--k", default=1)
+    k = check_count("--rolloff-order", k, lo=1, hi=50)
     loop = _loop(num, den, dt)
     dist = _loop(dist_num, dist_den, dt, ("--dist-num", "--dist-den"))
-    with flag_names({"delta": "--delta", "k": "--k"}):
+    if dt is None and len(dist_num.split(",")) >= len(dist_den.split(",")):
+        raise ServokitValueError(
+            "--dist-num/--dist-den: a continuous disturbance filter must be strictly proper "
+            "(fewer --dist-num than --dist-den coefficients): white noise through it has "
+            "unbounded variance"
+        )
+    with flag_names({"delta": "--delta", "k": "--rolloff-order"}):
         omega_hz = rolloff_bandwidth(loop, delta=delta, k=k)
     if plot is not None:
         from servokit.limits.plots import variance_plot
 
         wrote(variance_plot(loop, dist, omega_hz, plot))
-    with flag_names({"bandwidth_hz": "the roll-off bandwidth", "delta": "--delta", "k": "--k"}):
+    names = {"bandwidth_hz": "the roll-off bandwidth", "delta": "--delta", "k": "--rolloff-order"}
+    with flag_names(names):
         vb = variance_lower_bound(dist, omega_hz, delta=delta, k=k, dt=dt)
     var = output_variance(loop, dist)
+    if not (np.isfinite(var) and var >= 0):
+        # an improper or non-strictly-proper disturbance filter (white noise in, unbounded
+        # power out) or an unstable loop: the integral (6.13) diverges
+        raise ServokitValueError(
+            f"--dist-num/--dist-den and --num/--den give an unbounded output variance "
+            f"(computed {var:.3g}); the disturbance filter must be strictly proper and the "
+            "closed loop stable"
+        )
     data = {
         "bandwidth_hz": omega_hz,
         "variance": var,

@@ -164,7 +164,7 @@ def loopshape_cmd(
     ],
     dt: Annotated[float, typer.Option("--dt", help="controller sampling period [s]")],
     out: Annotated[
-        Path, typer.Option("--out", help="directory to write controller.toml into", metavar="DIR")
+        str, typer.Option("--out", help="directory to write controller.toml into", metavar="DIR")
     ],
     s_max_db: Annotated[float, typer.Option("--s-max-db", help="bound on ||S||inf [dB]")] = 6.0,
     structure: Annotated[
@@ -228,20 +228,10 @@ def loopshape_cmd(
     names = tuple(Path(n).stem for n in frf_files)
     with flag_names(_FLAGS):
         res = loopshape(
-            f,
-            P,
-            dt,
-            s_max_db=s_max_db,
-            structure=structure,
-            order=order,
-            notches=notches,
-            lowpass_hz=lp,
-            t_max_db=t_max_db,
-            initial=init,
-            time_limit_s=time_limit,
-            keep_low_gain=keep_low_gain or None,
-            names=names,
-        )
+            f, P, dt, s_max_db=s_max_db, structure=structure, order=order, notches=notches,
+            lowpass_hz=lp, t_max_db=t_max_db, initial=init, time_limit_s=time_limit,
+            keep_low_gain=keep_low_gain or None, names=names,
+        )  # fmt: skip
     outdir.mkdir(parents=True, exist_ok=True)
     path = outdir / CONTROLLER_FILE
     save_controller(res.controller, path)

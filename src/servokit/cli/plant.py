@@ -86,7 +86,7 @@ def show(plant: PlantArg, json_out: JsonOpt = False) -> None:
 @plant_app.command(
     "bode",
     epilog=example("servokit plant bode hdd-sampled-data --plot bode.png")
-    + "  JSON: freq_hz, mag_db, phase_deg, plot.",
+    + "  JSON: freq_hz, magnitude_db, phase_deg, plot.",
 )
 def bode(
     plant: PlantArg,
@@ -120,7 +120,7 @@ def bode(
         emit_json(
             {
                 "freq_hz": f,
-                "mag_db": 20 * np.log10(np.abs(H)),
+                "magnitude_db": 20 * np.log10(np.abs(H)),
                 "phase_deg": np.degrees(np.angle(H)),
                 "plot": str(plot) if plot else None,
             }

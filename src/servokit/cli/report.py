@@ -15,28 +15,19 @@ from servokit.errors import ServokitValueError, check_count
 _SEEK_MAX_BYTES = 64 * 1024 * 1024
 
 
-def _out_path(out: Path) -> Path:
-    """``--out``: a new or existing .html file in an existing, writable directory."""
-    import os
+def _out_path(out: str) -> Path:
+    """``--out DIR``: the directory that receives report.html (created if missing)."""
+    from servokit.errors import check_out_dir
 
-    if str(out).endswith(("/", "\\")) or out.is_dir():
-        raise ServokitValueError(f"--out {out} is a directory; give a file name ending .html")
-    if out.suffix.lower() not in (".html", ".htm"):
-        raise ServokitValueError(f"--out {out}: use a file name ending .html")
-    parent = out.parent if str(out.parent) else Path(".")
-    if not parent.is_dir():
-        raise ServokitValueError(f"--out {out}: directory {parent} does not exist; create it")
-    if not os.access(out if out.exists() else parent, os.W_OK):
-        raise ServokitValueError(f"--out {out} is not writable; choose another path")
-    return out
+    return check_out_dir(out) / "report.html"
 
 
 def _seek_section(path: Path) -> Any:
     """A seek-time section from the JSON of ``servokit seek --json``."""
-    from servokit._io import check_regular_file
+    from servokit._io import check_data_file
     from servokit.report.design import SeekSection
 
-    check_regular_file(
+    check_data_file(
         path,
         max_bytes=_SEEK_MAX_BYTES,
         what="--seek (a seek --json file)",
@@ -68,18 +59,18 @@ def _plant_set(nominal: Any, variations: Path | None, n_plants: int) -> list[Any
 @app.command(
     "report",
     epilog=example(
-        "servokit report --plant stage.toml --frf stage_frf.csv --out report.html",
+        "servokit report --plant stage.toml --frf stage_frf.csv --out design",
         "servokit report --plant stage.toml --controller ctrl.toml --variations box.toml "
-        "--seek seek.json --out report.html",
+        "--seek seek.json --out design",
     ),
 )
 def report_cmd(
     plant: Annotated[
         str, typer.Option("--plant", help="design plant: catalogue name or .toml plant file")
     ],
-    out: Annotated[Path, typer.Option("--out", help="HTML file to write", metavar="FILE")] = Path(
-        "report.html"
-    ),
+    out: Annotated[
+        str, typer.Option("--out", help="directory to write report.html into", metavar="DIR")
+    ] = ".",
     frf: Annotated[
         Path | None,
         typer.Option("--frf", help="measured FRF (CSV/NPZ/MAT): fit section", metavar="FILE"),
@@ -133,6 +124,7 @@ def report_cmd(
     if seek is not None:
         sections.append(_seek_section(seek))
         notes.append(f"Seek times: {seek}.")
+    out.parent.mkdir(parents=True, exist_ok=True)
     design_report(out, sections, title=title, notes=notes)
     console.print(f"{len(sections)} section(s)")
     wrote(out)

@@ -14,6 +14,11 @@ from servokit.cli._app import app, console, emit_json, example, progress, wrote
 from servokit.errors import check_out_dir
 
 
+def _unique(values: list | None) -> list | None:
+    """``--case X --case X`` runs X once (order kept)."""
+    return None if values is None else list(dict.fromkeys(values))
+
+
 @app.command(
     "reproduce",
     epilog="Cases: "
@@ -22,8 +27,9 @@ from servokit.errors import check_out_dir
     + example("servokit reproduce --chapter 2 --out out", "servokit reproduce --json"),
 )
 def reproduce(
-    out: Path = typer.Option(
-        Path("out"), help="directory for report.html, results.json and the figures"
+    out: str = typer.Option(
+        "out", "--out", help="directory for report.html, results.json and the figures",
+        metavar="DIR",
     ),
     case: list[str] | None = typer.Option(
         None, help="run only these cases (repeatable)", metavar="NAME"
@@ -42,28 +48,31 @@ def reproduce(
     figures, notes), rows (case, chapter, source, quantity, unit, book, book_text, servokit,
     ratio, tolerance, within_tolerance, kind, note, bound) and summary (counts per chapter).
     """
+    from servokit._io import staged_output
     from servokit.cases.runner import iter_cases, select_cases
-    from servokit.report.files import clear_report, write_report
+    from servokit.report.files import write_report
 
-    out = check_out_dir(out)
-    names = select_cases(case, chapter)  # before any file is written
-    out.mkdir(parents=True, exist_ok=True)
-    clear_report(out)
+    out_dir = check_out_dir(out)  # "" refused (typer would have made it ".")
+    names = select_cases(_unique(case), _unique(chapter))  # before any file is written
     results, runtimes = [], {}
-    with progress(len(names), "reproducing") as advance:
-        # cases in parallel processes when there are cores; one line per case as it is
-        # collected, in run order (stderr: --json output stays clean)
-        cases = iter_cases(out, names, svg=svg)
-        for i, (name, done, seconds) in enumerate(cases, start=1):
-            typer.echo(f"[{i}/{len(names)}] {name} done ({seconds:.1f} s)", err=True)
-            results += done
-            runtimes[name] = seconds
-            advance()
-    json_path, html_path = write_report(results, out, runtimes)
+    # one run's files, swapped in at the end under a lock: an interrupted or failed run
+    # leaves the previous report intact; a concurrent run on the same --out is refused
+    with staged_output(out_dir) as stage:
+        with progress(len(names), "reproducing") as advance:
+            # cases in parallel processes when there are cores; one line per case as it is
+            # collected, in run order (stderr: --json output stays clean)
+            cases = iter_cases(stage, names, svg=svg)
+            for i, (name, done, seconds) in enumerate(cases, start=1):
+                typer.echo(f"[{i}/{len(names)}] {name} done ({seconds:.1f} s)", err=True)
+                results += done
+                runtimes[name] = seconds
+                advance()
+        doc = json.loads(write_report(results, stage, runtimes)[0].read_text(encoding="utf-8"))
+    json_path, html_path = out_dir / "results.json", out_dir / "report.html"
     wrote(json_path)
     wrote(html_path)
     if json_out:
-        emit_json(json.loads(json_path.read_text(encoding="utf-8")))
+        emit_json(doc)
         return
     n_ok = n_all = 0
     for r in results:
@@ -89,9 +98,9 @@ def reproduce(
                 "reproduce; see the figures and the case's notes"
             )
         for f in r.figures:
-            console.print(f"  figure: {f}")
-    console.print(f"{n_ok}/{n_all} book numbers within tolerance; figures in {out}/")
-    total = json.loads(json_path.read_text(encoding="utf-8"))["summary"]["total"]
+            console.print(f"  figure: {out_dir / Path(f).name}")
+    console.print(f"{n_ok}/{n_all} book numbers within tolerance; figures in {out_dir}/")
+    total = doc["summary"]["total"]
     console.print(
         f"independent reproductions within tolerance: {total['reproduced']}; missed "
         f"{total['missed']}; fitted {total['fitted']}, assumed {total['assumed']}, "

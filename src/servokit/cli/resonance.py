@@ -25,6 +25,7 @@ from servokit.cli._app import (
     sub_app,
     wrote,
 )
+from servokit.cli._options import old_name, renamed
 from servokit.errors import (
     ServokitValueError,
     check_count,
@@ -307,7 +308,8 @@ def margins_cmd(
             " lag:F:Z:PHI, inverse:FZ:FP[:ZZ:ZP] [Hz, 1, rad]",
         ),
     ] = None,
-    delay: Annotated[float, typer.Option("--delay", help="extra loop delay [s]", min=0.0)] = 0.0,
+    delay: Annotated[float, typer.Option("--loop-delay", help="extra loop delay [s]")] = 0.0,
+    delay_old: old_name("--delay") = None,
     n_freq: Annotated[int, typer.Option("--n-freq", help="search grid points", min=16)] = 20000,
     plot: PlotOpt = None,
     json_out: JsonOpt = False,
@@ -315,11 +317,21 @@ def margins_cmd(
     from servokit.feedback import discretize_filter, stability_margins
 
     target = plot_target(plot)
-    check_finite("--delay", delay)
+    delay_flag = "--loop-delay" if delay_old is None else "--delay"
+    delay = renamed(delay, delay_old, new_flag="--loop-delay", old_flag="--delay", default=0.0)
+    if not float(check_finite(delay_flag, delay)) >= 0:
+        raise ServokitValueError(f"{delay_flag} must be >= 0 s (got {delay:g})")
     check_count("--n-freq", n_freq, lo=16, hi=_MARGINS_MAX_FREQ)
     p = load_plant(plant)
     ctrl = load_controller(controller)
     dt = float(ctrl.dt)
+    if delay > _MARGINS_MAX_DELAY_SAMPLES * dt:
+        # the phase of e^{-s delay} wraps once per 1/delay Hz: beyond this the grid cannot
+        # resolve a crossing and the search would not end
+        raise ServokitValueError(
+            f"{delay_flag} {delay:g} s is more than {_MARGINS_MAX_DELAY_SAMPLES} sampling periods "
+            f"({_MARGINS_MAX_DELAY_SAMPLES * dt:g} s) of the controller; give a smaller delay"
+        )
     loop: list[Any] = [p.discretize(dt), ctrl]
     for spec in filters or []:
         tf, f0 = parse_filter(spec)
@@ -349,6 +361,7 @@ def margins_cmd(
 
 
 #: Largest --n-freq of ``margins`` (the library's limit).
+_MARGINS_MAX_DELAY_SAMPLES = 1000
 _MARGINS_MAX_FREQ = 10_000_000
 
 #: Most excitation frequencies ``identify`` accepts (~40 ms each: about an hour).
@@ -358,9 +371,10 @@ _IDENTIFY_MAX_FREQ = 100_000
 @app.command(
     "identify",
     epilog=example(
-        "servokit identify --plant vcm-dual-stage --controller table-5.2 --fs 30e3 --fmax 60e3",
+        "servokit identify --plant vcm-dual-stage --controller table-5.2 "
+        "--fmax 60e3",
         "servokit identify --plant pzt-active-suspension --loop-plant vcm-dual-stage "
-        "--controller table-5.2 --fs 30e3 --json",
+        "--controller table-5.2 --json",
     ),
     help="Identify a continuous plant above the Nyquist frequency from a simulated"
     " closed-loop measurement (book §5.2.1.2, eqs. 5.10-5.11): Sd measured with a T-held"
@@ -374,7 +388,10 @@ def identify_cmd(
     controller: Annotated[
         str, typer.Option("--controller", help="book controller name or discrete .toml")
     ],
-    fs: Annotated[float, typer.Option("--fs", help="PES sampling frequency [Hz]")] = 30e3,
+    dt: Annotated[
+        float | None, typer.Option("--dt", help="PES sampling period [s] (default 1/30 kHz)")
+    ] = None,
+    fs_old: old_name("--fs") = None,
     fmin: Annotated[float, typer.Option("--fmin", help="first excitation frequency [Hz]")] = 50.0,
     fmax: Annotated[float, typer.Option("--fmax", help="last excitation frequency [Hz]")] = 60e3,
     step: Annotated[float, typer.Option("--freq-step", help="excitation spacing [Hz]")] = 50.0,
@@ -393,7 +410,10 @@ def identify_cmd(
     from servokit.sampled.identification import identification_plot, identify_above_nyquist
 
     target = plot_target(plot)
-    check_positive("--fs", fs, "Hz")
+    if fs_old is not None:
+        check_positive("--fs", fs_old, "Hz")
+        dt = renamed(dt, 1.0 / fs_old, new_flag="--dt", old_flag="--fs")
+    fs = 1.0 / check_positive("--dt", 1.0 / 30e3 if dt is None else dt, "s")
     check_finite("--fmin/--fmax/--freq-step", [fmin, fmax, step])
     if not 0 < fmin <= fmax or step <= 0:
         raise ServokitValueError(
@@ -413,7 +433,8 @@ def identify_cmd(
     try:
         ctrl = get_discrete_controller(controller, dt=1.0 / fs)
     except ServokitValueError as exc:
-        raise ServokitValueError(f"--fs {fs:g} Hz: {exc}") from None
+        typed = f"--fs {fs:g} Hz" if fs_old is not None else f"--dt {1 / fs:g} s"
+        raise ServokitValueError(f"{typed}: {exc}") from None
     freq = fmin + step * np.arange(int(np.floor((fmax - fmin) / step + 1e-9)) + 1)
     chunk = 150
     with progress(

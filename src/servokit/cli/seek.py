@@ -26,6 +26,7 @@ from servokit.cli._app import (
     warn,
     wrote,
 )
+from servokit.cli._options import refuse_inapplicable
 from servokit.errors import (
     DEFAULT_MAX_MEMORY_MB,
     ServokitValueError,
@@ -85,6 +86,16 @@ def _check_size(
     samples = max(3 * n_max, n_max + _SETTLE_RECORD_S / dt) * _SUBSTEPS
     sim = n_plants * samples * (n_states + 2) * 8
     check_memory(design + sim, what=f"{flag} {n_max}", max_memory_mb=max_mb)
+
+
+#: Flags of the robust design only: given with another --method they are refused.
+_ROBUST_ONLY = {
+    name: (flag, ("robust",))
+    for name, flag in (
+        ("u_max", "--u-max"), ("margin", "--margin"), ("slew_max", "--slew-max"),
+        ("objective", "--objective"),
+    )
+}  # fmt: skip
 
 
 @app.command(
@@ -187,6 +198,7 @@ def seek_cmd(
         raise ServokitValueError(f"--method must be 'fsc', 'ffsc' or 'robust', got {method!r}")
     if model not in ("rigid-body", "plant"):
         raise ServokitValueError(f"--model must be 'rigid-body' or 'plant', got {model!r}")
+    refuse_inapplicable("--method", method, _ROBUST_ONLY)
     target = float(check_finite("--target", target))
     if target == 0:
         raise ServokitValueError("--target must be non-zero (a seek distance)")

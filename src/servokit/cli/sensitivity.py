@@ -119,7 +119,7 @@ def sensitivity_cmd(
     if multirate:
         from servokit.sampled.hdd_multirate import hdd_multirate
 
-        mr = hdd_multirate(dt, check_count("--m", m))
+        mr = hdd_multirate(dt, check_count("--m", m, lo=1, hi=_MAX_MULTIRATE))
     freq = np.linspace(fmin, fmax, n)
     with flag_names(_FLAGS):
         res = _sweep(p, ctrl, dt, freq, mr, tol, band_limit, show=not json_out)
@@ -145,6 +145,10 @@ def sensitivity_cmd(
         emit_json({**summary, **_curves(res)})
         return
     _print_table(res, p.name, dt, freq, summary)
+
+
+#: Largest multirate number: the lifted system grows as m states; the book uses m = 2.
+_MAX_MULTIRATE = 64
 
 
 def _sweep(p, ctrl, dt, freq, mr, tol, band_limit, *, show: bool):  # noqa: ANN001

@@ -4,13 +4,14 @@ from __future__ import annotations
 
 import os
 from pathlib import Path
-from typing import Annotated
+from typing import Annotated, Any
 
 import numpy as np
 import typer
 
 from servokit.cli._app import (
     JsonOpt,
+    MaxMemoryOpt,
     PlotOpt,
     SeedOpt,
     console,
@@ -21,12 +22,15 @@ from servokit.cli._app import (
     sub_app,
     wrote,
 )
+from servokit.cli._options import old_name, renamed
 from servokit.errors import (
+    DEFAULT_MAX_MEMORY_MB,
     ServokitError,
     ServokitValueError,
     check_count,
     check_finite,
     check_input_file,
+    check_memory,
     check_positive,
 )
 
@@ -42,14 +46,16 @@ BandOpt = Annotated[
 
 def _load(path: Path):
     """The judge file named by ``--judge``; every error names the flag."""
+    from servokit._io import check_regular_file
     from servokit.learn import SettlingJudge
 
     if path.is_dir():
         raise ServokitValueError(f"--judge {path} is a directory; give a .skops judge file")
-    if not path.is_file():
+    if not os.path.lexists(path):
         raise ServokitValueError(
             f"--judge {path} does not exist; run 'servokit settle train' first"
         )
+    check_regular_file(path, "--judge")
     try:
         return SettlingJudge.load(path)
     except ServokitError as exc:
@@ -60,18 +66,22 @@ def _load(path: Path):
         ) from None
 
 
-def _check_out_file(out: Path) -> Path:
-    """Refuse an unusable ``--out`` judge file before training (nothing is written)."""
+def _check_out_file(out: Path, flag: str = "--judge") -> Path:
+    """Refuse an unusable judge file to write before training (nothing is written)."""
     if str(out).endswith(("/", "\\")) or out.is_dir():
-        raise ServokitValueError(f"--out {out} is a directory; give a file name ending .skops")
+        raise ServokitValueError(f"{flag} {out} is a directory; give a file name ending .skops")
     if out.suffix != ".skops":
-        raise ServokitValueError(f"--out {out}: use a file name ending .skops")
+        raise ServokitValueError(f"{flag} {out}: use a file name ending .skops")
     parent = out.parent if str(out.parent) else Path(".")
     if not parent.is_dir():
-        raise ServokitValueError(f"--out {out}: directory {parent} does not exist; create it first")
+        raise ServokitValueError(
+            f"{flag} {out}: directory {parent} does not exist; create it first"
+        )
+    if os.path.lexists(out) and not out.is_file():
+        raise ServokitValueError(f"{flag} {out} is not a regular file (a pipe or device)")
     target = out if out.exists() else parent
     if not os.access(target, os.W_OK):
-        raise ServokitValueError(f"--out {out}: {target} is not writable; choose another path")
+        raise ServokitValueError(f"{flag} {out}: {target} is not writable; choose another path")
     return out
 
 
@@ -95,15 +105,19 @@ def _simulate(seeks: list[tuple[float, int]], what: str):
 @settle_app.command(
     "train",
     epilog=example(
-        "servokit settle train --out judge.skops", "add --cv to choose C and the offset"
+        "servokit settle train --judge judge.skops", "add --cv to choose C and the offset"
     ),
 )
 def train_cmd(
-    out: Path = typer.Option(Path("judge.skops"), "--out", help="judge file to write (.skops)"),
+    out: Path = typer.Option(
+        Path("judge.skops"), "--judge", help="judge file to write (.skops)", metavar="FILE"
+    ),
+    out_old: old_name("--out", Path) = None,
     n_distances: int = typer.Option(10, "--n-distances", help="distances 10-900 track", min=2),
     n_lengths: int = typer.Option(18, "--n-lengths", help="FSC lengths 24-130 samples", min=2),
     settle_band: BandOpt = 0.03,
-    c: float = typer.Option(10.0, "--c", help="SVM soft-margin weight C"),
+    c: float = typer.Option(10.0, "--svm-c", help="SVM soft-margin weight C [1]"),
+    c_old: old_name("--c") = None,
     coef0: float = typer.Option(0.5, "--coef0", help="polynomial kernel offset"),
     class1_weight: float = typer.Option(
         1.0, "--class1-weight", help="weight of class-1 errors (> 1: judge later, safer)"
@@ -116,11 +130,17 @@ def train_cmd(
     from servokit.learn import SettlingJudge, training_seeks, training_set
 
     # every flag and the output path are checked before the seeks are simulated
-    out = _check_out_file(out)
+    given = renamed(out, out_old, new_flag="--judge", old_flag="--out", default=Path("judge.skops"))
+    out = _check_out_file(given, "--out" if out_old is not None else "--judge")
     n_distances = check_count("--n-distances", n_distances, lo=2, hi=1000)
     n_lengths = check_count("--n-lengths", n_lengths, lo=2, hi=107)
     settle_band = check_positive("--settle-band", settle_band, "track")
-    c = check_positive("--c", c)
+    if not 1e-3 <= settle_band <= 10:  # the labels need seeks both in and out of the band
+        raise ServokitValueError(
+            f"--settle-band must be 0.001..10 track (got {settle_band:g}); the book uses 0.1"
+        )
+    c = renamed(c, c_old, new_flag="--svm-c", old_flag="--c", default=10.0)
+    c = check_positive("--c" if c_old is not None else "--svm-c", c)
     coef0 = float(check_finite("--coef0", coef0))
     class1_weight = check_positive("--class1-weight", class1_weight)
     judge = SettlingJudge(bound=settle_band, C=c, coef0=coef0, class1_weight=class1_weight)
@@ -213,17 +233,21 @@ def judge_cmd(
         "then the output [track], target at 0 (replaces the simulated seek)",
     ),
     level: float = typer.Option(0.0, "--level", help="decision level (0, or -0.8 safe side)"),
+    max_memory_mb: MaxMemoryOpt = DEFAULT_MAX_MEMORY_MB,
     json_out: JsonOpt = False,
 ) -> None:
     """Judge one seek (simulated, or a recorded state sequence).
 
-    JSON: n_judge, n0, n_conventional (samples; -1 = never).
+    JSON: n_judge, n0, n_conventional (samples; null = does not settle) and reason (why a
+    count is null, else null).
     """
-    from servokit.learn import conventional_judgement, settled_index
-
     if float(check_finite("--target", target)) == 0:
         raise ServokitValueError("--target must be non-zero [track] (got 0)")
     n_samples = check_count("--n-samples", n_samples, lo=4, hi=100_000)
+    if record is None:  # the FSC design holds a few N x N matrices
+        check_memory(
+            4 * 8.0 * n_samples**2, what=f"--n-samples {n_samples}", max_memory_mb=max_memory_mb
+        )
     if record is not None:
         record = check_input_file(record, "--record")
     level = float(check_finite("--level", level))
@@ -237,19 +261,49 @@ def judge_cmd(
             ) from None
         if table.shape[1] != 7:
             raise ServokitValueError(f"--record {record}: need 7 columns (6 states, output)")
+        bad = np.flatnonzero(~np.all(np.isfinite(table), axis=1))
+        if bad.size:
+            raise ServokitValueError(
+                f"--record {record}: row {bad[0] + 1} holds NaN or inf; give finite samples"
+            )
         states, output, start = table[:, :6], table[:, 6], 0
     else:
         (r,) = _simulate([(target, n_samples)], "simulating")
         states, output, start = r.states, r.output, 0
-    res = {
-        "n_judge": judge.judge(states, output, level, start=start),
-        "n_conventional": conventional_judgement(output, judge.bound, start=start),
-        "n0": settled_index(output, judge.bound) if abs(output[-1]) <= judge.bound else -1,
-    }
+    res = _judgement(judge, states, output, level, start)
     if json_out:
         emit_json(res)
         return
+    if res["reason"]:
+        console.print(f"does not settle: {res['reason']}")
     console.print(
-        f"SVM judges settled at sample {res['n_judge']}, 5-in-a-row at "
-        f"{res['n_conventional']}; actual settling N0 = {res['n0']}"
+        f"SVM judges settled at sample {_or_never(res['n_judge'])}, 5-in-a-row at "
+        f"{_or_never(res['n_conventional'])}; actual settling N0 = {_or_never(res['n0'])}"
     )
+
+
+def _or_never(n: int | None) -> str:
+    return "never" if n is None else str(n)
+
+
+def _judgement(judge: Any, states: Any, output: Any, level: float, start: int) -> dict:
+    """The three settling counts; a count that never happens is None with a reason (a
+    sentinel -1 would read as a sample index)."""
+    from servokit.learn import conventional_judgement, settled_index
+
+    def count(n: int) -> int | None:
+        return None if n is None or n < 0 else int(n)
+
+    settled = abs(output[-1]) <= judge.bound
+    res = {
+        "n_judge": count(judge.judge(states, output, level, start=start)),
+        "n_conventional": count(conventional_judgement(output, judge.bound, start=start)),
+        "n0": count(settled_index(output, judge.bound)) if settled else None,
+    }
+    res["reason"] = (
+        None
+        if res["n0"] is not None
+        else f"the output ends {abs(output[-1]):.3g} from the target, outside the band "
+        f"+-{judge.bound:g}"
+    )
+    return res

@@ -3,8 +3,9 @@
 from __future__ import annotations
 
 from pathlib import Path
-from typing import Annotated
+from typing import Annotated, Any
 
+import numpy as np
 import typer
 
 from servokit.cli._app import (
@@ -57,8 +58,9 @@ _ARRAYS_PER_FINE_STEP = 3
     )
     + "  --variations FILE simulates every corner of the file's box (nominal, low, high of "
     "each range); --u-max/--slew-max limit the actuator (anti-windup for the controller; the "
-    "output is then sampled).  JSON: plants, final, peak, settling_time_s, worst_plant, "
-    "worst_settling_time_s, peak_input, u_max, plot.",
+    "output is then sampled).  JSON: plants, final_out, peak_out, settling_time_s, "
+    "worst_plant, worst_settling_time_s (null: does not settle), reason, peak_input, u_max, "
+    "plot.",
 )
 def simulate_cmd(
     dt: DtOpt,
@@ -161,13 +163,16 @@ def simulate_cmd(
         met = step_metrics(res.t, res.yc, target, settle_band)
     if plot is not None:
         _plot(res, plants, dt, res.substeps, plot)
+    times, reason = _settled(np.atleast_1d(met.settling_time), float(res.t[-1]))
+    worst = None if reason else float(max(times))
     data = {
         "plants": [p.name for p in plants],
-        "final": res.yc[:, -1],
-        "peak": met.peak,
-        "settling_time_s": met.settling_time,
+        "final_out": res.yc[:, -1],
+        "peak_out": met.peak,
+        "settling_time_s": times,
         "worst_plant": plants[met.worst].name,
-        "worst_settling_time_s": met.worst_settling_time,
+        "worst_settling_time_s": worst,
+        "reason": reason,
         "peak_input": float(np.max(np.abs(res.u))),
         "u_max": u_max,
         "plot": str(plot) if plot else None,
@@ -175,9 +180,30 @@ def simulate_cmd(
     if json_out:
         emit_json(data)
         return
+    settle = (
+        f"does not settle: {reason};" if reason else f"worst settling time {worst * 1e3:.4g} ms"
+    )
     console.print(
-        f"{len(plants)} plant(s); worst settling time {met.worst_settling_time * 1e3:.4g} ms "
-        f"({plants[met.worst].name}); final value {np.median(res.yc[:, -1]):.6g}"
+        f"{len(plants)} plant(s); {settle} ({plants[met.worst].name}); "
+        f"final value {np.median(res.yc[:, -1]):.6g}"
+    )
+
+
+#: A response counts as settled only if it stays in the band for at least this last
+#: fraction of the simulated time: a diverging output "settles" at its last sample
+#: otherwise (its own final value is the target of an open-loop run).
+_SETTLED_TAIL = 0.1
+
+
+def _settled(times: Any, t_end: float) -> tuple[list[float | None], str | None]:
+    """Settling times [s] with None where the response does not settle, and the reason."""
+    limit = (1 - _SETTLED_TAIL) * t_end
+    out = [float(t) if np.isfinite(t) and t <= limit else None for t in times]
+    if all(t is not None for t in out):
+        return out, None
+    return out, (
+        f"the output is still outside the settling band in the last {_SETTLED_TAIL:.0%} "
+        "of --duration (diverging or slower than --duration)"
     )
 
 

@@ -53,8 +53,8 @@ _BLOCK_BYTES = 4_000_000 * 16 * 3  # the library's time blocks (complex cells)
 MAX_CELLS = 2e9
 _GL_NODES = 12  # Gauss-Legendre nodes per panel of a continuous input (library)
 _JSON_KEYS = (
-    "input, dt_s, duration_s, damping, kind, freq_hz, magnitude, peaks_hz, "
-    "at [{freq_hz, magnitude}], plot"
+    "input, dt_s, duration_s, damping, kind, freq_hz, magnitude_ratio, peaks_hz, "
+    "at [{freq_hz, magnitude_ratio}], plot"
 )
 
 
@@ -143,7 +143,7 @@ def srs_cmd(
         []
         if exact is None
         else [
-            {"freq_hz": float(f), "magnitude": float(m)}
+            {"freq_hz": float(f), "magnitude_ratio": float(m)}
             for f, m in zip(at, exact.magnitude, strict=True)
         ]
     )
@@ -161,7 +161,7 @@ def srs_cmd(
                 "damping": damping,
                 "kind": kind,
                 "freq_hz": freq,
-                "magnitude": spec.magnitude,
+                "magnitude_ratio": spec.magnitude,
                 "peaks_hz": peaks,
                 "at": values,
                 "plot": str(plot) if plot else None,

@@ -24,8 +24,10 @@ from servokit.cli._app import (
     load_variations,
     plot_target,
     progress,
+    quiet_children,
     wrote,
 )
+from servokit.cli._options import given_on_command_line, refuse_inapplicable
 from servokit.errors import (
     ServokitValueError,
     check_count,
@@ -91,6 +93,7 @@ def _check_design_args(
     """Refuse bad design flags before the design (minutes for a huge --n-samples) starts."""
     if method not in ("fsc", "ffsc", "robust"):
         raise ServokitValueError(f"--method must be 'fsc', 'ffsc' or 'robust', got {method!r}")
+    refuse_inapplicable("--method", method, {"u_max": ("--u-max", ("robust",))})
     if n_samples is not None:
         n_s = check_count("--n-samples", n_samples, lo=1)
         # the design solves for N samples against an N x N (and larger) system
@@ -131,7 +134,10 @@ def _client(scheduler: str | None, workers: int | None) -> Any:
         return None
     if scheduler is not None and workers is not None:
         raise ServokitValueError("give --scheduler ADDRESS or --workers N, not both")
-    return connect_dask(scheduler, None if workers is None else check_count("--workers", workers))
+    with quiet_children():
+        return connect_dask(
+            scheduler, None if workers is None else check_count("--workers", workers)
+        )
 
 
 def _actuator(u_max: float | None, slew_max: float | None) -> Any:
@@ -276,7 +282,11 @@ def sweep_cmd(
         raise ServokitValueError("--target must be non-zero (a seek distance)")
     if design is None:
         _check_design_args(method, n_samples, u_max, max_memory_mb)
-    actuator = _actuator(u_max, slew_max)
+    else:  # the design comes from the file: the design flags would be silently ignored
+        for name, flag in (("method", "--method"), ("n_samples", "--n-samples")):
+            if given_on_command_line(name):
+                raise ServokitValueError(f"{flag} does not apply with --design FILE; drop it")
+    actuator = _actuator(u_max, slew_max)  # clips any design, the file's too
     if seed is not None and seed < 0:
         raise ServokitValueError(f"--seed must be >= 0 (got {seed})")
     if variations is not None:

@@ -56,6 +56,12 @@ DtOpt = Annotated[
 ]
 
 
+#: Samples per cycle of the lead-lag crossover --freq accepted with --dt (below: beyond
+#: Nyquist margin; above: the discretisation is numerically singular).
+_MIN_SAMPLES_PER_CYCLE = 4
+_MAX_SAMPLES_PER_CYCLE = 1e5
+
+
 def _build_loop(plant: str, controller: str, freq: float, dt: float | None) -> SwitchedLoop:
     """Discretise the plant at the controller's (or --dt) period and close the loop."""
     from servokit.switching import switched_loop
@@ -67,8 +73,17 @@ def _build_loop(plant: str, controller: str, freq: float, dt: float | None) -> S
     if controller == "lead-lag":
         if dt is None:
             raise ServokitValueError("--controller lead-lag needs --dt [s]")
-        pd = p.discretize(check_positive("--dt", dt, "s"))
-        return switched_loop(pd, lead_lag(pd, check_positive("--freq", freq, "Hz")))
+        dt = check_positive("--dt", dt, "s")
+        freq = check_positive("--freq", freq, "Hz")
+        if not _MIN_SAMPLES_PER_CYCLE <= 1.0 / (dt * freq) <= _MAX_SAMPLES_PER_CYCLE:
+            # outside this the discretised lead-lag is singular to double precision (poles
+            # at 1 - 1e-7 and closer) and LAPACK's eigenvalue search may not return
+            raise ServokitValueError(
+                f"--dt {dt:g} s gives {1.0 / (dt * freq):.3g} samples per cycle of --freq "
+                f"{freq:g} Hz; use {_MIN_SAMPLES_PER_CYCLE}..{_MAX_SAMPLES_PER_CYCLE:.0e}"
+            )
+        pd = p.discretize(dt)
+        return switched_loop(pd, lead_lag(pd, freq))
     ctrl = load_controller(controller, dt)
     return switched_loop(p.discretize(float(ctrl.dt)), ctrl)
 
@@ -262,8 +277,8 @@ def admissible_cmd(
 
     The 2-D slice is over the first two plant states (rigid-body position and velocity
     of a catalogue plant), the others at rest. JSON keys: t_star, n_inequalities,
-    polygon_ivc, polygon_zero_reset (vertices [position, velocity]), conditions (with
-    admissible_ivc, admissible_zero_reset, needed_u_ivc, needed_u_zero_reset).
+    polygon_ivc, polygon_zero_reset (vertices [position, velocity]), conditions (position_out,
+    velocity_out_per_s, admissible_ivc, admissible_zero_reset, needed_u_ivc, needed_u_zero_reset).
     """
     from servokit.switching import ivc_jmin, max_output_admissible_set
 
@@ -289,8 +304,8 @@ def admissible_cmd(
         need = {k: float(s.gauge(x)[0]) * u_max for k, s in sets.items()}
         rows.append(
             {
-                "position": x[0],
-                "velocity": x[1],
+                "position_out": x[0],
+                "velocity_out_per_s": x[1],
                 "admissible_ivc": need["ivc"] <= u_max * (1 + 1e-9),
                 "admissible_zero_reset": need["zero_reset"] <= u_max * (1 + 1e-9),
                 "needed_u_ivc": need["ivc"],
@@ -372,8 +387,8 @@ def cost_map_cmd(
     """Squared H2 norms of the input and output after the switch over initial states
     (book §3.3.3, (3.65)-(3.81), Fig. 3.13) and the best free states for --position (3.81).
 
-    JSON keys: velocity, acceleration (grid), ju, jy (maps, rows over acceleration),
-    optimal_state (plant states minimising Ju with state 1 fixed).
+    JSON keys: velocity_out_per_s, acceleration_out_per_s2 (grid), ju, jy (maps, rows over
+    acceleration), optimal_state (plant states minimising Ju with state 1 fixed).
     """
     from servokit.switching import (
         ivc_jmin,
@@ -400,10 +415,19 @@ def cost_map_cmd(
     a = np.linspace(*acc, n_points) if with_acc else np.zeros(1)
     axes, second = ((1, 2), a) if with_acc else ((1, 0), np.array([position]))
     cmap = switching_cost_map(loop, K, base, axes, v, second)
+    if not (np.any(np.isfinite(cmap.ju)) or np.any(np.isfinite(cmap.jy))):
+        # every cell overflowed: the map would be all null, which answers nothing
+        raise ServokitValueError(
+            f"--position {position:g}: the switching cost overflows at every grid point; "
+            "give a position (and --vel-range/--acc-range) of the plant's scale"
+        )
     M = switching_cost_matrix(loop, K, loop.Cu)
     free = [1, 2] if with_acc else [1]
     best = optimal_condition(M, base, free)
-    out = {"velocity": v, "acceleration": a, "ju": cmap.ju, "jy": cmap.jy, "optimal_state": best}
+    out = {
+        "velocity_out_per_s": v,
+        "acceleration_out_per_s2": a,
+        "ju": cmap.ju, "jy": cmap.jy, "optimal_state": best}
     if json_out:
         emit_json(out)
         return

@@ -22,6 +22,7 @@ from servokit.cli._app import (
     sub_app,
     wrote,
 )
+from servokit.cli._options import old_name, renamed
 from servokit.errors import (
     DEFAULT_MAX_MEMORY_MB,
     ServokitValueError,
@@ -44,7 +45,7 @@ _FLAGS = {
     "n_samples": "--n-samples",
     "max_samples": "--n-samples-max",
     "level": "--level",
-    "fs_range": "--fs-min/--fs-max",
+    "fs_range": "--dt-min/--dt-max",
 }
 # phase-sample evaluations (exp, sin) one request may cost: 2.5e7 per CPU second measured,
 # so about twenty seconds
@@ -146,6 +147,30 @@ def magnitude_cmd(
     )
 
 
+def _sampling_range(
+    freq: float, dt_min: float, dt_max: float, fs_min: float | None, fs_max: float | None
+) -> tuple[float, float]:
+    """The scanned sampling-frequency range [Hz] from --dt-min/--dt-max (0: automatic), or
+    from the deprecated --fs-min/--fs-max [Hz]."""
+    if fs_min is not None or fs_max is not None:
+        old = (fs_min or 0.0, fs_max or 0.0)
+        check_finite("--fs-min/--fs-max", old)
+        renamed(0.0, 0.0, new_flag="--dt-min/--dt-max", old_flag="--fs-min/--fs-max", default=0.0)
+        return check_range(old[0] or freq / 5, old[1] or freq * 4, ("--fs-min", "--fs-max"))
+    check_finite("--dt-min/--dt-max", [dt_min, dt_max])
+    if dt_min < 0 or dt_max < 0 or (dt_min and dt_max and not dt_min < dt_max):
+        raise ServokitValueError(
+            f"need 0 < --dt-min < --dt-max [s] (0: automatic; got {dt_min:g}, {dt_max:g})"
+        )
+    hi = 1.0 / dt_min if dt_min else freq * 4
+    lo = 1.0 / dt_max if dt_max else freq / 5
+    if not lo < hi:
+        raise ServokitValueError(
+            f"--dt-min/--dt-max give an empty range {lo:g}..{hi:g} Hz; widen them"
+        )
+    return lo, hi
+
+
 @unobservable_app.command(
     "sampling",
     epilog=example("servokit unobservable sampling --freq 4000 --damping 0.01 --n-samples 10")
@@ -159,12 +184,14 @@ def sampling_cmd(
         int, typer.Option("--n-samples", help="judgement samples Ns [count]")
     ] = 10,
     level: LevelOpt = 0.1,
-    fs_min: Annotated[
-        float, typer.Option("--fs-min", help="lowest sampling frequency [Hz] (0: freq/5)")
+    dt_min: Annotated[
+        float, typer.Option("--dt-min", help="shortest sampling period [s] (0: 1/(4 freq))")
     ] = 0.0,
-    fs_max: Annotated[
-        float, typer.Option("--fs-max", help="highest sampling frequency [Hz] (0: 4 freq)")
+    dt_max: Annotated[
+        float, typer.Option("--dt-max", help="longest sampling period [s] (0: 5/freq)")
     ] = 0.0,
+    fs_min: old_name("--fs-min") = None,
+    fs_max: old_name("--fs-max") = None,
     max_memory_mb: MaxMemoryOpt = DEFAULT_MAX_MEMORY_MB,
     plot: PlotOpt = None,
     json_out: JsonOpt = False,
@@ -173,8 +200,7 @@ def sampling_cmd(
     _common(freq, damping)
     _check_level(level)
     ns = check_count("--n-samples", n_samples)
-    check_finite("--fs-min/--fs-max", [fs_min, fs_max])
-    lo, hi = check_range(fs_min or freq / 5, fs_max or freq * 4, ("--fs-min", "--fs-max"))
+    lo, hi = _sampling_range(freq, dt_min, dt_max, fs_min, fs_max)
     points = _SCAN_POINTS + (_PLOT_POINTS if plot is not None else 0)
     _check_work(ns, points * _PHASES_SCAN * ns, "--n-samples", max_memory_mb)
     plot = plot_target(plot)

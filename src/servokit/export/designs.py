@@ -35,15 +35,14 @@ def read_seek_json(path: str | Path, flag: str) -> tuple[np.ndarray, float]:
     """
     import json
 
+    from servokit._io import read_input_text
+
+    text = read_input_text(path, flag)  # regular file, size, encoding, nesting
     try:
-        data = json.loads(Path(path).read_text())
+        data = json.loads(text)
         u = np.asarray(data["input"], dtype=float)
         dt = float(data.get("dt_s", data.get("dt")))
-    except FileNotFoundError:
-        raise ServokitValueError(f"{flag} {path}: no such file") from None
-    except IsADirectoryError:
-        raise ServokitValueError(f"{flag} {path} is a directory; give a JSON file") from None
-    except (ValueError, KeyError, TypeError, AttributeError, UnicodeDecodeError):
+    except (ValueError, KeyError, TypeError, AttributeError):
         raise ServokitValueError(
             f"{flag} {path}: expected the JSON of `servokit seek --json` (keys 'input' and 'dt_s')"
         ) from None

@@ -34,7 +34,7 @@ from typing import Any
 
 import numpy as np
 
-from servokit._io import check_regular_file
+from servokit._io import check_data_file
 from servokit.errors import ServokitTypeError, ServokitValueError
 
 __all__ = ["FRF_MAX_BYTES", "FrfFileError", "read_frf", "save_frf"]
@@ -54,7 +54,7 @@ class FrfFileError(ServokitValueError):
 def _check_file(path: Path, max_bytes: int) -> None:
     """Refuse anything but an existing regular file of at most ``max_bytes``, before reading."""
     what = f"an FRF file ({', '.join(_SUFFIXES)})"
-    check_regular_file(path, max_bytes=max_bytes, what=what, error=FrfFileError)
+    check_data_file(path, max_bytes=max_bytes, what=what, error=FrfFileError)
 
 
 def _split(line: str, sep: str | None) -> list[str]:

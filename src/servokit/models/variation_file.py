@@ -37,7 +37,7 @@ from importlib import resources
 from pathlib import Path
 from typing import Any
 
-from servokit._io import check_regular_file
+from servokit._io import check_data_file
 from servokit.errors import ServokitValueError
 from servokit.models.modal import ModalPlant
 from servokit.models.variations import Perturbation, VariationSet
@@ -217,7 +217,7 @@ def read_variations(
         with resources.as_file(path) as real:
             return read_variations(real, nominal, fallback=fallback)
     path = Path(path)
-    check_regular_file(
+    check_data_file(
         path,
         max_bytes=VARIATION_FILE_MAX_BYTES,
         what="a variation file (.toml)",

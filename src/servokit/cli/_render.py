@@ -1,0 +1,86 @@
+"""The render layer of the ``servokit`` command line: console, JSON, progress, messages.
+
+Commands compute data and hand it here: :func:`emit_json` for ``--json`` (stdout, nothing
+else on it), :data:`console` for tables, :func:`progress` for long work (stderr),
+:func:`wrote` / :func:`warn` / :func:`fail` for one-line messages (stderr).
+"""
+
+from __future__ import annotations
+
+import json
+import sys
+from collections.abc import Iterator
+from contextlib import contextmanager
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+import typer
+from rich.console import Console
+
+# piped output (make demo into a log) keeps the book-vs-servokit tables on one line each
+console = Console(width=None if sys.stdout.isatty() else 120)
+
+
+def wrote(path: Path | str) -> None:
+    """Report a written file with its real path (on stderr when stdout carries JSON)."""
+    typer.echo(f"wrote {Path(path)}", err=True)
+
+
+def warn(message: str) -> None:
+    """One warning line on stderr."""
+    typer.echo(f"servokit: warning: {message}", err=True)
+
+
+@contextmanager
+def progress(total: int, description: str, *, enabled: bool = True) -> Iterator[Any]:
+    """A rich progress bar on stderr; yields ``advance(n=1)``.
+
+    Use it for work that may take more than a few seconds; it never writes to stdout, so
+    ``--json`` output stays clean.
+    """
+    if not enabled or total <= 1:
+        yield lambda n=1: None
+        return
+    from rich.progress import BarColumn, Progress, TextColumn, TimeRemainingColumn
+
+    bar = Progress(
+        TextColumn("{task.description}"),
+        BarColumn(),
+        TextColumn("{task.completed}/{task.total}"),
+        TimeRemainingColumn(),
+        console=Console(stderr=True),
+        transient=True,
+    )
+    with bar:
+        task = bar.add_task(description, total=total)
+        yield lambda n=1: bar.advance(task, n)
+
+
+def _jsonable(obj: Any) -> Any:
+    if isinstance(obj, dict):
+        return {str(k): _jsonable(v) for k, v in obj.items()}
+    if isinstance(obj, list | tuple):
+        return [_jsonable(v) for v in obj]
+    if isinstance(obj, np.ndarray):
+        return _jsonable(obj.tolist())
+    if isinstance(obj, np.generic):
+        return obj.item()
+    if isinstance(obj, complex):
+        return {"re": obj.real, "im": obj.imag}
+    if isinstance(obj, float) and not np.isfinite(obj):
+        return None
+    return obj
+
+
+def emit_json(data: Any) -> None:
+    """Print ``data`` as JSON on stdout (numpy arrays and scalars converted)."""
+    typer.echo(json.dumps(_jsonable(data), indent=2))
+
+
+def fail(message: str) -> None:
+    """Print one line on stderr and exit with status 2."""
+    typer.echo(f"servokit: error: {message}", err=True)
+    raise typer.Exit(code=2)
+
+

@@ -1,0 +1,183 @@
+"""Ctrl-C, interrupted runs and concurrent writers, against real ``servokit`` processes.
+
+SIGINT goes to the whole process group (as a terminal's Ctrl-C does, Dask workers
+included); the run must exit 130 within about a second with one stderr line and no
+traceback.  An interrupted ``reproduce`` leaves the previous report intact; a second
+writer on the same ``--out`` is refused with one line.
+"""
+
+from __future__ import annotations
+
+import fcntl
+import json
+import os
+import select
+import signal
+import subprocess
+import sys
+import time
+from pathlib import Path
+
+import pytest
+
+SRC = Path(__file__).resolve().parents[1] / "src"
+ENTRY = "import sys; from servokit.cli import main; sys.argv[0] = 'servokit'; main()"
+#: the watchdog ends an interrupted run after 0.5 s; the rest is slack for a loaded machine
+EXIT_WITHIN_S = 2.0
+
+
+def _start(args: list[str], cwd: Path) -> subprocess.Popen:
+    env = dict(os.environ, MPLBACKEND="Agg", PYTHONPATH=str(SRC), COLUMNS="100")
+    return subprocess.Popen(
+        [sys.executable, "-c", ENTRY, *args],
+        cwd=cwd,
+        env=env,
+        stdout=subprocess.PIPE,
+        stderr=subprocess.PIPE,
+        start_new_session=True,  # its own process group, signalled like a terminal's
+    )
+
+
+def _wait_for_stderr(proc: subprocess.Popen, text: str, timeout: float = 300) -> str:
+    """Read stderr until ``text`` appears (the run has reached its computing phase)."""
+    seen = b""
+    end = time.monotonic() + timeout
+    fd = proc.stderr.fileno()
+    while text.encode() not in seen:
+        assert time.monotonic() < end, f"never printed {text!r}: {seen!r}"
+        ready, _, _ = select.select([fd], [], [], 1.0)
+        if ready:
+            chunk = os.read(fd, 4096)
+            assert chunk, f"exited before {text!r}: {seen!r}"
+            seen += chunk
+    return seen.decode()
+
+
+def _interrupt(proc: subprocess.Popen, seen: str = "") -> tuple[int, float, str]:
+    os.killpg(proc.pid, signal.SIGINT)
+    start = time.monotonic()
+    _, err = proc.communicate(timeout=60)
+    return proc.returncode, time.monotonic() - start, seen + err.decode()
+
+
+def _assert_interrupted(code: int, seconds: float, err: str, before: str = "") -> None:
+    assert code == 130, err
+    assert seconds < EXIT_WITHIN_S, f"exit took {seconds:.2f} s"
+    assert "Traceback" not in err and "Error" not in err, err
+    new = [line for line in err[len(before) :].splitlines() if line.strip()]
+    assert new == ["servokit: interrupted"], err
+
+
+def _wait_for_staging(out: Path, timeout: float = 300) -> None:
+    """Wait until the run has started writing (its staging directory exists)."""
+    end = time.monotonic() + timeout
+    while not list(out.glob(".staging-*")):
+        assert time.monotonic() < end, "the run never started writing"
+        time.sleep(0.05)
+    time.sleep(0.5)  # the cases are running
+
+
+def test_ctrl_c_while_cases_run_exits_130(tmp_path) -> None:
+    proc = _start(["reproduce", "--case", "limits", "--out", "o"], tmp_path)
+    _wait_for_staging(tmp_path / "o")
+    code, seconds, err = _interrupt(proc)
+    _assert_interrupted(code, seconds, err)
+
+
+def test_interrupt_swallowed_by_a_weakref_callback_still_exits_130(tmp_path) -> None:
+    """Python ignores an exception raised in a weakref callback; the run must not go on."""
+    script = (
+        "import sys, time, weakref\n"
+        "from servokit.cli._app import _install_interrupt_handling\n"
+        "_install_interrupt_handling()\n"
+        "class T: pass\n"
+        "def slow(_):\n"
+        "    print('in callback', file=sys.stderr, flush=True)\n"
+        "    time.sleep(30)\n"
+        "t = T(); r = weakref.ref(t, slow); del t\n"
+        "time.sleep(30)\n"
+    )
+    env = dict(os.environ, PYTHONPATH=str(SRC))
+    proc = subprocess.Popen(
+        [sys.executable, "-c", script],
+        env=env,
+        stdout=subprocess.PIPE,
+        stderr=subprocess.PIPE,
+        start_new_session=True,
+    )
+    seen = _wait_for_stderr(proc, "in callback")
+    code, seconds, err = _interrupt(proc, seen)
+    _assert_interrupted(code, seconds, err, seen)
+
+
+@pytest.mark.slow
+def test_ctrl_c_with_dask_workers_exits_130_quietly(tmp_path) -> None:
+    pytest.importorskip("distributed")
+    proc = _start(
+        ["sweep", "--method", "ffsc", "--n-variants", "400000", "--workers", "2", "--json"],
+        tmp_path,
+    )
+    time.sleep(20)  # the cluster is up and the chunks are running
+    assert proc.poll() is None, proc.communicate()
+    code, seconds, err = _interrupt(proc)
+    _assert_interrupted(code, seconds, err)
+
+
+def _previous_report(out: Path) -> dict[str, bytes]:
+    out.mkdir()
+    files = {"results.json": b'{"old": true}', "report.html": b"<p>old</p>", "fig.png": b"old"}
+    for name, data in files.items():
+        (out / name).write_bytes(data)
+    (out / ".servokit-run.json").write_text(json.dumps(sorted(files)))
+    return files
+
+
+def _contents(out: Path) -> dict[str, bytes]:
+    return {p.name: p.read_bytes() for p in out.iterdir() if not p.name.startswith(".")}
+
+
+def test_interrupted_reproduce_keeps_the_previous_report(tmp_path) -> None:
+    out = tmp_path / "o"
+    files = _previous_report(out)
+    proc = _start(["reproduce", "--case", "limits", "--out", "o"], tmp_path)
+    _wait_for_staging(out)
+    code, seconds, err = _interrupt(proc)
+    _assert_interrupted(code, seconds, err)
+    assert _contents(out) == files
+    assert not list(out.glob(".staging-*")), "the staging directory was left behind"
+
+
+def test_a_second_writer_on_the_same_out_is_refused(tmp_path) -> None:
+    out = tmp_path / "o"
+    files = _previous_report(out)
+    fd = os.open(out / ".servokit.lock", os.O_RDWR | os.O_CREAT)
+    os.write(fd, b"4242")
+    fcntl.flock(fd, fcntl.LOCK_EX)  # a run in progress
+    try:
+        proc = _start(["reproduce", "--case", "limits", "--out", "o"], tmp_path)
+        _, err = proc.communicate(timeout=300)
+    finally:
+        os.close(fd)
+    assert proc.returncode == 2, err
+    lines = err.decode().strip().splitlines()
+    assert lines == [lines[-1]] and "another servokit run (pid 4242)" in lines[0], lines
+    assert "--out" in lines[0]
+    assert _contents(out) == files
+
+
+def test_staged_output_swaps_one_runs_files_and_keeps_foreign_ones(tmp_path) -> None:
+    from servokit._io import staged_output
+
+    out = tmp_path / "o"
+    _previous_report(out)
+    (out / "notes.txt").write_text("mine")  # not written by servokit: never touched
+    with staged_output(out) as stage:
+        (stage / "results.json").write_text("new")
+        (stage / "report.html").write_text("new")
+        assert _contents(out)["results.json"] == b'{"old": true}'  # nothing swapped yet
+    assert _contents(out) == {"results.json": b"new", "report.html": b"new", "notes.txt": b"mine"}
+    with pytest.raises(RuntimeError), staged_output(out) as stage:
+        (stage / "results.json").write_text("failed run")
+        raise RuntimeError("the run failed")
+    assert _contents(out)["results.json"] == b"new"
+    assert not list(out.glob(".staging-*"))
