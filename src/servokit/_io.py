@@ -6,7 +6,7 @@ import os
 import tempfile
 from pathlib import Path
 
-__all__ = ["write_atomic"]
+__all__ = ["check_regular_file", "write_atomic"]
 
 
 def _umask() -> int:
@@ -48,3 +48,45 @@ def write_atomic(path: Path, data: str | bytes) -> Path:
         Path(tmp).unlink(missing_ok=True)
         raise
     return path
+
+
+def check_regular_file(path: Path, *, max_bytes: int, what: str, error: type[Exception]) -> int:
+    """Refuse anything but an existing, non-empty regular file of at most ``max_bytes``.
+
+    Checked from ``os.stat`` before a byte is read, so a device, FIFO or huge file never
+    blocks or fills memory.
+
+    Parameters
+    ----------
+    path : Path
+        File to check.
+    max_bytes : int
+        Largest accepted size [bytes].
+    what : str
+        What the file should be (``"an FRF file (.csv, .npz, .mat)"``), for the messages.
+    error : type of Exception
+        Exception raised (a :class:`~servokit.errors.ServokitValueError` subclass).
+
+    Returns
+    -------
+    int
+        The file size [bytes].
+    """
+    import stat
+
+    try:
+        st = os.stat(path)
+    except FileNotFoundError:
+        raise error(f"{path}: no such file; give the path of {what}") from None
+    except OSError as exc:
+        raise error(f"{path}: cannot be read ({exc.strerror})") from None
+    if not stat.S_ISREG(st.st_mode):
+        raise error(f"{path}: not a regular file; give {what}")
+    if st.st_size > max_bytes:
+        raise error(
+            f"{path}: {st.st_size} bytes, above the {max_bytes}-byte limit for {what}; "
+            "give a smaller file"
+        )
+    if st.st_size == 0:
+        raise error(f"{path}: the file is empty; give {what}")
+    return int(st.st_size)

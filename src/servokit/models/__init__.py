@@ -37,7 +37,13 @@ from servokit.models.files import (
     save_controller,
     save_plant,
 )
+from servokit.models.frf import FRF_MAX_BYTES, FrfFileError, read_frf, save_frf
 from servokit.models.modal import ModalPlant, Mode, modal_matrices
+from servokit.models.variation_file import (
+    HDD_BENCHMARK_VARIATIONS,
+    VariationFileError,
+    read_variations,
+)
 from servokit.models.variations import Perturbation, VariationSet
 
 __all__ = [
@@ -53,11 +59,18 @@ __all__ = [
     "HDD_BENCHMARK_TS",
     "HDD_SAMPLED_DATA_TS",
     "VCM_PES_TS",
+    "FRF_MAX_BYTES",
+    "FrfFileError",
+    "read_frf",
+    "save_frf",
     "ModalPlant",
     "Mode",
     "Perturbation",
     "PlantFileError",
     "VariationSet",
+    "HDD_BENCHMARK_VARIATIONS",
+    "VariationFileError",
+    "read_variations",
     "cnc_eq_4_73",
     "controller_eq_4_69",
     "controller_fig_4_57",

@@ -15,7 +15,7 @@ import numpy as np
 
 from servokit.errors import ServokitValueError
 from servokit.models.modal import ModalPlant, Mode
-from servokit.models.variations import Perturbation, VariationSet
+from servokit.models.variations import VariationSet
 
 __all__ = [
     "HDD_BENCHMARK_TS",
@@ -75,28 +75,24 @@ def hdd_benchmark() -> ModalPlant:
 
 
 def hdd_benchmark_variation_set() -> VariationSet:
-    """Parameter ranges of the HDD benchmark (book Table 2.3).
+    """Parameter ranges of the HDD benchmark (book Table 2.3), read from the shipped file.
 
     Ranges (index: meaning): 0 f2 -2/+1 %, 1 f3 -5/+2.5 %, 2 f4..7 -2/+0.5 %,
     3 A2,4 -200/+0 %, 4 A3 -0/+20 %, 5 zeta5..7 -50/+100 %.  Gain range +-10 %
     (§2.4.1 "the change in loop gain of +-10 % is also assumed"; §2.4.1 also mentions
-    +-5 % for the benchmark; feedforward-only studies ignore the gain).
+    +-5 % for the benchmark; feedforward-only studies ignore the gain).  The box is the
+    variation file :data:`~servokit.models.variation_file.HDD_BENCHMARK_VARIATIONS`
+    (the modes of one table row move together).
 
     Returns
     -------
     VariationSet
-        The nominal :func:`hdd_benchmark` with the six relative ranges above (mode indices
-        counted from the rigid body, 0) and the loop-gain range ``(-0.1, 0.1)``.
+        The nominal :func:`hdd_benchmark` with the six relative ranges above (mode numbers
+        counted from the rigid body, 1) and the loop-gain range ``(-0.1, 0.1)``.
     """
-    ranges = (
-        Perturbation("freq", (2,), -0.02, 0.01),
-        Perturbation("freq", (3,), -0.05, 0.025),
-        Perturbation("freq", (4, 5, 6, 7), -0.02, 0.005),
-        Perturbation("residue", (2, 4), -2.0, 0.0),
-        Perturbation("residue", (3,), 0.0, 0.2),
-        Perturbation("damping", (5, 6, 7), -0.5, 1.0),
-    )
-    return VariationSet(hdd_benchmark(), ranges, gain=(-0.1, 0.1))
+    from servokit.models.variation_file import HDD_BENCHMARK_VARIATIONS, read_variations
+
+    return read_variations(HDD_BENCHMARK_VARIATIONS, hdd_benchmark())
 
 
 def hdd_benchmark_variants() -> list[ModalPlant]:
