@@ -222,6 +222,10 @@ def _contour_grid(
     """Starting grid over the whole positive half of the Nyquist contour, and its top."""
     small = f0[f0 > 0]
     start = min(lo, (small.min() if small.size else lo) * 1e-3)
+    # not closer to a boundary pole than its computed position is accurate (a Jordan
+    # block's eigenvalues split by ~sqrt(eps)): 1e-6 rad per sample, 1e-7 of the top
+    floor = 1e-6 / (2 * np.pi * dt) if dt is not None else 1e-7 * max(hi, f0.max(initial=0))
+    start = max(start, min(floor, lo))
     if dt is not None:
         top = 0.5 / dt * (1 - 1e-9 if bp is not None and bp.at_nyquist else 1.0)
     else:
