@@ -91,6 +91,8 @@ def _tf_factor(sys: Any, dt: float | None) -> Factor:
 
 
 def _diagonal(A: np.ndarray, B: np.ndarray, C: np.ndarray) -> tuple[np.ndarray, np.ndarray] | None:
+    if A.shape[0] == 0:
+        return np.zeros(0, dtype=complex), np.zeros(0, dtype=complex)
     lam, V = np.linalg.eig(A)
     if np.linalg.cond(V) > _MAX_COND:
         return None
