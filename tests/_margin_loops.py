@@ -107,10 +107,13 @@ def _roots_hz(loop: LoopCase) -> tuple[np.ndarray, np.ndarray]:
     """Frequencies [Hz] and dampings of the loop's poles and zeros (python-control)."""
     if loop.dt is None:
         sys = loop.plant.to_statespace() * control.ss(loop.ctrl)
-        r = np.r_[sys.poles(), sys.zeros()]
     else:
         sys = control.ss(loop.plant.discretize(loop.dt)) * control.ss(loop.ctrl)
+    try:
         r = np.r_[sys.poles(), sys.zeros()]
+    except np.linalg.LinAlgError:  # QZ failure on repeated undamped modes: poles only
+        r = np.asarray(sys.poles())
+    if loop.dt is not None:
         r = np.log(r[np.abs(r) > 1e-12]) / loop.dt
     r = r[np.abs(r) > 0]
     return np.abs(r) / (2 * np.pi), np.abs(r.real) / np.abs(r)

@@ -189,3 +189,33 @@ def test_margins_over_a_plant_set_name_the_worst_plant():
     res2 = margins_over_set(ctrl, [*plants, loud])
     assert res2.all_stable is False and res2.worst_index == len(plants)
     assert res2.to_dict()["worst_index"] == len(plants)
+
+
+def test_ieej_benchmark_loop_margins_against_python_control_and_poles():
+    from servokit.models import HDD_BENCHMARK_TS, hdd_benchmark, ieej_example_controller
+
+    pd = hdd_benchmark().discretize(HDD_BENCHMARK_TS)
+    ctrl = ieej_example_controller()
+    m = stability_margins([pd, *ctrl])
+    full = control.ss(pd)
+    for c in ctrl:
+        full = full * control.ss(c)
+    assert full.nstates == 25
+    gm, pm, sm, w180, wc, wms = control.stability_margins(full)
+    assert m.phase_margin_deg == pytest.approx(pm, abs=1e-3)  # python-control's polynomials
+    assert m.pm_freq_hz == pytest.approx(wc / (2 * np.pi), rel=1e-5)
+    assert m.modulus_margin == pytest.approx(sm, rel=1e-6)
+    # python-control's headline GM is at its own (spurious-prone) choice; ours is listed
+    assert min(abs(np.array(m.phase_crossovers_hz) - w180 / (2 * np.pi))) < 1e-3 * w180
+    assert m.closed_loop_stable is True and not _cl_unstable(full)
+    # the values the docstring of ieej_example_controller states
+    assert m.phase_margin_deg == pytest.approx(33.45, abs=0.01)
+    assert m.gain_margin_db == pytest.approx(4.307, abs=0.001)
+    assert m.gm_freq_hz == pytest.approx(1634.2, abs=0.1)
+    assert m.delay_margin_s == pytest.approx(95.54e-6, abs=0.01e-6)
+    # an independent grid (python-control's dense evaluation) sees the same crossings
+    f = np.linspace(1.0, 0.5 / HDD_BENCHMARK_TS * (1 - 1e-9), 20_001)
+    L = np.asarray(full(np.exp(2j * np.pi * f * HDD_BENCHMARK_TS))).ravel()
+    wc_ref, w180_ref = brute_crossings(lambda x: L, f)
+    assert np.array(m.gain_crossovers_hz) == pytest.approx(wc_ref, rel=1e-4)
+    assert np.array(m.phase_crossovers_hz) == pytest.approx(w180_ref, rel=1e-4)

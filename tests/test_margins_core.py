@@ -16,9 +16,15 @@ from servokit.models import Mode
 _SETTINGS = {"deadline": None, "suppress_health_check": [HealthCheck.too_slow]}
 
 
+def _merged(x, rel=1e-9) -> np.ndarray:
+    """Sorted, with tangent pairs (closer than ``rel``) counted once."""
+    x = np.sort(np.asarray(x, dtype=float))
+    return x[np.r_[True, np.diff(x) > rel * x[1:]]] if x.size else x
+
+
 def _matched(ours, ref, rel=1e-4) -> bool:
     """Same crossings (the interpolated reference is good to ~1e-4; ours are verified)."""
-    ours, ref = np.sort(np.asarray(ours)), np.sort(np.asarray(ref))
+    ours, ref = _merged(ours), _merged(ref)
     if ours.size == ref.size:
         return bool(np.allclose(ours, ref, rtol=rel, atol=0))
     return False

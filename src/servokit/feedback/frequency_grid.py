@@ -38,15 +38,22 @@ def _roots_of(sys: Any) -> np.ndarray:
     import control
 
     if isinstance(sys, control.LTI):
-        with np.errstate(all="ignore"):
-            return np.r_[np.asarray(sys.poles()), np.asarray(sys.zeros())].astype(complex)
+        return np.r_[np.asarray(sys.poles()), _zeros(sys)].astype(complex)
     if hasattr(sys, "modes") and hasattr(sys, "to_statespace"):
         w, z, _ = sys.arrays()
         poles = -z * w + 1j * w * np.sqrt(np.clip(1.0 - z * z, 0.0, None))
-        with np.errstate(all="ignore"):
-            zeros = np.asarray(sys.to_statespace().zeros(), dtype=complex)
-        return np.r_[poles, zeros]
+        return np.r_[poles, _zeros(sys.to_statespace())]
     return np.zeros(0, dtype=complex)
+
+
+def _zeros(sys: Any) -> np.ndarray:
+    """Transmission zeros, or none if the generalised eigenproblem fails (repeated
+    undamped modes can make QZ give up; the adaptive refinement still resolves them)."""
+    try:
+        with np.errstate(all="ignore"):
+            return np.asarray(sys.zeros(), dtype=complex)
+    except np.linalg.LinAlgError:
+        return np.zeros(0, dtype=complex)
 
 
 def critical_frequencies(system: Any) -> tuple[np.ndarray, np.ndarray]:
