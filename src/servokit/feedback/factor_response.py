@@ -31,7 +31,7 @@ import numpy as np
 
 from servokit.errors import ServokitTypeError, ServokitValueError
 
-__all__ = ["Factor", "make_factor"]
+__all__ = ["Factor", "loop_evaluator", "make_factor"]
 
 #: Eigenvector condition number above which the Schur form replaces the diagonal form.
 _MAX_COND = 1e8
@@ -58,6 +58,11 @@ class Factor:
     poles: np.ndarray | None
     continuous_lti: bool = False
     source: Any = field(default=None, repr=False)
+    #: ``(poles, residues, feedthrough)`` of the diagonal part, merged across factors by
+    #: :func:`loop_evaluator`; ``near`` adds the rest (a function of ``x``), if any.
+    pf: tuple[np.ndarray, np.ndarray, complex] | None = field(default=None, repr=False)
+    near: Callable[[np.ndarray], np.ndarray] | None = field(default=None, repr=False)
+    zeros: np.ndarray = field(default_factory=lambda: np.zeros(0, complex), repr=False)
 
 
 def _timebase(sys: Any) -> float | None:
@@ -71,36 +76,59 @@ def _timebase(sys: Any) -> float | None:
 
 def _point(dt: float | None) -> Callable[[np.ndarray], np.ndarray]:
     if dt is None:
-        return lambda f: 2j * np.pi * f
-    return lambda f: np.exp(2j * np.pi * f * dt)
+        return lambda f: 2j * np.pi * np.asarray(f, dtype=float)
+    return lambda f: np.exp(2j * np.pi * np.asarray(f, dtype=float) * dt)
 
 
 def _tf_factor(sys: Any, dt: float | None) -> Factor:
-    num = np.trim_zeros(np.asarray(sys.num[0][0], dtype=float), "f")
-    den = np.trim_zeros(np.asarray(sys.den[0][0], dtype=float), "f")
-    if num.size == 0:
-        num = np.zeros(1)
+    num, den = (np.asarray(c, dtype=float) for c in (sys.num[0][0], sys.den[0][0]))
+    num = num[np.argmax(num != 0) :] if np.any(num != 0) else np.zeros(1)
+    den = den[np.argmax(den != 0) :]
     x_of = _point(dt)
 
     def resp(f: np.ndarray) -> np.ndarray:
-        x = x_of(np.asarray(f, dtype=float))
+        x = x_of(f)
         with np.errstate(all="ignore"):  # a pole on the grid gives inf, handled by callers
             return np.polyval(num, x) / np.polyval(den, x)
 
-    return Factor(resp, dt, np.roots(den).astype(complex), dt is None, sys)
+    zeros = np.roots(num).astype(complex) if num.size > 1 else np.zeros(0, complex)
+    poles = np.roots(den).astype(complex)
+    fa = Factor(resp, dt, poles, dt is None, sys, zeros=zeros)
+    fa.pf = _tf_partial_fractions(num, den, poles)
+    return fa
 
 
-def _diagonal(A: np.ndarray, B: np.ndarray, C: np.ndarray) -> tuple[np.ndarray, np.ndarray] | None:
+def _tf_partial_fractions(
+    num: np.ndarray, den: np.ndarray, poles: np.ndarray
+) -> tuple[np.ndarray, np.ndarray, complex] | None:
+    """Residues ``num(p)/den'(p)`` of a proper TF with well separated poles, else None."""
+    if num.size > den.size or poles.size == 0:
+        return None
+    scale = max(1.0, float(np.max(np.abs(poles))))
+    gaps = np.abs(poles[:, None] - poles[None, :]) + np.eye(poles.size) * scale
+    if np.min(gaps) < 1e-4 * scale:
+        return None  # repeated or clustered poles: Horner is the better evaluation
+    d = num[0] / den[0] if num.size == den.size else 0.0
+    strict = np.polysub(num, d * den)
+    r = np.polyval(strict, poles) / np.polyval(np.polyder(den), poles)
+    return poles, r, complex(d)
+
+
+def _diagonal(
+    A: np.ndarray, B: np.ndarray, C: np.ndarray, eig: tuple[np.ndarray, np.ndarray] | None = None
+) -> tuple[np.ndarray, np.ndarray] | None:
     if A.shape[0] == 0:
         return np.zeros(0, dtype=complex), np.zeros(0, dtype=complex)
-    lam, V = np.linalg.eig(A)
+    lam, V = np.linalg.eig(A) if eig is None else eig
     if np.linalg.cond(V) > _MAX_COND:
         return None
     r = (C @ V)[0] * np.linalg.solve(V, B)[:, 0]
     return lam, r
 
 
-def _split(A: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray, int] | None:
+def _split(
+    A: np.ndarray, lam: np.ndarray
+) -> tuple[np.ndarray, np.ndarray, np.ndarray, int] | None:
     """Schur form with the repeated-eigenvalue cluster first, decoupled from the rest.
 
     Returns ``(T11, S, Z, k)`` with ``A = Z S blockdiag(T11, T22) S^{-1} Z^H`` (T22 is then
@@ -108,12 +136,10 @@ def _split(A: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray, int] | No
     """
     import scipy.linalg
 
-    lam = np.linalg.eigvals(A)
-    scale = max(1.0, float(np.max(np.abs(lam))))
-    near = np.abs(lam[:, None] - lam[None, :]) <= 1e-6 * scale
-    rep = lam[near.sum(axis=1) > 1]
+    rep = _repeated(lam)
     if rep.size == 0:
         return None
+    scale = max(1.0, float(np.max(np.abs(lam))))
 
     def in_cluster(x: complex) -> bool:
         return bool(np.any(np.abs(rep - x) <= 1e-6 * scale))
@@ -126,17 +152,27 @@ def _split(A: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray, int] | No
     return T, S, Z, k
 
 
+def _repeated(lam: np.ndarray) -> np.ndarray:
+    """Eigenvalues with a near-duplicate (1e-6 relative): a possible Jordan block."""
+    scale = max(1.0, float(np.max(np.abs(lam))))
+    near = np.abs(lam[:, None] - lam[None, :]) <= 1e-6 * scale
+    return lam[near.sum(axis=1) > 1]
+
+
 def _ss_factor(sys: Any, dt: float | None) -> Factor:
     A, B, C = (np.asarray(m, dtype=float) for m in (sys.A, sys.B, sys.C))
     d = complex(np.asarray(sys.D, dtype=float).reshape(-1)[0]) if np.size(sys.D) else 0j
     x_of = _point(dt)
     if A.shape[0] == 0:
         return Factor(lambda f: np.full(np.shape(f), d), dt, np.zeros(0, complex), dt is None)
-    diag = _diagonal(A, B, C)
+    eig = np.linalg.eig(A)
+    zeros = _zeros(sys)
+    diag = _diagonal(A, B, C, eig) if _repeated(eig[0]).size == 0 else None
     if diag is not None:
         lam, r = diag
-        return Factor(_partial_fractions(lam, r, d, x_of), dt, lam, dt is None, sys)
-    split = _split(A)
+        resp = _partial_fractions(lam, r, d, x_of)
+        return Factor(resp, dt, lam, dt is None, sys, pf=(lam, r, d), zeros=zeros)
+    split = _split(A, eig[0])
     if split is not None:
         T, S, Z, k = split
         Sinv = np.linalg.inv(S)
@@ -147,21 +183,42 @@ def _ss_factor(sys: Any, dt: float | None) -> Factor:
             lam2, r2 = rest
             near = _triangular(T[:k, :k], b[:k], c[:k], 0j, x_of)
             far = _partial_fractions(lam2, r2, d, x_of)
+            poles = np.r_[np.diag(T[:k, :k]), lam2]
             return Factor(
-                lambda f: near(f) + far(f), dt, np.r_[np.diag(T[:k, :k]), lam2], dt is None, sys
+                lambda f: near(f) + far(f), dt, poles, dt is None, sys, pf=(lam2, r2, d),
+                near=_triangular(T[:k, :k], b[:k], c[:k], 0j, lambda x: x), zeros=zeros,
             )
     import scipy.linalg
 
     T, Z = scipy.linalg.schur(A.astype(complex), output="complex")
     resp = _triangular(T, Z.conj().T @ B[:, 0], C[0] @ Z, d, x_of)
-    return Factor(resp, dt, np.diag(T).copy(), dt is None, sys)
+    return Factor(resp, dt, np.diag(T).copy(), dt is None, sys, zeros=zeros)
+
+
+def _zeros(sys: Any) -> np.ndarray:
+    """Transmission zeros (finite eigenvalues of the Rosenbrock pencil), or none if the
+    generalised eigenproblem fails (repeated undamped modes can make QZ give up; the
+    adaptive refinement still resolves what the packing then misses)."""
+    import scipy.linalg
+
+    A, B, C, D = (np.atleast_2d(np.asarray(m, dtype=float)) for m in (sys.A, sys.B, sys.C, sys.D))
+    n = A.shape[0]
+    M = np.block([[A, B], [C, D]])
+    N = np.zeros_like(M)
+    N[:n, :n] = np.eye(n)
+    try:
+        with np.errstate(all="ignore"):
+            z = scipy.linalg.eigvals(M, N)
+    except (np.linalg.LinAlgError, ValueError):
+        return np.zeros(0, dtype=complex)
+    return z[np.isfinite(z)].astype(complex)
 
 
 def _partial_fractions(
     lam: np.ndarray, r: np.ndarray, d: complex, x_of: Callable[[np.ndarray], np.ndarray]
 ) -> Callable[[np.ndarray], np.ndarray]:
     def resp(f: np.ndarray) -> np.ndarray:
-        x = x_of(np.asarray(f, dtype=float))
+        x = x_of(f)
         with np.errstate(all="ignore"):  # a pole on the grid gives inf, handled by callers
             return (r / (x[..., None] - lam)).sum(axis=-1) + d
 
@@ -173,7 +230,7 @@ def _triangular(
     x_of: Callable[[np.ndarray], np.ndarray],
 ) -> Callable[[np.ndarray], np.ndarray]:
     def resp(f: np.ndarray) -> np.ndarray:
-        x = x_of(np.asarray(f, dtype=float)).ravel()
+        x = x_of(f).ravel()
         n = T.shape[0]
         y = np.empty((n, x.size), dtype=complex)
         with np.errstate(all="ignore"):
@@ -195,7 +252,8 @@ def _modal_factor(plant: Any) -> Factor:
     def resp(f: np.ndarray) -> np.ndarray:
         return np.asarray(plant.freqresp(f), dtype=complex)
 
-    return Factor(resp, None, poles, True, plant)
+    zeros = _zeros(plant.to_statespace())
+    return Factor(resp, None, poles, True, plant, zeros=zeros)
 
 
 def make_factor(item: Any) -> Factor:
@@ -233,3 +291,64 @@ def make_factor(item: Any) -> Factor:
         f"loop factor of type {type(item).__name__} is not supported; pass a python-control "
         "LTI system, a ModalPlant or a callable freq_hz -> complex response"
     )
+
+
+def loop_evaluator(
+    factors: list[Factor], tau: float, dt: float | None
+) -> Callable[[np.ndarray], np.ndarray]:
+    """``L(freq_hz)``: the product of the factors and ``e^{-j 2π f τ}``, merged for speed.
+
+    Every diagonal part is evaluated in one array operation (all poles of all factors at
+    once, summed per factor with ``np.add.reduceat``), ``x`` is computed once; the other
+    factors are called as they are.
+
+    Parameters
+    ----------
+    factors : list of Factor
+        The loop factors (one sampling period ``dt``).
+    tau : float
+        Extra delay [s].
+    dt : float or None
+        Sampling period [s] (None: continuous).
+
+    Returns
+    -------
+    callable
+        ``freq_hz -> complex ndarray``.
+    """
+    merged = [fa for fa in factors if fa.pf is not None]
+    others = [fa for fa in factors if fa.pf is None]
+    x_of = _point(dt)
+    if merged:
+        lam = np.concatenate([fa.pf[0] for fa in merged])
+        res = np.concatenate([fa.pf[1] for fa in merged])
+        d = np.array([fa.pf[2] for fa in merged])
+        sizes = np.array([fa.pf[0].size for fa in merged])
+        starts = np.r_[0, np.cumsum(sizes)[:-1]]
+        empty = sizes == 0
+        nears = [fa.near for fa in merged]
+
+    def resp(f: np.ndarray) -> np.ndarray:
+        f = np.asarray(f, dtype=float)
+        flat = f.ravel()
+        out = np.exp(-2j * np.pi * flat * tau) if tau else np.ones(flat.shape, dtype=complex)
+        if merged:
+            x = x_of(flat)
+            with np.errstate(all="ignore"):  # a pole on the grid gives inf
+                # poles along the first axis: the per-factor sums reduce contiguous rows
+                if lam.size:
+                    terms = res[:, None] / (x[None, :] - lam[:, None])
+                    sums = np.add.reduceat(terms, np.minimum(starts, lam.size - 1), axis=0)
+                    sums[empty] = 0.0
+                else:
+                    sums = np.zeros((d.size, x.size), dtype=complex)
+                vals = sums + d[:, None]
+                for k, near in enumerate(nears):
+                    if near is not None:
+                        vals[k] += near(x)
+                out = out * np.prod(vals, axis=0)
+        for fa in others:
+            out = out * fa.response(flat)
+        return out.reshape(f.shape)
+
+    return resp

@@ -20,7 +20,7 @@ import numpy as np
 
 from servokit.errors import ServokitValueError, check_count
 
-__all__ = ["critical_frequencies", "frequency_grid", "pack_around"]
+__all__ = ["critical_frequencies", "factor_frequencies", "frequency_grid", "pack_around"]
 
 #: Floor on the damping used for packing (an undamped pole still gets a finite width).
 _MIN_DAMPING = 1e-9
@@ -71,9 +71,30 @@ def critical_frequencies(system: Any) -> tuple[np.ndarray, np.ndarray]:
         One entry per pole or zero with a finite, non-zero frequency (discrete roots are
         mapped to ``s = ln(z)/dt``; roots at z = 0 are skipped).
     """
-    roots = _roots_of(system)
+    return _natural(_roots_of(system), _dt(system))
+
+
+def factor_frequencies(
+    poles: np.ndarray, zeros: np.ndarray, dt: float | None
+) -> tuple[np.ndarray, np.ndarray]:
+    """:func:`critical_frequencies` from poles and zeros already at hand.
+
+    Parameters
+    ----------
+    poles, zeros : ndarray
+        Roots in s (continuous) or z (discrete).
+    dt : float or None
+        Sampling period [s].
+
+    Returns
+    -------
+    freq_hz, damping : ndarray
+    """
+    return _natural(np.r_[poles, zeros].astype(complex), dt)
+
+
+def _natural(roots: np.ndarray, dt: float | None) -> tuple[np.ndarray, np.ndarray]:
     roots = roots[np.isfinite(roots)]
-    dt = _dt(system)
     if dt is not None:
         roots = roots[np.abs(roots) > 1e-300]
         roots = np.log(roots) / dt
@@ -96,7 +117,8 @@ def pack_around(
     damping : ndarray
         Their damping ratios (floored at 1e-9).
     points : int
-        Points per critical frequency (odd puts one on ``f0``).
+        Points per lightly damped (ζ < 0.05) critical frequency (odd puts one on ``f0``);
+        better damped ones get 11.
     reach : float
         The packing spans ``|t| <= min(reach, 0.9/ζ)`` half-widths.
 
@@ -109,13 +131,22 @@ def pack_around(
     z = np.maximum(np.asarray(damping, dtype=float), _MIN_DAMPING)
     if f0.size == 0:
         return np.zeros(0)
+    # a well damped root is broad: the logarithmic background and 11 points resolve it
+    light = z < 0.05
+    parts = [_packed(f0[light], z[light], points, reach), _packed(f0[~light], z[~light], 11, reach)]
+    out = np.concatenate(parts)
+    return out[out > 0]
+
+
+def _packed(f0: np.ndarray, z: np.ndarray, points: int, reach: float) -> np.ndarray:
+    if f0.size == 0:
+        return np.zeros(0)
     k = np.minimum(reach, 0.9 / z)
     u = np.linspace(-1.0, 1.0, points)
     # sinh spacing: a step of about 0.15 half-widths near f0, geometric growth outside
     a = np.arcsinh(k / 0.15)
     t = 0.15 * np.sinh(a[:, None] * u[None, :])
-    out = f0[:, None] * (1.0 + z[:, None] * t)
-    return out[out > 0].ravel()
+    return (f0[:, None] * (1.0 + z[:, None] * t)).ravel()
 
 
 def frequency_grid(

@@ -46,8 +46,8 @@ import numpy as np
 from servokit.errors import ServokitValueError, check_count, check_finite
 from servokit.feedback.crossings import MAX_POINTS, MAX_STEP, TINY, adapt_grid, cut_intervals
 from servokit.feedback.crossings import find_crossings as _find
-from servokit.feedback.factor_response import Factor, make_factor
-from servokit.feedback.frequency_grid import critical_frequencies, pack_around
+from servokit.feedback.factor_response import Factor, loop_evaluator, make_factor
+from servokit.feedback.frequency_grid import factor_frequencies, pack_around
 from servokit.feedback.nyquist import BoundaryPoles, boundary_poles, winding_verdict
 
 __all__ = ["Margins", "stability_margins", "loop_response", "loop_factors"]
@@ -137,17 +137,6 @@ def loop_factors(loop: Any) -> tuple[list[Factor], float | None]:
     return factors, dt
 
 
-def _product(factors: list[Factor], tau: float) -> Response:
-    def resp(f: np.ndarray) -> np.ndarray:
-        f = np.asarray(f, dtype=float)
-        out = np.exp(-2j * np.pi * f * tau) if tau else np.ones(f.shape, dtype=complex)
-        for fa in factors:
-            out = out * fa.response(f)
-        return out
-
-    return resp
-
-
 def _delay(delay: float) -> float:
     tau = float(check_finite("delay", delay))
     if tau < 0:
@@ -178,7 +167,7 @@ def loop_response(loop: Any, delay: float = 0.0) -> tuple[Response, float | None
         continuous).
     """
     factors, dt = loop_factors(loop)
-    return _product(factors, _delay(delay)), dt
+    return loop_evaluator(factors, _delay(delay), dt), dt
 
 
 def _wrap_deg(x: np.ndarray | float) -> np.ndarray:
@@ -195,7 +184,7 @@ def _band(
     default band then stops at ``max(10 f_max, 10/τ)`` (f_max the highest pole or zero),
     not at 1 MHz.
     """
-    crit = [critical_frequencies(fa.source) for fa in factors if fa.source is not None]
+    crit = [factor_frequencies(fa.poles, fa.zeros, fa.dt) for fa in factors if fa.poles is not None]
     f0 = np.concatenate([c[0] for c in crit]) if crit else np.zeros(0)
     z = np.concatenate([c[1] for c in crit]) if crit else np.zeros(0)
     if dt is not None:
@@ -252,7 +241,7 @@ def stability_margins(
     *,
     fmin: float | None = None,
     fmax: float | None = None,
-    n_freq: int = 2000,
+    n_freq: int = 1000,
 ) -> Margins:
     """All gain, phase, delay and modulus margins of a SISO loop L, and its stability verdict.
 
@@ -286,7 +275,7 @@ def stability_margins(
             "too large to resolve; give a delay below "
             f"{MAX_POINTS * MAX_STEP / (4 * np.pi * hi):.3g} s (or a smaller fmax)"
         )
-    resp = _product(factors, tau)
+    resp = loop_evaluator(factors, tau, dt)
     known = all(fa.poles is not None for fa in factors)
     bp = boundary_poles(np.concatenate([fa.poles for fa in factors]), dt) if known else None
     f, top = _contour_grid(resp, lo, hi, n, f0, z, bp, dt)
@@ -316,14 +305,15 @@ def _crossings(
     phase_ok = band & (np.abs(L) > TINY) & (L.real < 0)
     wc, w180 = _find(resp, f, L, [(_log_mag, band), (_sin_phase, phase_ok)], cut)
     # verify on the exact response: L real and negative at a phase crossover
-    w180 = [x for x in w180 if resp(np.array([x]))[0].real < 0]
+    if w180:
+        w180 = [x for x, v in zip(w180, resp(np.array(w180)), strict=True) if v.real < 0]
     return wc, w180
 
 
 def _modulus_margin(
     resp: Response, f: np.ndarray, L: np.ndarray, band: np.ndarray, cut: np.ndarray
 ) -> tuple[float, float]:
-    """``min |1 + L|`` in the band: grid minimum, then 33-point zooming on its neighbours."""
+    """``min |1 + L|`` in the band: grid minimum, then 65-point zooming on its neighbours."""
     d = np.where(band, np.abs(1.0 + L), np.inf)
     k = int(np.argmin(d))
     if not np.isfinite(d[k]):
@@ -332,13 +322,13 @@ def _modulus_margin(
     hi = f[k + 1] if k + 1 < f.size and not cut[k] and band[k + 1] else f[k]
     a, b = lo, hi
     best, val = float(f[k]), float(d[k])
-    for _ in range(6):
-        x = np.linspace(a, b, 33)
+    for _ in range(3):
+        x = np.linspace(a, b, 65)
         dx = np.abs(1.0 + resp(x))
         j = int(np.argmin(dx))
         if dx[j] < val:
             best, val = float(x[j]), float(dx[j])
-        step = (b - a) / 32
+        step = (b - a) / 64
         a, b = max(lo, best - step), min(hi, best + step)
     return val, best
 
