@@ -316,7 +316,7 @@ def margins_cmd(
     delay: Annotated[float, typer.Option("--delay", help="extra loop delay [s]", min=0.0)] = 0.0,
     n_freq: Annotated[
         int, typer.Option("--n-freq", help="background grid points (packed and refined)", min=16)
-    ] = 1000,
+    ] = 500,
     variations: Annotated[
         str | None,
         typer.Option("--variations", help="variation file (.toml): margins over its corners"),

@@ -106,7 +106,7 @@ def _natural(roots: np.ndarray, dt: float | None) -> tuple[np.ndarray, np.ndarra
 
 
 def pack_around(
-    f0: np.ndarray, damping: np.ndarray, *, points: int = 41, reach: float = 1e4
+    f0: np.ndarray, damping: np.ndarray, *, points: int = 25, reach: float = 1e4
 ) -> np.ndarray:
     """Points packed around each critical frequency: ``f0 (1 + ζ t)`` with sinh-spaced ``t``.
 

@@ -241,7 +241,7 @@ def stability_margins(
     *,
     fmin: float | None = None,
     fmax: float | None = None,
-    n_freq: int = 1000,
+    n_freq: int = 500,
 ) -> Margins:
     """All gain, phase, delay and modulus margins of a SISO loop L, and its stability verdict.
 
