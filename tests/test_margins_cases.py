@@ -219,3 +219,18 @@ def test_ieej_benchmark_loop_margins_against_python_control_and_poles():
     wc_ref, w180_ref = brute_crossings(lambda x: L, f)
     assert np.array(m.gain_crossovers_hz) == pytest.approx(wc_ref, rel=1e-4)
     assert np.array(m.phase_crossovers_hz) == pytest.approx(w180_ref, rel=1e-4)
+
+
+def test_a_crossing_pair_beside_a_grid_point_exactly_on_0_db():
+    # found by the slow property test: |L(600 Hz)| = 1 exactly at a packed grid point, and
+    # the resonance rises above 0 dB just after it and falls back at 600.2157 Hz
+    from _margin_loops import LoopCase, lead
+
+    from servokit.models import ModalPlant
+
+    plant = ModalPlant(94713.47792893233, (Mode(5.0, 0.5, 1.0), Mode(600.0, 0.01, 1.0)))
+    case = LoopCase(plant, lead(600.0), None, lead(600.0))
+    m = stability_margins(case.factors, fmin=1, fmax=30e3)
+    assert len(m.gain_crossovers_hz) == 3
+    assert m.gain_crossovers_hz[2] == pytest.approx(600.2157, abs=1e-3)
+    assert abs(case.response(np.array([600.1]))[0]) > 1 > abs(case.response(np.array([600.3]))[0])

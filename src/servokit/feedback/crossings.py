@@ -277,12 +277,14 @@ def _extremum_candidates(
     The parabola through the three grid points predicts the dip below the middle one; a
     candidate is kept when zero lies within three times that dip (a generous margin: the
     zooming that follows decides)."""
-    mins = (v[1:-1] < v[:-2]) & (v[1:-1] <= v[2:]) & (v[1:-1] > 0)
-    maxs = (v[1:-1] > v[:-2]) & (v[1:-1] >= v[2:]) & (v[1:-1] < 0)
+    # a grid point exactly on zero at an extremum may still hide a pair beside it
+    mins = (v[1:-1] < v[:-2]) & (v[1:-1] <= v[2:]) & (v[1:-1] >= 0)
+    maxs = (v[1:-1] > v[:-2]) & (v[1:-1] >= v[2:]) & (v[1:-1] <= 0)
     whole = ok[:-2] & ok[1:-1] & ok[2:] & ~cut[:-1] & ~cut[1:]
     ks = np.nonzero((mins | maxs) & whole & (np.abs(v[1:-1]) < 0.1))[0] + 1
+    is_min = mins[ks - 1]
     out = []
-    for k in ks:
+    for k, lowest in zip(ks, is_min, strict=True):
         x0, x1, x2 = f[k - 1] - f[k], 0.0, f[k + 1] - f[k]
         y0, y1, y2 = v[k - 1], v[k], v[k + 1]
         # vertex of the interpolating parabola (divided differences)
@@ -292,5 +294,5 @@ def _extremum_candidates(
         c1 = d01 - c2 * (x0 + x1)
         dip = c1 * c1 / (4 * c2) if c2 != 0 else np.inf  # y1 - vertex value
         if abs(y1) <= 3 * abs(dip) + 1e-12:
-            out.append((i, float(f[k - 1]), float(f[k + 1]), 1.0 if y1 > 0 else -1.0))
+            out.append((i, float(f[k - 1]), float(f[k + 1]), 1.0 if lowest else -1.0))
     return out
