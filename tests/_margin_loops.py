@@ -10,7 +10,6 @@ from hypothesis import strategies as st
 
 from servokit.models import ModalPlant, Mode
 
-
 #: Phase crossovers compared only where |L| > VISIBLE (a gain margin below 80 dB): near a
 #: zero of L the independent evaluations lose their relative accuracy.
 VISIBLE = 1e-4
@@ -76,8 +75,10 @@ def build(modes: list[Mode], delay: float, fc: float, gain_factor: float, dt: fl
     c = lead(fc)
     if dt is not None:
         c = control.sample_system(c, dt, method="tustin")
-        l0 = abs(complex(plant.discretize(dt)(np.exp(2j * np.pi * fc * dt))) * complex(
-            c(np.exp(2j * np.pi * fc * dt))))
+        l0 = abs(
+            complex(plant.discretize(dt)(np.exp(2j * np.pi * fc * dt)))
+            * complex(c(np.exp(2j * np.pi * fc * dt)))
+        )
     else:
         l0 = abs(complex(plant.freqresp(fc)) * complex(c(2j * np.pi * fc)))
     plant = plant.replace(gain=gain_factor / l0)

@@ -146,7 +146,7 @@ def test_modulus_margin_is_the_minimum_distance_to_minus_one():
 
 
 def test_reduced_forms_agree_with_python_control():
-    from servokit.models import hdd_benchmark, HDD_BENCHMARK_TS
+    from servokit.models import HDD_BENCHMARK_TS, hdd_benchmark
 
     pd = hdd_benchmark().discretize(HDD_BENCHMARK_TS)  # Jordan block at z = 1
     f = np.geomspace(1.0, 0.5 / HDD_BENCHMARK_TS, 500)

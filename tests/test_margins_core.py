@@ -3,15 +3,12 @@ closed-loop poles for the stability verdict, re-derived delay and modulus margin
 
 from __future__ import annotations
 
-import control
 import numpy as np
 import pytest
-from _margin_loops import VISIBLE, LoopCase, brute_crossings, build, loops, packed_grid
+from _margin_loops import VISIBLE, LoopCase, brute_crossings, loops, packed_grid
 from hypothesis import HealthCheck, assume, given, settings
 
-from servokit.feedback import frequency_grid, margins_over_set, stability_margins
-from servokit.feedback.factor_response import make_factor
-from servokit.models import Mode
+from servokit.feedback import stability_margins
 
 _SETTINGS = {"deadline": None, "suppress_health_check": [HealthCheck.too_slow]}
 

@@ -100,9 +100,10 @@ def _show(
     target = plot_target(plot)
     info = _describe(tf, freq, dt)
     if target is not None:
+        from servokit.feedback import frequency_grid
         from servokit.feedback.plots import bode_responses_plot
 
-        f = np.geomspace(freq / 100, min(freq * 100, 1e6), 2000)
+        f = frequency_grid(tf, freq / 100, min(freq * 100, 1e6), 2000)
         systems: dict[str, Any] = {f"{name} (continuous)": tf}
         if dt is not None:
             from servokit.feedback import discretize_filter

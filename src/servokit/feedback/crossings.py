@@ -36,7 +36,20 @@ MAX_POINTS = 2_000_000
 
 
 def cut_intervals(f: np.ndarray, barriers: np.ndarray) -> np.ndarray:
-    """Intervals ``[f_k, f_k+1]`` that straddle a pole on the stability boundary."""
+    """Intervals ``[f_k, f_k+1]`` that straddle a pole on the stability boundary.
+
+    Parameters
+    ----------
+    f : ndarray
+        Sorted grid [Hz].
+    barriers : ndarray
+        Frequencies of boundary poles [Hz].
+
+    Returns
+    -------
+    ndarray of bool
+        One flag per interval (``f.size - 1``).
+    """
     if barriers.size == 0:
         return np.zeros(f.size - 1, dtype=bool)
     k = np.searchsorted(f, barriers)
@@ -113,9 +126,7 @@ def adapt_grid(
 Test = tuple[Callable[[np.ndarray], np.ndarray], np.ndarray]
 
 
-def _rowwise(
-    resp: Response, x: np.ndarray, which: np.ndarray, tests: list[Test]
-) -> np.ndarray:
+def _rowwise(resp: Response, x: np.ndarray, which: np.ndarray, tests: list[Test]) -> np.ndarray:
     """``h_i(resp(x))`` row by row, ``i = which[row]``, with one call of ``resp``."""
     Lx = resp(x.ravel()).reshape(x.shape)
     out = np.empty(x.shape)
@@ -127,8 +138,13 @@ def _rowwise(
 
 
 def _shrink(
-    resp: Response, tests: list[Test], which: np.ndarray, a: np.ndarray, b: np.ndarray,
-    ga: np.ndarray, gb: np.ndarray,
+    resp: Response,
+    tests: list[Test],
+    which: np.ndarray,
+    a: np.ndarray,
+    b: np.ndarray,
+    ga: np.ndarray,
+    gb: np.ndarray,
 ) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
     """Shrink all brackets [a, b] of sign changes together (128 sub-intervals per pass);
     returns the final brackets and the function values at their ends."""

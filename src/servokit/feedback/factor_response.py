@@ -126,9 +126,7 @@ def _diagonal(
     return lam, r
 
 
-def _split(
-    A: np.ndarray, lam: np.ndarray
-) -> tuple[np.ndarray, np.ndarray, np.ndarray, int] | None:
+def _split(A: np.ndarray, lam: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray, int] | None:
     """Schur form with the repeated-eigenvalue cluster first, decoupled from the rest.
 
     Returns ``(T11, S, Z, k)`` with ``A = Z S blockdiag(T11, T22) S^{-1} Z^H`` (T22 is then
@@ -185,8 +183,14 @@ def _ss_factor(sys: Any, dt: float | None) -> Factor:
             far = _partial_fractions(lam2, r2, d, x_of)
             poles = np.r_[np.diag(T[:k, :k]), lam2]
             return Factor(
-                lambda f: near(f) + far(f), dt, poles, dt is None, sys, pf=(lam2, r2, d),
-                near=_triangular(T[:k, :k], b[:k], c[:k], 0j, lambda x: x), zeros=zeros,
+                lambda f: near(f) + far(f),
+                dt,
+                poles,
+                dt is None,
+                sys,
+                pf=(lam2, r2, d),
+                near=_triangular(T[:k, :k], b[:k], c[:k], 0j, lambda x: x),
+                zeros=zeros,
             )
     import scipy.linalg
 
@@ -226,7 +230,10 @@ def _partial_fractions(
 
 
 def _triangular(
-    T: np.ndarray, b: np.ndarray, c: np.ndarray, d: complex,
+    T: np.ndarray,
+    b: np.ndarray,
+    c: np.ndarray,
+    d: complex,
     x_of: Callable[[np.ndarray], np.ndarray],
 ) -> Callable[[np.ndarray], np.ndarray]:
     def resp(f: np.ndarray) -> np.ndarray:

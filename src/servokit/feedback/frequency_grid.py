@@ -149,9 +149,7 @@ def _packed(f0: np.ndarray, z: np.ndarray, points: int, reach: float) -> np.ndar
     return (f0[:, None] * (1.0 + z[:, None] * t)).ravel()
 
 
-def frequency_grid(
-    systems: Any, f_min: float, f_max: float, n: int = 2000
-) -> np.ndarray:
+def frequency_grid(systems: Any, f_min: float, f_max: float, n: int = 2000) -> np.ndarray:
     """Logarithmic grid on ``[f_min, f_max]`` packed around every lightly damped pole/zero.
 
     The same grid serves margins, Bode plots, sensitivity plots and report figures, so no

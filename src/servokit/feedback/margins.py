@@ -205,8 +205,14 @@ def _band(
 
 
 def _contour_grid(
-    resp: Response, lo: float, hi: float, n: int, f0: np.ndarray, z: np.ndarray,
-    bp: BoundaryPoles | None, dt: float | None,
+    resp: Response,
+    lo: float,
+    hi: float,
+    n: int,
+    f0: np.ndarray,
+    z: np.ndarray,
+    bp: BoundaryPoles | None,
+    dt: float | None,
 ) -> tuple[np.ndarray, float]:
     """Starting grid over the whole positive half of the Nyquist contour, and its top."""
     small = f0[f0 > 0]

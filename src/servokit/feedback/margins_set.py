@@ -71,7 +71,7 @@ class SetMargins:
 
 def _as_loop(controller: Any, plant: Any) -> list[Any]:
     ctrl = list(controller) if isinstance(controller, list | tuple) else [controller]
-    dts = {getattr(c, "dt", None) for c in ctrl} - {None, 0, False}
+    dts = {getattr(c, "dt", None) for c in ctrl} - {None, 0}
     if dts and hasattr(plant, "discretize") and hasattr(plant, "modes"):
         plant = plant.discretize(float(next(iter(dts))))  # exact ZOH with the plant's delay
     return [plant, *ctrl]

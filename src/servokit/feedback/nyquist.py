@@ -49,8 +49,9 @@ class BoundaryPoles:
         Other boundary poles (positive frequency [Hz]) and their multiplicities.
     """
 
-    def __init__(self, unstable: int, at_zero: int, at_nyquist: int,
-                 freqs_hz: np.ndarray, mult: np.ndarray) -> None:
+    def __init__(
+        self, unstable: int, at_zero: int, at_nyquist: int, freqs_hz: np.ndarray, mult: np.ndarray
+    ) -> None:
         self.unstable = unstable
         self.at_zero = at_zero
         self.at_nyquist = at_nyquist
@@ -104,9 +105,7 @@ def _cluster(f: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     return np.array([np.mean(g) for g in groups]), np.array([len(g) for g in groups])
 
 
-def winding_verdict(
-    f: np.ndarray, L: np.ndarray, bp: BoundaryPoles, discrete: bool
-) -> bool | None:
+def winding_verdict(f: np.ndarray, L: np.ndarray, bp: BoundaryPoles, discrete: bool) -> bool | None:
     """Whether ``1/(1+L)`` is stable, from ``L`` on an adapted grid over the whole contour half.
 
     Parameters
