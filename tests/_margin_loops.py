@@ -93,7 +93,7 @@ def loops(draw: st.DrawFn, discrete: bool) -> LoopCase:
     else:
         modes = [Mode(draw(st.floats(5.0, 80.0)), draw(st.floats(0.05, 0.5)), 1.0)]
     for _ in range(draw(st.integers(0, 3))):
-        f = draw(st.floats(600.0, 9000.0))
+        f = draw(st.floats(1000.0, 9000.0))  # above fc: |L| = 1 is never set on a peak
         zeta = 10 ** draw(st.floats(-6.0, np.log10(0.5)))
         r = draw(st.floats(-1.0, 1.0).filter(lambda x: abs(x) > 0.01))
         modes.append(Mode(f, zeta, r))
