@@ -70,8 +70,12 @@ def _bad_intervals(
         big = top > 0.5
     # above the search band only winding matters: |L| < 1/2 cannot wind around -1
     phase_matters = (f[1:] <= quiet_above) | big
-    jump = ((turn > MAX_STEP) | (turn1 > MAX_STEP)) & phase_matters | (dlog > MAX_STEP)
-    jump |= ~np.isfinite(turn + turn1 + dlog)
+    # the magnitude matters near 0 dB; falling into an exact zero of L (a Tustin zero at
+    # Nyquist) from below -40 dB hides no crossing the packing has not resolved
+    mag_matters = top > 1e-2
+    jump = ((turn > MAX_STEP) | (turn1 > MAX_STEP)) & phase_matters
+    jump |= (dlog > MAX_STEP) & mag_matters
+    jump |= ~np.isfinite(turn + turn1) | ~np.isfinite(dlog) & mag_matters
     # next to a zero of L (|L| < 1e-8, a gain margin > 160 dB) there is nothing to find
     jump &= top > TINY
     return jump & (np.diff(f) > 1e-13 * f[1:]) & ~cut_intervals(f, barriers)

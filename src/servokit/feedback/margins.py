@@ -319,7 +319,7 @@ def _crossings(
 def _modulus_margin(
     resp: Response, f: np.ndarray, L: np.ndarray, band: np.ndarray, cut: np.ndarray
 ) -> tuple[float, float]:
-    """``min |1 + L|`` in the band: grid minimum, then 65-point zooming on its neighbours."""
+    """``min |1 + L|`` in the band: grid minimum, then 257-point zooming on its neighbours."""
     d = np.where(band, np.abs(1.0 + L), np.inf)
     k = int(np.argmin(d))
     if not np.isfinite(d[k]):
@@ -328,13 +328,13 @@ def _modulus_margin(
     hi = f[k + 1] if k + 1 < f.size and not cut[k] and band[k + 1] else f[k]
     a, b = lo, hi
     best, val = float(f[k]), float(d[k])
-    for _ in range(3):
-        x = np.linspace(a, b, 65)
+    for _ in range(2):
+        x = np.linspace(a, b, 257)
         dx = np.abs(1.0 + resp(x))
         j = int(np.argmin(dx))
         if dx[j] < val:
             best, val = float(x[j]), float(dx[j])
-        step = (b - a) / 64
+        step = (b - a) / 256
         a, b = max(lo, best - step), min(hi, best + step)
     return val, best
 
@@ -347,9 +347,9 @@ def _assemble(
     mm: float,
     mm_f: float,
 ) -> Margins:
-    lc = resp(np.array(wc, dtype=float))
+    both = resp(np.array([*wc, *w180], dtype=float))  # one call for every crossing
+    lc, l180 = both[: len(wc)], both[len(wc) :]
     pms = _wrap_deg(180.0 + np.degrees(np.angle(lc)))
-    l180 = resp(np.array(w180, dtype=float))
     gms = -20.0 * np.log10(np.abs(l180))
     # the delay that first turns crossover k onto -1: phase lost = PM_k mod 360
     dms = np.radians(np.mod(pms, 360.0)) / (2 * np.pi * np.asarray(wc, dtype=float))
