@@ -45,5 +45,5 @@ $(VENV)/.installed-docs: $(BIN)/python pyproject.toml
 	touch $@
 
 docs: $(VENV)/.installed-docs
-	$(BIN)/sphinx-build -q -b html docs docs/_build/html
+	MPLBACKEND=Agg $(BIN)/sphinx-build -q -W --keep-going -b html docs docs/_build/html
 	@echo "API docs: docs/_build/html/index.html"

@@ -19,11 +19,8 @@ import tracemalloc
 
 import numpy as np
 
-from servokit.cases.hdd_seek import DESIGNS, search_range
 from servokit.models import HDD_BENCHMARK_TS, hdd_benchmark_variants, hdd_benchmark_variation_set
-from servokit.robust import robust_minimum_time
-from servokit.robust.sweep import sweep_seek_times
-from servokit.simulate import choose_N
+from servokit.seek import DESIGNS, choose_N, robust_minimum_time, search_range, sweep_seek_times
 
 
 def best_of(n: int, fn):

@@ -26,8 +26,8 @@ import numpy as np
 
 import servokit as sk
 from servokit._figures import save_figure
-from servokit.cases.hdd_seek import table_2_4_weights
 from servokit.export import feedforward_tables, write_export
+from servokit.seek import table_2_4_weights
 
 SMALL = os.environ.get("SERVOKIT_EXAMPLE_SMALL") == "1"  # the test suite runs small sizes
 out = Path(sys.argv[1] if len(sys.argv) > 1 else "example_out")

@@ -8,10 +8,10 @@ from __future__ import annotations
 import control
 import numpy as np
 
-from servokit.cases.dual_stage import fitted_unknowns
 from servokit.feedback.adaptive import AdaptiveGains, cantilever_beam, simulate_adaptive
 from servokit.feedback.dual_stage import dual_stage_loops, loop_margins
 from servokit.feedback.dual_stage_design import BOOK_TABLE_5_4, METHODS, evaluate_design
+from servokit.feedback.dual_stage_fitted import fitted_unknowns
 from servokit.feedback.ssa import amd_controller, ddssa_bridge, mode_damping
 from servokit.models import pzt_active_suspension
 

@@ -18,9 +18,14 @@ from pathlib import Path
 import control
 import numpy as np
 
-from servokit.cases.hdd_pes import PeakFilterSpec, disturbance_magnitude, peak_filtered_controller
+from servokit.feedback import PeakFilterSpec, peak_filtered_controller
 from servokit.limits import output_variance, rolloff_bandwidth, variance_lower_bound
-from servokit.models import BenchmarkDisturbances, benchmark_controller, hdd_benchmark
+from servokit.models import (
+    BenchmarkDisturbances,
+    benchmark_controller,
+    disturbance_magnitude,
+    hdd_benchmark,
+)
 from servokit.simulate import track_following_pes
 
 SMALL = os.environ.get("SERVOKIT_EXAMPLE_SMALL") == "1"

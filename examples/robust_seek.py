@@ -10,8 +10,8 @@ from __future__ import annotations
 import numpy as np
 
 import servokit as sk
-from servokit.cases.hdd_seek import DESIGNS
 from servokit.models import HDD_BENCHMARK_TS
+from servokit.seek import DESIGNS
 
 
 def main() -> None:

@@ -11,8 +11,8 @@ import dataclasses
 import sys
 
 import servokit as sk
-from servokit.cases.hdd_seek import DESIGNS
-from servokit.robust.sweep import connect_dask, sweep_seek_times
+from servokit.seek import DESIGNS
+from servokit.seek.sweep import connect_dask, sweep_seek_times
 
 
 def main() -> None:

@@ -10,12 +10,19 @@ from pathlib import Path
 
 import pytest
 
-EXAMPLES = sorted((Path(__file__).resolve().parents[1] / "examples").glob("chapter*.py"))
+ROOT = Path(__file__).resolve().parents[1]
+EXAMPLES = sorted((ROOT / "examples").glob("*.py"))
 
 
 def test_one_example_per_chapter() -> None:
-    chapters = {re.match(r"chapter(\d)", p.name).group(1) for p in EXAMPLES}
+    chapters = {m.group(1) for p in EXAMPLES if (m := re.match(r"chapter(\d)", p.name))}
     assert {"2", "3", "4", "5", "6"} <= chapters
+
+
+def test_every_example_is_in_the_docs() -> None:
+    page = (ROOT / "docs" / "reference" / "examples.rst").read_text(encoding="utf-8")
+    included = set(re.findall(r"literalinclude:: \.\./\.\./examples/(\S+\.py)", page))
+    assert included == {p.name for p in EXAMPLES}
 
 
 def _param(script: Path) -> object:

@@ -58,4 +58,19 @@ def test_peak_filter_case_rows(tmp_path):
 
 def test_ltv_locus_case_runs(tmp_path):
     r = ltv_locus_case(tmp_path)
-    assert {"transient", "phase-shift"} <= set(r.extra)
+    # each stage's reported finite critical multiplier puts a closed-loop root of
+    # 1 + k Sh F on the imaginary axis (recomputed from the stage's filter)
+    ex = peak_example_baseline()
+    for method, k, zeta in (("transient", 1.0, 0.1), ("phase-shift", 0.2, 0.02)):
+        flt, _ = design_peak_filter(ex.sh, 12000.0, zeta, k, method)
+        crit = [v for v in (r.extra[method]["plant_k_crit"], r.extra[method]["filter_k_crit"])]
+        finite = [v for v in crit if np.isfinite(v)]
+        assert finite, method
+        den = np.polymul(ex.sh.den[0][0], flt.den[0][0])
+        num = np.polymul(ex.sh.num[0][0], flt.num[0][0])
+        roots = np.roots(np.polyadd(den, min(finite) * num))
+        assert np.min(np.abs(roots.real)) < 1e-6 * np.max(np.abs(roots)), method
+    # every missed row of the case carries its class and evidence
+    assert all(
+        c.miss_class == "under_determined" and c.miss_note for c in r.comparisons if not c.ok
+    )

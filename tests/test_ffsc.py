@@ -16,7 +16,7 @@ from servokit.feedforward import (
     held_spectrum_matrix,
 )
 from servokit.models import HDD_BENCHMARK_TS, ModalPlant, Mode, hdd_benchmark
-from servokit.simulate import choose_N
+from servokit.seek import choose_N
 
 TS = HDD_BENCHMARK_TS
 

@@ -129,7 +129,13 @@ def test_grids():
     n = np.array([s[1] for s in seeks])
     assert len(seeks) == 100 and d.min() >= 5 and d.max() <= 1000
     assert n.min() >= 20 and n.max() <= 135
-    assert validation_seeks(seed=3) == validation_seeks(seed=3)
+    # the seeded draw, recomputed independently: uniform distances, then integer lengths
+    rng = np.random.default_rng(3)
+    dist, lengths = rng.uniform(5.0, 1000.0, 100), rng.integers(20, 136, 100)
+    assert validation_seeks(seed=3) == [
+        (float(a), int(b)) for a, b in zip(dist, lengths, strict=True)
+    ]
+    assert validation_seeks(seed=3) != validation_seeks(seed=4)  # the seed is used
 
 
 @pytest.mark.slow

@@ -1,4 +1,4 @@
-"""Every code example of README.md runs as written.
+"""Every code example of README.md and of the Markdown docs pages runs as written.
 
 The fast test checks that every `servokit` subcommand the README names exists and that
 every option flag its command lines use appears in that subcommand's ``--help``.  The
@@ -22,19 +22,39 @@ from typer.testing import CliRunner
 from servokit.cli import _discover
 from servokit.cli._app import app
 
-README = Path(__file__).resolve().parents[1] / "README.md"
+ROOT = Path(__file__).resolve().parents[1]
+README = ROOT / "README.md"
+# the README and every Markdown page of the docs (guide, book, performance)
+DOC_FILES = [README, *sorted((ROOT / "docs").rglob("*.md"))]
+DOC_FILES = [p for p in DOC_FILES if "_build" not in p.parts and p.name != "cli.md"]
 EXE = [sys.executable, "-c", "from servokit.cli import main; main()"]
 
 _discover()
 runner = CliRunner()
 
 
-def _blocks() -> list[tuple[str, int, str]]:
-    """(language, line of the opening fence, body) of every fenced block."""
-    text = README.read_text(encoding="utf-8")
+class Where(tuple):
+    """(file, line) of a documented example; prints as FILE:LINE."""
+
+    def __new__(cls, name: str, line: int) -> Where:
+        return super().__new__(cls, (name, line))
+
+    def __add__(self, k: int) -> Where:  # the line k lines further down the same file
+        return Where(self[0], self[1] + k)
+
+    def __str__(self) -> str:
+        return f"{self[0]}:{self[1]}"
+
+
+def _blocks() -> list[tuple[str, Where, str]]:
+    """(language, where the opening fence is, body) of every fenced block."""
     out = []
-    for m in re.finditer(r"^```(\w*)\n(.*?)^```", text, re.S | re.M):
-        out.append((m.group(1), text[: m.start()].count("\n") + 1, m.group(2)))
+    for path in DOC_FILES:
+        text = path.read_text(encoding="utf-8")
+        name = path.relative_to(ROOT).as_posix()
+        for m in re.finditer(r"^```(\w*)\n(.*?)^```", text, re.S | re.M):
+            line = text[: m.start()].count("\n") + 1
+            out.append((m.group(1), Where(name, line), m.group(2)))
     return out
 
 
@@ -52,7 +72,7 @@ def _shell_lines() -> list[tuple[int, int, list[str]]]:
         for offset, cmd in _logical_lines(body):
             words = shlex.split(re.sub(r"^\$ ", "", cmd.strip()), comments=True)
             if words:
-                out.append((line, line + 1 + offset, words))
+                out.append((line, line + (1 + offset), words))
     return out
 
 
@@ -143,12 +163,12 @@ def test_readme_subcommands_and_flags_exist() -> None:
             argv, _ = _split_redirect(argv)
             path, args, known = _subcommand(argv)
             if not known:
-                problems.append(f"README.md:{line}: no subcommand `servokit {' '.join(argv)}`")
+                problems.append(f"{line}: no subcommand `servokit {' '.join(argv)}`")
                 continue
             if tuple(path) not in helps:
                 res = runner.invoke(app, [*path, "--help"], terminal_width=200)
                 if res.exit_code != 0:
-                    problems.append(f"README.md:{line}: `servokit {' '.join(path)} --help` failed")
+                    problems.append(f"{line}: `servokit {' '.join(path)} --help` failed")
                     continue
                 helps[tuple(path)] = res.stdout
             flags = set(re.findall(r"(?<![\w-])--?[A-Za-z][\w-]*", helps[tuple(path)]))
@@ -156,9 +176,7 @@ def test_readme_subcommands_and_flags_exist() -> None:
                 flag = arg.split("=", 1)[0]
                 if re.match(r"--?[A-Za-z]", flag):  # not a value such as -60 or -16:39370
                     if flag not in flags:
-                        problems.append(
-                            f"README.md:{line}: {flag} not in `servokit {' '.join(path)} --help`"
-                        )
+                        problems.append(f"{line}: {flag} not in `servokit {' '.join(path)} --help`")
     assert not problems, "\n".join(problems)
 
 
@@ -183,7 +201,7 @@ def _smaller(argv: list[str]) -> list[str]:
 
 
 @pytest.mark.slow
-@pytest.mark.parametrize("script", [s for _, s in SCRIPTS], ids=[f"line{b}" for b, _ in SCRIPTS])
+@pytest.mark.parametrize("script", [s for _, s in SCRIPTS], ids=[str(b) for b, _ in SCRIPTS])
 def test_readme_commands_run(script: list[tuple[int, list[str]]], tmp_path: Path) -> None:
     """The lines of one shell block, in order, in one directory."""
     for n, words in script:
@@ -196,13 +214,13 @@ def test_readme_commands_run(script: list[tuple[int, list[str]]], tmp_path: Path
             r = subprocess.run(
                 [*EXE, *_smaller(argv)], capture_output=True, text=True, timeout=600, cwd=tmp_path
             )
-            assert r.returncode == 0, f"README.md:{n}: servokit {' '.join(argv)}\n{r.stderr}"
+            assert r.returncode == 0, f"{n}: servokit {' '.join(argv)}\n{r.stderr}"
             if target:
                 (tmp_path / target).write_text(r.stdout, encoding="utf-8")
 
 
 @pytest.mark.slow
-@pytest.mark.parametrize("line_source", PYTHON_BLOCKS, ids=[f"line{n}" for n, _ in PYTHON_BLOCKS])
+@pytest.mark.parametrize("line_source", PYTHON_BLOCKS, ids=[str(n) for n, _ in PYTHON_BLOCKS])
 def test_readme_python_block_runs(
     line_source: tuple[int, str], tmp_path: Path, monkeypatch
 ) -> None:
@@ -212,6 +230,22 @@ def test_readme_python_block_runs(
     try:
         line, source = line_source
         # padded so that a traceback names the README's own line numbers
-        exec(compile("\n" * line + source, str(README), "exec"), {"__name__": "__readme__"})
+        namespace: dict[str, object] = {"__name__": "__doc__"}
+        exec(compile("\n" * line[1] + source, str(ROOT / line[0]), "exec"), namespace)
+        # the block ran to its end: every name it assigns is bound, none to NaN
+        import ast
+
+        assigned = {
+            t.id
+            for node in ast.walk(ast.parse(source))
+            if isinstance(node, ast.Assign)
+            for t in node.targets
+            if isinstance(t, ast.Name)
+        }
+        assert assigned <= set(namespace), sorted(assigned - set(namespace))
+        for name in assigned:
+            value = namespace[name]
+            if isinstance(value, float):
+                assert value == value, f"{line[0]}:{line[1]}: {name} is NaN"
     finally:
         plt.close("all")

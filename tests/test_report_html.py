@@ -15,8 +15,8 @@ from report_page import Page, chromium, rendered_dom
 
 from servokit._figures import also_save_as, save_figure
 from servokit.report import CaseResult, Comparison
+from servokit.report.files import write_report
 from servokit.report.html import figure_caption, render_html
-from servokit.report.output import write_report
 
 
 def _fake_results(outdir: Path) -> list[CaseResult]:
@@ -60,6 +60,24 @@ def test_every_image_loads_and_summary_equals_results_json(report: Path) -> None
     doc = json.loads((report / "results.json").read_text())
     assert page.total == doc["summary"]["total"]
     assert page.total["rows"] == 4 and page.total["not_comparable"] == 1
+    assert page.total["miss_open"] == 1  # the printed 0.26 miss carries no class
+
+
+def test_misses_are_listed_per_chapter_open_first(tmp_path: Path) -> None:
+    rows = [
+        Comparison("classified", 4.5, 4.13, rel_tol=0.0, miss_class="book_inconsistent",
+                   miss_note="the book's controller gives 4.13 dB"),
+        Comparison("unexplained", 17.0, 15.0, rel_tol=0.0),
+        Comparison("study", 0.333, 0.341, kind="informational"),
+    ]  # fmt: skip
+    write_report([CaseResult("c", "C", rows, [], chapter=4)], tmp_path)
+    html = (tmp_path / "report.html").read_text(encoding="utf-8")
+    table = html[html.index('id="misses-4"') :]
+    assert table.index("unexplained") < table.index("classified")
+    assert "the book&#39;s controller gives 4.13 dB" in html
+    assert "informational:</span> study" in html
+    assert json.loads((tmp_path / "results.json").read_text())["$schema"] == "results.schema.json"
+    assert (tmp_path / "results.schema.json").exists()
 
 
 def test_rows_kinds_notes_and_caption_render_escaped(report: Path) -> None:

@@ -11,17 +11,16 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from servokit.report import CaseResult, Comparison
+from servokit.report import KINDS, MISS_CLASSES, CaseResult, Comparison, printed_tolerance
 from servokit.report.results import (
     load_schema,
+    precision_remark,
     results_document,
     row_record,
     summarize,
     write_atomic,
     write_results,
 )
-
-KINDS = ("reproduced", "fitted", "assumed", "spec", "consistency")
 
 
 def _case(rows: list[Comparison], chapter: int = 2, name: str = "fake") -> CaseResult:
@@ -44,7 +43,8 @@ def test_ok_zero_book_value_uses_absolute_tolerance() -> None:
 def test_ok_nan_is_never_within_tolerance() -> None:
     assert not Comparison("x", 1.0, float("nan")).ok
     record = row_record(_case([]), Comparison("x", 1.0, float("nan")))
-    assert record["within_tolerance"] is False and record["servokit"] is None
+    assert record["within_tolerance"] is False and record["servokit"] == "NaN"
+    assert record["miss_class"] == "open" and record["miss_note"]
 
 
 def test_known_miss_design_2_ten_tracks_n() -> None:
@@ -91,7 +91,9 @@ def test_summary_counts_by_hand() -> None:
     s = summarize(recs)
     assert s["total"] == {
         "rows": 6, "judged": 5, "within_tolerance": 4, "missed": 1, "not_comparable": 1,
-        "reproduced": 1, "fitted": 1, "assumed": 1, "spec": 1, "consistency": 1,
+        "reproduced": 1, "reproduced_kind": 2, "fitted": 1, "assumed": 1, "spec": 1,
+        "consistency": 1, "informational": 0, "miss_open": 1, "miss_book_misprint": 0,
+        "miss_book_inconsistent": 0, "miss_under_determined": 0, "miss_figure_read": 0,
     }  # fmt: skip
     assert s["chapters"]["3"]["rows"] == 5 and s["chapters"]["5"]["spec"] == 1
 
@@ -202,3 +204,87 @@ def test_spec_bounds() -> None:
     assert Comparison("|Sd| below 500 Hz", 1.0, 0.9, rel_tol=0.0, bound="max").ok
     assert not Comparison("x", 1.0, float("nan"), bound="max").ok
     assert row_record(_case([gm]), gm)["bound"] == "min"
+
+
+# ---- issue 21: row vocabulary, miss classes, infinity encoding ----
+def test_informational_rows_are_not_judged_even_when_far_off() -> None:
+    row = Comparison("seek with delay", 0.333, 0.341, kind="informational", rel_tol=0.001)
+    rec = row_record(_case([row]), row)
+    assert rec["within_tolerance"] is None and rec["miss_class"] == ""
+    assert rec["book"] == 0.333  # the book value is kept, only not judged
+    assert summarize([rec])["total"]["informational"] == 1
+
+
+def test_miss_class_and_note_are_carried_and_counted() -> None:
+    rows = [
+        Comparison("gm", 4.5, 4.13, rel_tol=0.0, bound="min", kind="spec",
+                   miss_class="book_inconsistent", miss_note="(4.69) gives 4.13 dB"),
+        Comparison("n", 17.0, 15.0, rel_tol=0.0),  # no class: open
+        Comparison("hit", 1.0, 1.0, miss_class="figure_read", miss_note="x"),  # not a miss
+    ]  # fmt: skip
+    recs = [row_record(_case(rows), r) for r in rows]
+    assert [r["miss_class"] for r in recs] == ["book_inconsistent", "open", ""]
+    assert recs[0]["miss_note"] == "(4.69) gives 4.13 dB" and recs[2]["miss_note"] == ""
+    total = summarize(recs)["total"]
+    assert total["miss_book_inconsistent"] == 1 and total["miss_open"] == 1
+    assert sum(total[f"miss_{c}"] for c in MISS_CLASSES) == total["missed"] == 2
+
+
+def test_unknown_kind_or_class_is_refused() -> None:
+    with pytest.raises(ValueError, match="kind"):
+        Comparison("x", 1.0, 1.0, kind="matched")
+    with pytest.raises(ValueError, match="miss_class"):
+        Comparison("x", 1.0, 1.0, miss_class="typo")
+
+
+def test_infinity_is_spelled_out_and_validates() -> None:
+    row = Comparison("filter-pole gain margin", float("inf"), float("inf"), rel_tol=0.0)
+    finite = Comparison("gain margin", 108.0, float("inf"), rel_tol=0.005)
+    doc = results_document([_case([row, finite])], outdir=Path("."))
+    text = json.dumps(doc, allow_nan=False)
+    back = json.loads(text)
+    jsonschema.validate(back, load_schema())
+    assert back["rows"][0]["book"] == back["rows"][0]["servokit"] == "Infinity"
+    assert back["rows"][1]["servokit"] == "Infinity" and back["rows"][1]["ratio"] == "Infinity"
+    assert back["$schema"] == "results.schema.json"
+    for rec in back["rows"]:
+        if rec["within_tolerance"] is not None:
+            assert None not in rec.values()
+
+
+def test_schema_rejects_null_in_a_judged_row_and_a_miss_without_class() -> None:
+    row = Comparison("a", 1.0, 2.0)
+    doc = json.loads(json.dumps(results_document([_case([row])], outdir=Path("."))))
+    jsonschema.validate(doc, load_schema())
+    broken = json.loads(json.dumps(doc))
+    broken["rows"][0]["servokit"] = None
+    with pytest.raises(jsonschema.ValidationError):
+        jsonschema.validate(broken, load_schema())
+    broken = json.loads(json.dumps(doc))
+    broken["rows"][0]["miss_class"] = ""
+    with pytest.raises(jsonschema.ValidationError):
+        jsonschema.validate(broken, load_schema())
+
+
+def test_bound_slack_loosens_the_limit_in_the_right_direction() -> None:
+    # a 10 % slack on "greater than 4.5": 4.05 passes, 4.0 fails; "less than 4.5": 4.95
+    assert Comparison("gm", 4.5, 4.06, rel_tol=0.1, bound="min").ok
+    assert not Comparison("gm", 4.5, 4.0, rel_tol=0.1, bound="min").ok
+    assert Comparison("s", 4.5, 4.94, rel_tol=0.1, bound="max").ok
+    assert not Comparison("s", 4.5, 5.0, rel_tol=0.1, bound="max").ok
+
+
+def test_printed_tolerance_is_half_a_unit_exactly() -> None:
+    assert printed_tolerance("0.26") == pytest.approx(0.005 / 0.26, rel=1e-12)
+    assert printed_tolerance("12") == pytest.approx(0.5 / 12, rel=1e-12)
+    assert printed_tolerance("1.51e3") == pytest.approx(5 / 1510, rel=1e-12)
+    # a value 0.51 units off misses, 0.49 units off is within
+    assert not Comparison.printed("x", "2.0", 2.051).ok
+    assert Comparison.printed("x", "2.0", 2.049).ok
+
+
+def test_precision_remark_threshold_is_one_and_a_half_units() -> None:
+    # 1.4 units off: a precision-only miss; 1.6 and 2 units off: a plain miss
+    assert precision_remark(Comparison.printed("x", "0.26", 0.274))
+    assert not precision_remark(Comparison.printed("x", "0.26", 0.276))
+    assert not precision_remark(Comparison.printed("x", "0.26", 0.28))

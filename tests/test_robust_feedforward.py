@@ -9,8 +9,8 @@ from hypothesis import strategies as st
 
 from servokit.errors import ServokitValueError
 from servokit.models import HDD_BENCHMARK_TS, ModalPlant, Mode, hdd_benchmark_variants
-from servokit.robust import robust_minimum_time
-from servokit.robust._matrices import PulseBank
+from servokit.seek import robust_minimum_time
+from servokit.seek._matrices import PulseBank
 from servokit.simulate import seek_time, simulate
 
 DT = 0.01
@@ -207,7 +207,7 @@ def test_guarantee_holds_on_random_plant_sets(gains, freq, damping, residue, del
     """For any plant pair: limits met and the simulator confirms the guaranteed seek."""
     from hypothesis import reject
 
-    from servokit.robust import NoFeasibleSeekError
+    from servokit.seek import NoFeasibleSeekError
 
     plants = [
         ModalPlant(gain=g, modes=(Mode(0.0, 0.0, 1.0), Mode(f, z, r)), delay=delay)

@@ -18,7 +18,7 @@ from servokit.cli import _discover
 from servokit.cli._app import main
 from servokit.errors import ServokitValueError
 from servokit.models import hdd_benchmark, hdd_benchmark_variation_set
-from servokit.robust.sweep import SweepResult, connect_dask, sweep_seek_times
+from servokit.seek.sweep import SweepResult, connect_dask, sweep_seek_times
 from servokit.simulate import seek_time
 
 _discover()

@@ -1,8 +1,26 @@
 """servokit: design and analysis of high-speed, high-precision motion control.
 
-Sub-packages follow the book's design phases: :mod:`servokit.models`,
-:mod:`servokit.simulate`, :mod:`servokit.feedforward`, :mod:`servokit.sampled`,
-:mod:`servokit.cases`, :mod:`servokit.report`.
+Sub-packages follow the book's design phases (each is imported on first use, e.g.
+``servokit.seek``):
+
+* :mod:`servokit.models` — modal plants with delay, exact discretisation, variation sets,
+  the catalogue, the book's controllers, plant/controller files;
+* :mod:`servokit.simulate` — the hybrid sampled-data simulator and seek/settling metrics;
+* :mod:`servokit.feedforward` — phases 1-2: polynomials, FSC, FFSC, constrained FSC;
+* :mod:`servokit.seek` — a seek over a plant set: one request and ``design_seek``, the
+  N search, the robust minimum-time LP, Monte-Carlo sweeps;
+* :mod:`servokit.switching` — phase 3: mode switching, IVC, admissible sets;
+* :mod:`servokit.feedback` — phase 4: filters, peak filters, margins, dual-stage, SSA;
+* :mod:`servokit.sampled` — sampled-data sensitivity, multirate, unobservable
+  oscillations, SRS, identification;
+* :mod:`servokit.limits` — Bode integrals, waterbed, variance bounds;
+* :mod:`servokit.learn` — SVM settling judgement;
+* :mod:`servokit.export` — firmware tables and step functions;
+* :mod:`servokit.report` — results.json and report.html from case rows;
+* :mod:`servokit.cases` — the book's case studies (run by ``servokit reproduce``);
+* :mod:`servokit.cli` — the ``servokit`` command;
+* :mod:`servokit.errors` — the error types and argument checks;
+* :mod:`servokit.robust` — deprecated alias of :mod:`servokit.seek`.
 """
 
 from importlib import import_module
@@ -13,13 +31,18 @@ __all__ = [
     "models",
     "simulate",
     "feedforward",
+    "seek",
+    "switching",
     "feedback",
     "sampled",
-    "cases",
-    "report",
-    "errors",
-    "learn",
     "limits",
+    "learn",
+    "export",
+    "report",
+    "cases",
+    "cli",
+    "errors",
+    "robust",
 ]
 
 
@@ -27,3 +50,7 @@ def __getattr__(name: str) -> Any:
     if name in __all__:
         return import_module(f"servokit.{name}")
     raise AttributeError(f"module 'servokit' has no attribute {name!r}")
+
+
+def __dir__() -> list[str]:
+    return sorted(set(globals()) | set(__all__))

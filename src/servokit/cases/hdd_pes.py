@@ -20,7 +20,8 @@ import control
 import numpy as np
 
 from servokit.cases import register
-from servokit.errors import check_positive
+from servokit.feedback.peak_filtered import PeakFilterSpec, peak_filtered_controller
+from servokit.models.disturbances import disturbance_magnitude
 from servokit.report import CaseResult, Comparison
 
 __all__ = [
@@ -31,84 +32,6 @@ __all__ = [
     "peak_filtered_controller",
     "run",
 ]
-
-
-@dataclass(frozen=True)
-class PeakFilterSpec:
-    """Peak filter at ``freq_hz`` with damping ``damping`` and ``depth_db`` of extra
-    attenuation of the sensitivity at its centre."""
-
-    freq_hz: float
-    damping: float
-    depth_db: float
-
-
-def peak_filtered_controller(
-    controller: control.TransferFunction, plant_d: control.LTI, spec: PeakFilterSpec
-) -> control.TransferFunction:
-    """``C (1 + F)`` with F the phase-stable peak filter (5.17)-(5.18) of ``spec``.
-
-    The zero placement uses the discrete pseudo plant at ``freq_hz``; F is sampled by
-    Tustin prewarped at ``freq_hz``, so its response there is exact.
-
-    Parameters
-    ----------
-    controller : discrete TransferFunction
-        Baseline ``C(z)``.
-    plant_d : LTI
-        Plant discretised at the controller's ``dt``.
-    spec : PeakFilterSpec
-        Centre [Hz], damping and attenuation depth [dB].
-
-    Returns
-    -------
-    TransferFunction
-        ``C (1 + F)``.
-    """
-    from servokit.feedback import discretize_filter, peak_filter, peak_filter_phase
-
-    f1 = check_positive("freq_hz", spec.freq_hz, "Hz")
-    zeta = check_positive("damping", spec.damping)
-    depth = check_positive("depth_db", spec.depth_db, "dB")
-    dt = float(controller.dt)
-    z1 = np.exp(2j * np.pi * f1 * dt)
-    loop = complex(controller(z1)) * complex(plant_d(z1))
-    sh = loop / (1.0 + loop)
-    gain = 2.0 * zeta * (10 ** (depth / 20) - 1.0) / abs(sh)
-    filt = peak_filter(f1, zeta, gain, peak_filter_phase(sh, "stable"))
-    return controller * (1 + discretize_filter(filt, dt, f1))
-
-
-def disturbance_magnitude(disturbances, plant_d: control.LTI):
-    """``freq_hz -> |D|`` of the lumped output disturbance for the variance (6.13).
-
-    ``|D|^2 = (flutter + sensor + force-through-plant PSDs) / (2 Ts)``: a discrete shaping
-    filter of unit-variance white noise.  The force noise is taken through the Ts-rate
-    plant ``plant_d`` (its aliasing at the plant-input rate is neglected).
-
-    Parameters
-    ----------
-    disturbances : BenchmarkDisturbances
-        The disturbance model (its ``dt`` is the PES period).
-    plant_d : LTI
-        The plant discretised at ``dt`` (force-noise path).
-
-    Returns
-    -------
-    callable
-        ``freq_hz -> |D(e^{j w Ts})|``.
-    """
-    dt = disturbances.dt
-
-    def mag(freq_hz):
-        f = np.asarray(freq_hz, dtype=float)
-        z = np.exp(2j * np.pi * f * dt)
-        p2 = np.abs(np.asarray(plant_d(z)).reshape(f.shape)) ** 2
-        force = 2 * dt * disturbances.force_sigma_a**2 * p2
-        psd = disturbances.flutter_psd(f) + disturbances.sensor_psd(f) + force
-        return np.sqrt(psd / (2 * dt))
-
-    return mag
 
 
 #: The peak filter of the case: centre between the 900 and 1020 Hz flutter modes (the two
@@ -173,7 +96,7 @@ def _freq_figures(c0, c1, pd, outdir: Path) -> list[Path]:
     from servokit._figures import save_figure
 
     dt = float(c0.dt)
-    from servokit.feedback import frequency_grid
+    from servokit.models.frequency_grid import frequency_grid
 
     f = frequency_grid([pd, c0, c1], 50.0, 0.5 / dt * 0.999, 2000)
     z = np.exp(2j * np.pi * f * dt)

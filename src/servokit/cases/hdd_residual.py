@@ -21,7 +21,7 @@ Two facts of §4.5.4 are not printed and are recovered here from what is:
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from pathlib import Path
 
 import control
@@ -62,6 +62,13 @@ PF_RESIDUE, PF_FREQ_HZ, PF_DAMPING = -1.3, 3950.0, 0.3
 #: Delay of Mf: the zeros of (4.75) are those of Pf with 20 us (twice the 10 us of (4.65)).
 MF_DELAY = 20e-6
 FF_CASES = ((3, 40), (6, 20), (8, 15))  # (tau_ff / tau_fb, N)
+#: Result of :func:`mf_search` on its default grid (re-run and checked by a slow test):
+#: the (tau_fb, delay) closest to all six printed coefficients of (4.75), and its worst
+#: distance in units of the last printed digit (0.5 would reproduce every digit).
+MF_SEARCH = {"tau_us": (38.30, 38.45), "delay_us": (19.0, 21.0), "best_tau_us": 38.36,
+             "best_delay_us": 20.0, "worst_units": 1.74}  # fmt: skip
+#: (4.75) as printed: zeros, pole-pair coefficients and one unit of their last digit.
+MF_BOOK_ZEROS = (("-2.408", -2.408), ("-0.1314", -0.1314), ("0.3574", 0.3574), ("14.34", 14.34))
 CROSSOVER_HZ = 1000.0
 SRS_DAMPING = 0.01  # zeta_srs of §4.5.4.3, the damping of the 4.1 kHz mode
 SETTLE_BAND = 0.1  # [track] band of the reported settling time (as in the §2.4 seeks)
@@ -121,6 +128,56 @@ def reference_model(gain: float, dt: float, delay: float) -> control.StateSpace:
         damping 0.3, residue -1.3 mode of (4.74), modal states first, delay states last.
     """
     return reference_plant(gain, delay).discretize(dt)
+
+
+def mf_coefficient_errors(tau: float, delay: float) -> list[float]:
+    """Distances of ``Mf``'s zeros and pole pair from (4.75), in printed units.
+
+    Parameters
+    ----------
+    tau : float
+        Sampling period of ``Mf`` [s].
+    delay : float
+        Input delay of ``Pf`` [s].
+
+    Returns
+    -------
+    list of float
+        ``|computed - printed| / unit`` for the four zeros (ascending), the ``z``
+        coefficient and the constant of the pole pair.
+    """
+    from servokit.report import printed_unit
+
+    mf = control.ss2tf(reference_model(1.0, tau, delay))
+    zeros = np.sort(np.real_if_close(control.zeros(mf)).real)
+    poles = control.poles(mf)
+    quad = np.real(np.poly(poles[np.abs(poles.imag) > 1e-9][:2]))
+    out = [abs(z - v) / printed_unit(t) for z, (t, v) in zip(zeros, MF_BOOK_ZEROS, strict=True)]
+    return out + [abs(quad[1] + 0.9245) / 1e-4, abs(quad[2] - 0.5648) / 1e-4]
+
+
+def mf_search(n_tau: int = 16, n_delay: int = 21) -> dict[str, object]:
+    """Grid search of ``(tau_fb, delay)`` for the printed coefficients of (4.75).
+
+    Parameters
+    ----------
+    n_tau, n_delay : int
+        Grid points over ``tau_fb`` in 38.30-38.45 us and the delay in 19-21 us.
+
+    Returns
+    -------
+    dict
+        Same keys as :data:`MF_SEARCH` (ranges, best point, worst printed-unit error).
+    """
+    grid = [
+        (max(mf_coefficient_errors(t, d)), t, d)
+        for t in np.linspace(38.30e-6, 38.45e-6, n_tau)
+        for d in np.linspace(19e-6, 21e-6, n_delay)
+    ]
+    worst, tau, delay = min(grid)
+    return {"tau_us": (38.30, 38.45), "delay_us": (19.0, 21.0),
+            "best_tau_us": round(tau * 1e6, 3), "best_delay_us": round(delay * 1e6, 2),
+            "worst_units": round(float(worst), 2)}  # fmt: skip
 
 
 @dataclass(frozen=True)
@@ -285,6 +342,16 @@ def _rank(values: list[float]) -> list[int]:
 
 def _section_4_5_4(outdir: Path) -> tuple[list[Comparison], list[Path], dict]:
     setup = tdof_setup()
+    rows = _mf_rows(setup)
+    runs = tdof_seeks(setup)
+    rows += _rank_rows(runs)
+    extra = _loop_extra(setup, runs)
+    rows += _loop_spec_rows(extra)
+    return rows, _section_4_5_4_figures(setup, runs, outdir), extra
+
+
+def _mf_rows(setup: TdofSetup) -> list[Comparison]:
+    """Zeros, pole pair and gain of the feedforward model Mf against (4.75)."""
     mf = control.ss2tf(setup.mf)
     zeros = np.sort(np.real_if_close(control.zeros(mf)).real)
     poles = control.poles(mf)
@@ -310,12 +377,37 @@ def _section_4_5_4(outdir: Path) -> tuple[list[Comparison], list[Path], dict]:
             "Mf pole pair: constant", "0.5648", float(quad[2]), source=src,
             kind="fitted", note=tau_note,
         ),
-        Comparison.printed(
-            "Mf gain", "-3.157e-6", gain, source=src, kind="fitted",
-            note="fitted: the plant gain is normalised to the 1 kHz crossover (units of (4.72))",
-        ),
     ]  # fmt: skip
-    runs = tdof_seeks(setup)
+    sr = MF_SEARCH
+    why = (
+        f"tau_fb and the Mf delay are not printed: a search over tau_fb {sr['tau_us'][0]}-"
+        f"{sr['tau_us'][1]} us x delay {sr['delay_us'][0]:g}-{sr['delay_us'][1]:g} us finds "
+        f"no point reproducing all six printed coefficients of (4.75) (best tau_fb = "
+        f"{sr['best_tau_us']} us, delay {sr['best_delay_us']:g} us, worst "
+        f"{sr['worst_units']} printed units; Ts/4 = 38.375 us, 20 us used), so (4.74)'s "
+        "rounded Pf parameters (3950 Hz, 0.3, -1.3) cannot give every printed digit"
+    )
+    rows = [replace(r, miss_class="under_determined", miss_note=why) for r in rows]
+    rows.append(
+        Comparison.printed(
+            "Mf gain",
+            "-3.157e-6",
+            gain,
+            source=src,
+            kind="fitted",
+            note="fitted: the plant gain is normalised to the 1 kHz crossover (units of (4.72))",
+            miss_class="under_determined",
+            miss_note="the plant-gain unit of (4.72)-(4.75) is not printed; normalising the "
+            f"loop to cross 0 dB at 1 kHz gives {gain:.4g}, "
+            f"{100 * (gain / -3.157e-6 - 1):+.2g} % from the printed gain",
+        )
+    )
+    return rows
+
+
+def _rank_rows(runs: list[SeekRun]) -> list[Comparison]:
+    """Ranks of the residual SRS and of the simulated residual per tau_ff (Figs. 4.61-4.63)."""
+    rows: list[Comparison] = []
     srs_rank = _rank([r.srs_at_mode for r in runs])
     res_rank = _rank([r.residual for r in runs])
     for run, b_rank, s_rank, r_rank in zip(runs, (1, 3, 2), srs_rank, res_rank, strict=True):
@@ -338,6 +430,11 @@ def _section_4_5_4(outdir: Path) -> tuple[list[Comparison], list[Path], dict]:
                 "§4.5.4.4, Figs. 4.62-4.63",
             ),
         ]
+    return rows
+
+
+def _loop_extra(setup: TdofSetup, runs: list[SeekRun]) -> dict:
+    """The loop's margins at the fitted gain and the outcome of each seek."""
     margins = control.stability_margins(
         control.ss(setup.plant.discretize(setup.tau_fb)) * control.ss(setup.controller)
     )
@@ -361,8 +458,13 @@ def _section_4_5_4(outdir: Path) -> tuple[list[Comparison], list[Path], dict]:
             for r in runs
         ],
     }
+    return extra
+
+
+def _loop_spec_rows(extra: dict) -> list[Comparison]:
+    """The §4.5.4.1 specifications: PM > 40 deg at 1 kHz, GM > 5 dB."""
     spec = {"kind": "spec", "rel_tol": 0.0, "bound": "min", "source": "§4.5.4.1"}
-    rows += [
+    return [
         Comparison(
             "phase margin at 1 kHz", 40.0, extra["phase_margin_at_1kHz_deg"], "deg",
             book_text="40", note="book: 'more than 40 deg phase margin at 1 kHz'; the loop "
@@ -374,6 +476,10 @@ def _section_4_5_4(outdir: Path) -> tuple[list[Comparison], list[Path], dict]:
             **spec,
         ),
     ]  # fmt: skip
+
+
+def _section_4_5_4_figures(setup: TdofSetup, runs: list[SeekRun], outdir: Path) -> list[Path]:
+    """Figs. 4.60-4.62: the feedforward inputs, their residual SRS and the TDOF seeks."""
     f = np.linspace(100.0, 10e3, 2000)
     spectra = [
         shock_response_spectrum(r.accel * setup.plant.gain, r.tau_ff, f, SRS_DAMPING) for r in runs
@@ -392,7 +498,7 @@ def _section_4_5_4(outdir: Path) -> tuple[list[Comparison], list[Path], dict]:
     _seek_plot(runs, fig2)
     fig3 = outdir / "hdd_residual_fig4_60_feedforward.png"
     _inputs_plot(runs, setup, fig3)
-    return rows, [fig3, fig1, fig2], extra
+    return [fig3, fig1, fig2]
 
 
 def _inputs_plot(runs: list[SeekRun], setup: TdofSetup, path: Path) -> None:

@@ -8,18 +8,33 @@ Reproduces Figs. 4.41-4.51 and the disturbance simulations (4.70)-(4.71): the ra
 at its alias 2.916 kHz, from the book's formulas (4.32)-(4.36) and from the hybrid
 simulator in steady state.  The disturbance is output-additive (Fig. 4.2); ``yc0`` is
 the plant output, ``yd0`` its samples, ``yc = yc0 + dc`` and ``yd`` its samples.
+
+Frequency convention (one, stated): every frequency derives from the printed
+Ts = 153.5 us, so fs = 1/Ts = 6514.66 Hz and the alias of 3.6 kHz is fs - 3600 =
+2914.66 Hz.  The book prints ωs = 2π·6516 rad/s and an alias of 2.916 kHz, which belong
+to Ts = 1/6516 s = 153.47 us (printed rounded as 153.5 us): the book's Ts and ωs disagree
+in the fourth digit.  The ratios (4.70)-(4.71) agree to four digits under both
+conventions (see the row notes), so the choice changes no judgement but the fs row.
+
+Book correction: the gain margin of the book's controller (4.69) on its plant is
+4.13 dB, not "greater than 4.5 dB" (§4.5.2.1); without the 10 us plant delay it would
+be 4.41 dB, still short: the printed specification and the printed controller disagree.
 """
 
 from __future__ import annotations
 
 from pathlib import Path
 
-import control
 import numpy as np
 
 from servokit._figures import save_figure
 from servokit.cases import register
-from servokit.models import HDD_SAMPLED_DATA_TS, controller_eq_4_69, hdd_sampled_data
+from servokit.models import (
+    HDD_SAMPLED_DATA_TS,
+    controller_eq_4_69,
+    hdd_sampled_data,
+    without_delay,
+)
 from servokit.report import CaseResult, Comparison
 from servokit.sampled import (
     Multirate,
@@ -28,13 +43,13 @@ from servokit.sampled import (
     sensitivity_plot,
     sinusoid_response,
 )
+from servokit.sampled.hdd_multirate import FILTER_HZ, M, hdd_multirate, multirate_filter_4_68  # noqa: F401
 from servokit.sampled.multirate import eval_discrete
 
 __all__ = ["hdd_multirate", "multirate_filter_4_68", "disturbance_ratios", "run"]
 
-M = 4
-FILTER_HZ = 3600.0
-ALIAS_HZ = 2916.0  # the book's rounding of 1/Ts - 3600 Hz
+ALIAS_HZ = 1.0 / HDD_SAMPLED_DATA_TS - FILTER_HZ  # 2914.66 Hz; the book prints 2.916 kHz
+BOOK_FS_HZ = 6516.0  # ωs/2π as printed (belongs to Ts = 153.47 us)
 DC_AMPLITUDE = 0.1  # track pitch
 SIM_SAMPLES = 1200  # closed-loop poles are inside |z| < 0.95: transients die within ~600
 SUBSTEPS = 40  # fine step Ts/40 = 3.8 us: the peak of a 3.6 kHz wave is read to 0.1 %
@@ -50,50 +65,6 @@ _FORMULA = {
     "yd": ("Sd", "4.36"),
     "yd0": ("Td", "4.33"),
 }
-
-
-def multirate_filter_4_68(dt: float = HDD_SAMPLED_DATA_TS, m: int = M) -> control.TransferFunction:
-    """``Fm``: ``Fmc(s) = 1 - 0.1 s^2 / (s^2 + 2 (0.003) wf s + wf^2)``, wf = 2 pi 3.6 kHz (4.68).
-
-    Discretised at ``dt/m`` by Tustin with prewarping at ``wf``.
-
-    Parameters
-    ----------
-    dt : float
-        Controller sampling period ``Ts`` [s] (153.5 us).
-    m : int
-        Multirate number; the filter runs at ``dt/m``.
-
-    Returns
-    -------
-    control.TransferFunction
-        Discrete ``Fm(z)`` with sampling period ``dt/m``: gain 1 at low frequency, a
-        resonant peak ``|1 + 0.1 j / 0.006|`` (about +24 dB) at 3.6 kHz and 0.9 (-0.9 dB)
-        above it.
-    """
-    wf = 2.0 * np.pi * FILTER_HZ
-    fmc = 1 - control.tf([0.1, 0.0, 0.0], [1.0, 2 * 0.003 * wf, wf**2])
-    return control.sample_system(fmc, dt / m, method="tustin", prewarp_frequency=wf)
-
-
-def hdd_multirate(dt: float = HDD_SAMPLED_DATA_TS, m: int = M) -> Multirate:
-    """Multirate path of §4.5.2: ``Ip = 1 + z^-1 + z^-2 + z^-3`` (4.67), ``Fm`` (4.68), ZOH.
-
-    Parameters
-    ----------
-    dt : float
-        Controller sampling period ``Ts`` [s] (153.5 us).
-    m : int
-        Multirate number (4 in §4.5.2); ``Ip = 1 + z^-1 + ... + z^-(m-1)``.
-
-    Returns
-    -------
-    Multirate
-        ``m``, ``Ip`` and ``Fm`` (:func:`multirate_filter_4_68`) at ``dt/m``, fast
-        zero-order hold (4.66).
-    """
-    ip = control.tf(np.ones(m), np.r_[1.0, np.zeros(m - 1)], dt / m)
-    return Multirate(m, interpolator=ip, filter=multirate_filter_4_68(dt, m))
 
 
 def disturbance_ratios(freq_hz: float, *, n_samples: int = SIM_SAMPLES) -> dict[str, object]:
@@ -265,20 +236,20 @@ def _frequency_figures(outdir: Path, res: SampledDataSensitivity, mr: Multirate)
     return figs
 
 
-def _margins(mr: Multirate, n: int = 20_000) -> dict[str, float]:
+def _margins(mr: Multirate, n: int = 20_000, *, delay: bool = True) -> dict[str, float]:
     """Margins of Pdm C read on a dense grid below Nyquist.
 
     The loop crosses 0 dB again at the phase-stabilised resonances near Nyquist, where
     python-control's ``stability_margins`` picks those crossings; the book's design
     specification (PM > 30 deg, GM > 4.5 dB, §4.5.2.1) refers to the first gain crossover
-    and the first -180 deg crossing above it.
+    and the first -180 deg crossing above it.  ``delay=False`` drops the 10 us plant
+    delay (the evidence that the gain-margin miss is not a delay convention).
     """
     dt = HDD_SAMPLED_DATA_TS
     f = np.linspace(1.0, 0.5 / dt, n)
     z = np.exp(2j * np.pi * f * dt)
-    loop = eval_discrete(mr.discretize(hdd_sampled_data(), dt), z) * eval_discrete(
-        controller_eq_4_69(), z
-    )
+    plant = hdd_sampled_data() if delay else without_delay(hdd_sampled_data())[0]
+    loop = eval_discrete(mr.discretize(plant, dt), z) * eval_discrete(controller_eq_4_69(), z)
     mag = np.abs(loop)
     ic = int(np.flatnonzero((mag[:-1] >= 1) & (mag[1:] < 1))[0])
     pm = 180.0 + np.degrees(np.angle(loop[ic]))
@@ -295,9 +266,10 @@ def _margins(mr: Multirate, n: int = 20_000) -> dict[str, float]:
 def _spec_rows(extra: dict[str, object]) -> list[Comparison]:
     """The design specifications §4.5.2 states for C (PM > 30 deg, GM > 4.5 dB, |Sd| < 1
     below 500 Hz), each a row, also when missed."""
-    margins = extra["margins"]
-    assert isinstance(margins, dict)
+    margins, undelayed = extra["margins"], extra["margins_without_delay"]
+    assert isinstance(margins, dict) and isinstance(undelayed, dict)
     src = "§4.5.2 (design of C, eq. 4.69)"
+    gm, gm0 = margins["gain_margin_db"], undelayed["gain_margin_db"]
     spec = {"kind": "spec", "rel_tol": 0.0, "source": src}
     return [
         Comparison(
@@ -307,13 +279,72 @@ def _spec_rows(extra: dict[str, object]) -> list[Comparison]:
         Comparison(
             "gain margin", 4.5, margins["gain_margin_db"], "dB", bound="min",
             book_text="4.5", note="book: 'greater than 4.5 dB'; first -180 deg crossing "
-            "above the gain crossover, dense grid", **spec,
+            "above the gain crossover, dense grid", miss_class="book_inconsistent",
+            miss_note=f"the book's own controller (4.69) on its plant (4.64)-(4.65) with Fm "
+            f"(4.68), Ip (4.67) and the Ts/4 hold gives {gm:.3g} dB at "
+            f"{margins['phase_crossover_hz']:.0f} Hz ({gm0:.3g} dB even without the 10 us "
+            "plant delay): the printed specification and the printed controller disagree",
+            **spec,
         ),
         Comparison(
             "max |Sd| below 500 Hz", 1.0, float(extra["max_Sd_below_500Hz"]), bound="max",
             book_text="1", note="book: '|Sd| < 1 for frequencies below 500 Hz'", **spec,
         ),
     ]  # fmt: skip
+
+
+def _ratio_miss(book_text: str, exact: float, f_hz: float) -> dict[str, str]:
+    """``miss_class``/``miss_note`` of a ratio row of (4.70)-(4.71), used when it misses.
+
+    The printed ratios are peaks of the simulated traces of Figs. 4.50-4.51 given to two
+    digits; the exact steady state (alias sum, independent of the simulator) is the
+    evidence, with its distance from the printed half-unit window.
+    """
+    unit = 0.01
+    book = float(book_text)
+    beyond = max(abs(exact - book) - 0.5 * unit, 0.0) / unit
+    where = "3.6 kHz" if f_hz == FILTER_HZ else f"the alias {f_hz:.2f} Hz (book 2.916 kHz)"
+    return {
+        "miss_class": "figure_read",
+        "miss_note": f"the exact steady state at {where} is {exact:.4f} (the same to 4 digits "
+        f"with Ts = 153.47 us, the book's ωs), {beyond:.2f} of a printed unit outside "
+        f"{book_text} ± 0.005: the book's two-digit peaks read off its simulated traces "
+        "(Figs. 4.50-4.51) are not rounded from this value",
+    }
+
+
+def _ratio_rows(f_hz: float, eq: str, sim: dict, mr: Multirate) -> list[Comparison]:
+    """The four ratios of (4.70)-(4.71) at ``f_hz``: by simulation and by the formulas."""
+    plant, ctrl, dt = hdd_sampled_data(), controller_eq_4_69(), HDD_SAMPLED_DATA_TS
+    at = sampled_data_sensitivity(plant, ctrl, dt, [f_hz], multirate=mr)
+    comps: list[Comparison] = []
+    label = "3.6 kHz" if f_hz == FILTER_HZ else f"fs - 3.6 kHz = {f_hz:.2f} Hz"
+    for key, book in BOOK[f_hz].items():
+        attr, feq = _FORMULA[key]
+        val = float(np.abs(getattr(at, attr))[0])
+        text = f"{book:.2f}"
+        comps.append(
+            Comparison.printed(
+                f"||{key}||/||dc|| at {label}, simulation",
+                text,
+                sim["simulation"][key],
+                source=f"eq. ({eq})",
+                note="steady-state peak of the hybrid simulation, as the book's simulation",
+                **_ratio_miss(text, sim["steady_state"][key], f_hz),
+            )
+        )
+        comps.append(
+            Comparison.printed(
+                f"||{key}||/||dc|| at {label}, formula ({feq})",
+                text,
+                val,
+                source=f"eq. ({eq}) vs ({feq})",
+                kind="consistency",
+                note="the same quantity from the formula: a cross-check of the simulation row",
+                **_ratio_miss(text, val, f_hz),
+            )
+        )
+    return comps
 
 
 @register("hdd-sensitivity", order=20)
@@ -349,44 +380,29 @@ def run(outdir: Path) -> CaseResult:
             unit="Hz",
             source="§4.5.2",
             kind="consistency",
-            note="1/Ts of the typed-in Ts = 153.5 us: cannot fail independently",
+            note="1/Ts of the printed Ts = 153.5 us, the convention every frequency here "
+            "derives from: cannot fail independently",
+            miss_class="book_inconsistent",
+            miss_note=f"1/(153.5 us) = {1.0 / dt:.2f} Hz; the printed 2π·6516 rad/s belongs "
+            f"to Ts = {1e6 / BOOK_FS_HZ:.2f} us: the book's Ts and ωs differ in the 4th digit",
         )
     ]
     extra: dict[str, object] = {
+        "frequency_convention": f"every frequency derives from Ts = 153.5 us: fs = "
+        f"{1.0 / dt:.2f} Hz, alias of 3.6 kHz = fs - 3600 = {ALIAS_HZ:.2f} Hz (the book "
+        "prints 6516 Hz and 2.916 kHz, i.e. Ts = 153.47 us)",
         "alias_terms": res.alias_terms,
         "tail_estimate": res.tail_estimate,
         "margins": _margins(mr),
+        "margins_without_delay": _margins(mr, delay=False),
     }
     low = freq <= 500.0
     extra["max_Ssd_below_500Hz"] = float(res.Ssd[low].max())
     extra["max_Sd_below_500Hz"] = float(np.abs(res.Sd[low]).max())
     comps += _spec_rows(extra)
     for f_hz, eq, fig in ((3600.0, "4.70", "4.50"), (ALIAS_HZ, "4.71", "4.51")):
-        at = sampled_data_sensitivity(plant, ctrl, dt, [f_hz], multirate=mr)
         sim = disturbance_ratios(f_hz)
-        label = f"{f_hz / 1000:.4g} kHz"
-        for key, book in BOOK[f_hz].items():
-            attr, feq = _FORMULA[key]
-            val = float(np.abs(getattr(at, attr))[0])
-            comps.append(
-                Comparison.printed(
-                    f"||{key}||/||dc|| at {label}, simulation",
-                    f"{book:.2f}",
-                    sim["simulation"][key],
-                    source=f"eq. ({eq})",
-                    note="steady-state peak of the hybrid simulation, as the book's simulation",
-                )
-            )
-            comps.append(
-                Comparison.printed(
-                    f"||{key}||/||dc|| at {label}, formula ({feq})",
-                    f"{book:.2f}",
-                    val,
-                    source=f"eq. ({eq}) vs ({feq})",
-                    kind="consistency",
-                    note="the same quantity from the formula: a cross-check of the simulation row",
-                )
-            )
+        comps += _ratio_rows(f_hz, eq, sim, mr)
         extra[f"steady_state_{f_hz:g}Hz"] = sim["steady_state"]
         extra[f"simulation_{f_hz:g}Hz"] = sim["simulation"]
         figures.append(

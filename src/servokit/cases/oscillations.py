@@ -62,6 +62,11 @@ def _yui_vs_fs_figure(
 
 
 def _section_4_3(outdir: Path) -> tuple[list[Comparison], list[Path]]:
+    return _section_4_3_rows(), _section_4_3_figures(outdir)
+
+
+def _section_4_3_rows() -> list[Comparison]:
+    """yu at three frequencies, the unacceptable sampling frequencies and tau*Ns (§4.3)."""
     tau = 25e-6
     rows = []
     for label, f, mn, mx in (
@@ -106,8 +111,18 @@ def _section_4_3(outdir: Path) -> tuple[list[Comparison], list[Path]]:
             unit="ms",
             source="§4.3.2.3, Fig. 4.25",
             note="book: 'more than 0.26 ms', read from its figure; tolerance = printed precision",
+            miss_class="figure_read",
+            miss_note=f"the yui = 0.2 crossing of the tau = 23.8 us curve of Fig. 4.25 is at "
+            f"{req.crossing_time_s * 1e3:.4f} ms (Ns = {req.crossing_time_s / 23.8e-6:.1f} "
+            "samples); the book reads 'more than 0.26 ms' off the figure",
         )
     )
+    return rows
+
+
+def _section_4_3_figures(outdir: Path) -> list[Path]:
+    """Figs. 4.3, 4.21, 4.23 and 4.24 (tau = 25 us, zeta = 0.01)."""
+    tau = 25e-6
     fig = _yui_vs_fs_figure(
         40e3,
         0.01,
@@ -149,7 +164,7 @@ def _section_4_3(outdir: Path) -> tuple[list[Comparison], list[Path]]:
         title="Fig. 4.23: yui (tau = 25 us, zeta = 0.01)",
         path=fig2,
     )
-    return rows, [fig0, fig1, fig2, fig]
+    return [fig0, fig1, fig2, fig]
 
 
 def _section_4_4(outdir: Path) -> tuple[list[Comparison], list[Path]]:
@@ -229,6 +244,19 @@ def _section_4_4(outdir: Path) -> tuple[list[Comparison], list[Path]]:
     return rows, [fig1, fig2]
 
 
+def _around(row: Comparison, fd_hz: float) -> Comparison:
+    """Classify a miss of an "around X kHz" value of §4.5.3 (read off Fig. 4.54)."""
+    ratio = row.servokit * 1e3 / fd_hz
+    return replace(
+        row,
+        miss_class="figure_read",
+        miss_note=f"the book says 'around {row.book:g} kHz', read off Fig. 4.54 to three "
+        f"digits; the computed peak of the yui curve is {row.servokit:.4g} kHz = "
+        f"{ratio:.4g} fd (fd = {fd_hz:.0f} Hz), {100 * (row.servokit / row.book - 1):+.2g} % "
+        "from the printed value",
+    )
+
+
 def _section_4_5_3(outdir: Path) -> tuple[list[Comparison], list[Path]]:
     mode = hdd_sampled_data().modes[1]
     f, zeta = mode.freq_hz, mode.damping
@@ -249,6 +277,7 @@ def _section_4_5_3(outdir: Path) -> tuple[list[Comparison], list[Path]]:
         "unacceptable fs, Ns 20", ["2.05", "4.10", "8.20"], np.asarray(iv20) / 1e3,
         unit="kHz", source=src,
     )  # fmt: skip
+    rows = [_around(r, f) for r in rows]
     req = required_measurement_time(f, 233e-6, zeta, 0.1, max_samples=40)
     rows.append(
         Comparison.printed(
@@ -268,12 +297,17 @@ def _section_4_5_3(outdir: Path) -> tuple[list[Comparison], list[Path]]:
         "Fig. 4.54: yui vs sampling frequency (4.1 kHz mode, zeta = 0.01)",
         outdir / "hdd_residual_fig4_54_yui_vs_fs_hdd.png",
     )
+    fig2 = _fig_4_55(f, zeta, outdir / "hdd_residual_fig4_55_yui_vs_time_hdd.png")
+    return rows, [fig1, fig2]
+
+
+def _fig_4_55(f: float, zeta: float, fig2: Path) -> Path:
+    """Fig. 4.55: yui against the measurement time for three sampling periods."""
     times = {}
     for fs_k in (4.1e3, 4.3e3, 4.5e3):
         r = required_measurement_time(f, 1 / fs_k, zeta, 0.1, max_samples=40)
         times[f"tau = {1e6 / fs_k:.0f} us"] = r.rms
     ns = np.arange(1, 41)
-    fig2 = outdir / "hdd_residual_fig4_55_yui_vs_time_hdd.png"
     # Curves share the Ns axis; plot each against its own tau * Ns.
     import matplotlib.pyplot as plt
 
@@ -289,7 +323,7 @@ def _section_4_5_3(outdir: Path) -> tuple[list[Comparison], list[Path]]:
     ax.grid(True, alpha=0.3)
     ax.legend()
     save_figure(figure, fig2)
-    return rows, [fig1, fig2]
+    return fig2
 
 
 @register("sampled-oscillations", order=30)

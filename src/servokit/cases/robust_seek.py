@@ -1,7 +1,7 @@
 """Beyond the book: robust minimum-time seek on the HDD benchmark plant set (issue 13).
 
 The book tunes Design 2's frequency weights by trial and error until the worst of the 18
-plants of Table 2.3 settles (§2.4.2, Table 2.4).  :func:`servokit.robust.robust_minimum_time`
+plants of Table 2.3 settles (§2.4.2, Table 2.4).  :func:`servokit.seek.robust_minimum_time`
 instead computes, by linear programming, the shortest seek guaranteed on all 18 plants
 at the same peak input as Design 2.  Every seek time below is measured by the ordinary
 simulator (:func:`servokit.simulate.seek_time` on the Ts/10 grid, long record), not
@@ -23,17 +23,21 @@ import numpy as np
 
 from servokit._figures import save_figure
 from servokit.cases import register
-from servokit.cases.hdd_seek import BAND, DESIGNS, seek_plot, simulate_seek
 from servokit.feedforward import FeedforwardInput
 from servokit.models import (
     HDD_BENCHMARK_TS,
     ModalPlant,
     hdd_benchmark_variants,
     hdd_benchmark_variation_set,
+    without_delay,
 )
 from servokit.report import CaseResult, Comparison
-from servokit.robust import RobustFeedforwardInput, robust_minimum_time
+from servokit.seek import RobustFeedforwardInput, robust_minimum_time
+from servokit.seek.hdd import BAND, DESIGNS
+from servokit.seek.outcome import simulate_seek
+from servokit.seek.plots import seek_plot
 from servokit.simulate import seek_time
+from servokit.simulate.metrics import READOUT_SUBSTEPS
 
 __all__ = ["held_out_plants", "robust_seek_case"]
 
@@ -62,7 +66,7 @@ def held_out_plants(n: int = HELD_OUT, seed: int = HELD_OUT_SEED) -> list[ModalP
         loop-gain range set to zero and the 10 us input delay removed.
     """
     vs = dataclasses.replace(hdd_benchmark_variation_set(), gain=(0.0, 0.0))
-    return [p.replace(delay=0.0) for p in vs.monte_carlo(n, seed=seed)]
+    return without_delay(vs.monte_carlo(n, seed=seed))
 
 
 def _met(quantity: str, ok: bool, note: str, source: str) -> Comparison:
@@ -75,7 +79,7 @@ def _rows(
 ) -> list[Comparison]:
     src = "issue 13 (beyond the book)"
     gain = 1.0 - w["robust"] / w["d2"]
-    h = rob.dt / 10
+    h = rob.dt / READOUT_SUBSTEPS
     return [
         Comparison(
             f"{tracks:g} track(s): robust worst seek, simulator vs LP guarantee",
@@ -148,7 +152,7 @@ def robust_seek_case(outdir: Path) -> CaseResult:
     start = time.perf_counter()
     outdir = Path(outdir)
     outdir.mkdir(parents=True, exist_ok=True)
-    plants = [p.replace(delay=0.0) for p in hdd_benchmark_variants()]
+    plants = without_delay(hdd_benchmark_variants())
     nominal = plants[0]
     held_out = held_out_plants()
     comps: list[Comparison] = []
@@ -188,7 +192,7 @@ def robust_seek_case(outdir: Path) -> CaseResult:
                 f"Robust minimum-time seek, {tracks:g} track(s), N = {rob.N}, |u| <= "
                 f"{np.abs(ff2.u).max():.4g} A (beyond the book; cf. Figs. 2.18-2.21)",
                 outdir / f"hdd_robust_seek_{tracks:g}.png",
-                resonances_hz=[m.freq_hz for m in nominal.modes if m.freq_hz > 0],
+                resonances_hz=nominal.resonances_hz(),
             )
         )
     figures.append(_histogram(hist, outdir / "hdd_robust_seek_held_out.png"))

@@ -46,7 +46,7 @@ second_phase_margin_deg), book (the printed row), plot."""
 
 
 def _unknowns(method: str, overrides: dict[str, float | None]):
-    from servokit.cases.dual_stage import fitted_unknowns
+    from servokit.feedback.dual_stage_fitted import fitted_unknowns
 
     chosen = {k: v for k, v in overrides.items() if v is not None}
     try:
@@ -60,8 +60,8 @@ def _unknowns(method: str, overrides: dict[str, float | None]):
 
 def _fit(method: str, start, maxiter: int):
     """Search the unknowns the reproduce case searched (FIT_FREE), the others held."""
-    from servokit.cases.dual_stage import FIT_FREE
     from servokit.feedback.dual_stage_design import fit_unknowns
+    from servokit.feedback.dual_stage_fitted import FIT_FREE
 
     with progress(maxiter, f"searching the unknowns of the {method} design") as advance:
         res = fit_unknowns(
@@ -190,7 +190,7 @@ def dual_stage_cmd(
         u = _fit(method, u, maxiter)
     row = evaluate_design(method, u, DEFAULT_GRID_HZ, structure, refine=True)
     if target is not None:
-        from servokit.cases.dual_stage import bode_figure
+        from servokit.feedback.dual_stage_plots import bode_figure
 
         r = design_responses(method, u, np.geomspace(10.0, 5.0e4, 4000), structure)
         wrote(

@@ -132,7 +132,7 @@ def controller_cmd(
     """
     from servokit.errors import ServokitValueError
     from servokit.export import sos_tables, statespace_tables
-    from servokit.models.controllers import get_discrete_controller
+    from servokit.models.lookup import get_discrete_controller
 
     out_dir = _check_common(out, name, fmt, precision)
     if realization not in ("ss", "sos"):

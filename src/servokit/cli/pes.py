@@ -27,7 +27,7 @@ def _peak_spec(text: str, dt: float):
     """The ``--peak-filter`` spec, each part finite and > 0, the centre below Nyquist."""
     import math
 
-    from servokit.cases.hdd_pes import PeakFilterSpec
+    from servokit.feedback.peak_filtered import PeakFilterSpec
 
     parts = text.split(":")
     try:
@@ -91,7 +91,7 @@ def pes_cmd(
     """
     import numpy as np
 
-    from servokit.cases.hdd_pes import peak_filtered_controller
+    from servokit.feedback.peak_filtered import peak_filtered_controller
     from servokit.models import BenchmarkDisturbances
     from servokit.simulate.pes import track_following_pes
 

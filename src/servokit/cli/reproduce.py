@@ -3,32 +3,15 @@
 from __future__ import annotations
 
 import json
-import re
 from pathlib import Path
 
 import typer
 from rich.markup import escape
 from rich.table import Table
 
+from servokit.cases.registry import case_names
 from servokit.cli._app import app, console, emit_json, example, progress, wrote
 from servokit.errors import check_out_dir
-
-_CASES_DIR = Path(__file__).resolve().parent.parent / "cases"
-_REGISTER = re.compile(r"@register\(\s*\"([^\"]+)\"(?:\s*,\s*order\s*=\s*(-?\d+))?")
-
-
-def case_names() -> list[str]:
-    """Registered case names in run order, read from the case modules without importing them.
-
-    ``--help`` must stay fast: importing the cases pulls in scipy, python-control and
-    matplotlib.  :func:`servokit.cases.registry` remains the authority when running.
-    """
-    found: list[tuple[int, str]] = []
-    for path in sorted(_CASES_DIR.glob("*.py")):
-        if not path.name.startswith("_"):
-            text = path.read_text(encoding="utf-8")
-            found += [(int(order or 100), name) for name, order in _REGISTER.findall(text)]
-    return [name for _, name in sorted(found)]
 
 
 @app.command(
@@ -58,7 +41,8 @@ def reproduce(
     figures, notes), rows (case, chapter, source, quantity, unit, book, book_text, servokit,
     ratio, tolerance, within_tolerance, kind, note, bound) and summary (counts per chapter).
     """
-    from servokit.report.output import clear_report, run_cases, select_cases, write_report
+    from servokit.cases.runner import run_cases, select_cases
+    from servokit.report.files import clear_report, write_report
 
     out = check_out_dir(out)
     names = select_cases(case, chapter)  # before any file is written

@@ -100,8 +100,8 @@ def _show(
     target = plot_target(plot)
     info = _describe(tf, freq, dt)
     if target is not None:
-        from servokit.feedback import frequency_grid
         from servokit.feedback.plots import bode_responses_plot
+        from servokit.models.frequency_grid import frequency_grid
 
         f = frequency_grid(tf, freq / 100, min(freq * 100, 1e6), 2000)
         systems: dict[str, Any] = {f"{name} (continuous)": tf}
@@ -387,8 +387,8 @@ def _warn_unstable(stable: bool | None, name: str) -> None:
 
 
 def _margins_plot(loop: list[Any], m: Any, dt: float, target: Any) -> None:
-    from servokit.feedback import frequency_grid
     from servokit.feedback.plots import bode_responses_plot
+    from servokit.models.frequency_grid import frequency_grid
 
     f = frequency_grid(loop, 10.0, 0.5 / dt, 3000)
     title = (

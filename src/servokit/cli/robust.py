@@ -1,7 +1,7 @@
 """``servokit seek --method robust``: the robust minimum-time seek over a plant set (issue 13).
 
 The ``seek`` command forwards ``--method robust`` here; the design is
-:func:`servokit.robust.robust_minimum_time`, verified by the ordinary simulator.
+:func:`servokit.seek.robust_minimum_time`, verified by the ordinary simulator.
 """
 
 from __future__ import annotations
@@ -18,7 +18,7 @@ from servokit.errors import ServokitValueError, check_positive
 
 if TYPE_CHECKING:
     from servokit.models import ModalPlant
-    from servokit.robust import RobustFeedforwardInput
+    from servokit.seek import RobustFeedforwardInput
 
 __all__ = ["RobustSeekRequest", "robust_seek"]
 
@@ -51,7 +51,7 @@ class RobustSeekRequest:
 
 
 def _design(req: RobustSeekRequest) -> RobustFeedforwardInput:
-    from servokit.robust import NoFeasibleSeekError, robust_minimum_time
+    from servokit.seek import NoFeasibleSeekError, SeekRequest, design_seek
 
     if req.u_max is None:
         raise ServokitValueError("--method robust needs --u-max (input limit [plant input unit])")
@@ -66,18 +66,20 @@ def _design(req: RobustSeekRequest) -> RobustFeedforwardInput:
     if req.objective not in ("peak", "energy"):
         raise ServokitValueError(f"--objective must be 'peak' or 'energy', got {req.objective!r}")
     try:
-        return robust_minimum_time(
+        request = SeekRequest(
             req.plants,
             req.dt,
             req.target,
-            band=req.settle_band,
-            u_max=req.u_max,
-            N=req.n_steps,
+            req.settle_band,
+            "robust",
+            "auto" if req.n_steps is None else req.n_steps,
             N_max=req.n_max,
-            margin=req.margin,
+            u_max=req.u_max,
             slew_max=req.slew_max,
-            objective=req.objective,  # type: ignore[arg-type]
+            margin=req.margin,
+            objective=req.objective,
         )
+        return design_seek(request).ff  # type: ignore[return-value]
     except NoFeasibleSeekError as exc:
         lo, hi = exc.N_range
         if lo > hi:
@@ -95,7 +97,7 @@ def _design(req: RobustSeekRequest) -> RobustFeedforwardInput:
 
 def robust_seek(req: RobustSeekRequest) -> None:
     """Design, verify by simulation, print or emit JSON, optionally plot."""
-    from servokit.cases.hdd_seek import seek_plot, simulate_seek
+    from servokit.seek import seek_plot, simulate_seek
 
     plot = plot_target(req.plot)
     t0 = time.perf_counter()
@@ -113,7 +115,7 @@ def robust_seek(req: RobustSeekRequest) -> None:
             f"Robust minimum-time seek of {req.target:g} on {req.plant_name}, N = {ff.N}, "
             f"|u| <= {req.u_max:g} (beyond the book)",
             plot,
-            resonances_hz=[m.freq_hz for m in nominal.modes if m.freq_hz > 0],
+            resonances_hz=nominal.resonances_hz(),
             band=req.settle_band,
         )
         wrote(plot)

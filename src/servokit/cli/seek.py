@@ -2,7 +2,7 @@
 
 from __future__ import annotations
 
-from typing import Annotated, Any
+from typing import Annotated
 
 import typer
 
@@ -35,6 +35,7 @@ from servokit.errors import (
 _FLAGS = {
     "band_weights": "--band-weight",
     "N_range": "--n-samples-max",
+    "N_max": "--n-samples-max",
     "N": "--n-samples",
     "dt": "--dt",
     "target": "--target",
@@ -184,7 +185,7 @@ def seek_cmd(
     bands = [_parse_band_weight(b) for b in band_weight or []]
     plot = plot_target(plot)
 
-    from servokit.models import HDD_BENCHMARK_TS, hdd_benchmark_variants
+    from servokit.models import HDD_BENCHMARK_TS, hdd_benchmark_variants, without_delay
 
     is_hdd = plant == "hdd-benchmark"
     nominal = load_plant(plant)
@@ -199,7 +200,7 @@ def seek_cmd(
             raise ServokitValueError(
                 "--method ffsc needs at least one --band-weight for this plant"
             )
-        from servokit.cases.hdd_seek import table_2_4_weights
+        from servokit.seek import table_2_4_weights
 
         bands = table_2_4_weights(target)
     if method != "ffsc" and bands:
@@ -213,7 +214,7 @@ def seek_cmd(
         max_memory_mb,
         "--n-samples-max" if auto else "--n-samples",
     )
-    sim_plants = plants if delay else [p.replace(delay=0.0) for p in plants]
+    sim_plants = plants if delay else without_delay(plants)
     if method == "robust":  # servokit.cli.robust: design over the set, verify, report
         from servokit.cli.robust import RobustSeekRequest, robust_seek
 
@@ -234,12 +235,22 @@ def seek_cmd(
                 json_out,
             )
         )
-    design_kw: dict[str, Any] = {"band_weights": bands, "model": model}
     with flag_names(_FLAGS):
-        ff, search = _design(
-            nominal, sim_plants, dt, target, settle_band, n_top, auto, design_kw, show=not json_out
+        from servokit.seek import SeekRequest, simulate_seek
+
+        request = SeekRequest(
+            sim_plants,
+            dt,
+            target,
+            settle_band,
+            method,  # type: ignore[arg-type]
+            "auto" if auto else n_top,
+            N_max=n_top,
+            band_weights=bands,
+            model=model,
+            design_plant=nominal,
         )
-        from servokit.cases.hdd_seek import simulate_seek
+        ff, search = _design(request, show=not json_out)
 
         out = simulate_seek(sim_plants, ff, target, band=settle_band)
     if search is not None and ff.N == n_top:
@@ -269,37 +280,20 @@ def _parse_n(text: str) -> int | str:
         ) from None
 
 
-def _design(nominal, sim_plants, dt, target, settle_band, n_top, auto, design_kw, *, show):  # noqa: ANN001
+def _design(request, *, show):  # noqa: ANN001
     """The seek input: fixed N, or the N search of §2.4.2 with a progress bar."""
-    from servokit.feedforward import fsc_input
-    from servokit.simulate import choose_N, seek_time
+    from servokit.seek import design_seek
 
-    if not auto:
-        return fsc_input(nominal, dt, n_top, target, **design_kw), None
-    candidates = range(_SMALLEST_N, n_top + 1)
-    with progress(len(candidates), "searching N", enabled=show) as advance:
-
-        def timed(*args: Any, **kw: Any):
-            advance()
-            return seek_time(*args, **kw)
-
-        search = choose_N(
-            sim_plants,
-            dt,
-            target,
-            candidates,
-            design_plant=nominal,
-            band=settle_band,
-            seek_time_fn=timed,
-            **design_kw,
-        )
-    return search.ff, search
+    n_tried = len(request.candidates()) if request.N == "auto" else 0
+    with progress(n_tried, "searching N", enabled=show and n_tried > 0) as advance:
+        result = design_seek(request, progress=advance)
+    return result.ff, result.search
 
 
 def _plot(out, nominal, target, method, plant, N, path, bands, settle_band, is_hdd) -> None:  # noqa: ANN001
-    from servokit.cases.hdd_seek import seek_plot
+    from servokit.seek import seek_plot
 
-    resonances = [m.freq_hz for m in nominal.modes if m.freq_hz > 0]
+    resonances = nominal.resonances_hz()
     seek_plot(
         out,
         target,

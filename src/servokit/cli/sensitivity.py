@@ -117,7 +117,7 @@ def sensitivity_cmd(
     dt = float(ctrl.dt)
     mr = None
     if multirate:
-        from servokit.cases.hdd_sensitivity import hdd_multirate
+        from servokit.sampled.hdd_multirate import hdd_multirate
 
         mr = hdd_multirate(dt, check_count("--m", m))
     freq = np.linspace(fmin, fmax, n)

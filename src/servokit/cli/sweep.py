@@ -71,45 +71,29 @@ def _from_method(
     delay: bool,
 ) -> _Design:
     """Design on the 18 plants of Table 2.3 as ``servokit seek`` does."""
-    from servokit.cases.hdd_seek import search_range, table_2_4_weights
-    from servokit.feedforward import fsc_input
     from servokit.models import HDD_BENCHMARK_TS, hdd_benchmark_variants
-    from servokit.simulate import choose_N
+    from servokit.seek import SeekRequest, design_seek, search_range, table_2_4_weights
 
-    plants = hdd_benchmark_variants()
-    plants = plants if delay else [p.replace(delay=0.0) for p in plants]
-    if method == "robust":
-        from servokit.robust import robust_minimum_time
-
-        if u_max is None:
-            raise ServokitValueError("--method robust needs --u-max [plant input unit]")
-        ff = robust_minimum_time(
-            plants,
-            HDD_BENCHMARK_TS,
-            tracks,
-            band=band,
-            u_max=check_positive("--u-max", u_max),
-            N=n_samples,
-        )
-        return _Design(ff.u, ff.dt, f"robust LP (N = {ff.N})")
-    if method not in ("fsc", "ffsc"):
+    if method == "robust" and u_max is None:
+        raise ServokitValueError("--method robust needs --u-max [plant input unit]")
+    if method not in ("fsc", "ffsc", "robust"):
         raise ServokitValueError(f"--method must be 'fsc', 'ffsc' or 'robust', got {method!r}")
-    kw = {
-        "band_weights": table_2_4_weights(tracks) if method == "ffsc" else [],
-        "model": "rigid-body",
-    }
-    if n_samples is None:
-        ff = choose_N(
-            plants,
+    with flag_names({"u_max": "--u-max", "N": "--n-samples", "band": "--settle-band"}):
+        request = SeekRequest(
+            hdd_benchmark_variants(),
             HDD_BENCHMARK_TS,
             tracks,
-            search_range(tracks),
-            design_plant=plants[0],
-            band=band,
-            **kw,
-        ).ff
-    else:
-        ff = fsc_input(plants[0], HDD_BENCHMARK_TS, n_samples, tracks, **kw)
+            band,
+            method,  # type: ignore[arg-type]
+            "auto" if n_samples is None else n_samples,
+            N_range=search_range(tracks),
+            band_weights=table_2_4_weights(tracks) if method == "ffsc" else (),
+            u_max=u_max,
+            simulate_delay=delay,
+        )
+        ff = design_seek(request).ff
+    if method == "robust":
+        return _Design(ff.u, ff.dt, f"robust LP (N = {ff.N})")
     return _Design(ff.u, ff.dt, f"{method.upper()} (N = {ff.N})")
 
 
@@ -153,7 +137,7 @@ def _histogram(times: np.ndarray, pct: dict[str, float], title: str, path: Path)
 
 
 def _client(scheduler: str | None, workers: int | None) -> Any:
-    from servokit.robust.sweep import connect_dask
+    from servokit.seek.sweep import connect_dask
 
     if scheduler is None and workers is None:
         return None
@@ -247,8 +231,8 @@ def sweep_cmd(
     p90, p99, p99_9, p100}, worst_index, worst_seek_time_s, worst_plant {modes, gain},
     n_unsettled, elapsed_s, plot.
     """
-    from servokit.models import hdd_benchmark_variation_set
-    from servokit.robust.sweep import plan_chunks, sweep_seek_times
+    from servokit.models import hdd_benchmark_variation_set, without_delay
+    from servokit.seek.sweep import plan_chunks, sweep_seek_times
 
     plot = plot_target(plot)
     n = check_count("--n-variants", n_variants, lo=1)
@@ -265,7 +249,7 @@ def sweep_cmd(
     if not gain_range:
         vset = dataclasses.replace(vset, gain=(0.0, 0.0))
     if not delay:
-        vset = dataclasses.replace(vset, nominal=vset.nominal.replace(delay=0.0))
+        vset = dataclasses.replace(vset, nominal=without_delay(vset.nominal)[0])
     d = (
         _from_file(design)
         if design is not None

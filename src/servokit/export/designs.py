@@ -31,8 +31,8 @@ def hdd_feedforward(design: int, target: float, n_samples: int | None = None) ->
     servokit.feedforward.FeedforwardInput
         The held input, designed on the rigid-body model at Ts = 37.879 us.
     """
-    from servokit.cases.hdd_seek import DESIGNS, SeekDesign
-    from servokit.models import hdd_benchmark
+    from servokit.models import HDD_BENCHMARK_TS, hdd_benchmark
+    from servokit.seek import DESIGNS, SeekRequest, design_seek, table_2_4_weights
 
     if design not in (1, 2):
         raise ServokitValueError(f"--design {design}: choose 1 (FSC) or 2 (FFSC)")
@@ -40,7 +40,15 @@ def hdd_feedforward(design: int, target: float, n_samples: int | None = None) ->
     shaped = design == 2
     book = next(d for d in DESIGNS if d.shaped == shaped and (d.tracks > 3) == (target > 3))
     n = book.N if n_samples is None else check_count("--n-samples", n_samples, lo=2, hi=100_000)
-    return SeekDesign("export", book.label, target, n, shaped).design(hdd_benchmark())
+    request = SeekRequest(
+        [hdd_benchmark()],
+        HDD_BENCHMARK_TS,
+        target,
+        method="ffsc" if shaped else "fsc",
+        N=n,
+        band_weights=table_2_4_weights(target) if shaped else (),
+    )
+    return design_seek(request).ff  # type: ignore[return-value]
 
 
 def book_ivc_gain(method: str, velocity_weight: float = 1.55e-7) -> tuple[np.ndarray, str]:
@@ -62,8 +70,8 @@ def book_ivc_gain(method: str, velocity_weight: float = 1.55e-7) -> tuple[np.nda
     description : str
         What the gain is, for the export's comment.
     """
-    from servokit.cases.switching_ivc import book_loop, jmin_loop
     from servokit.switching import ivc_jmin, ivc_pole_zero
+    from servokit.switching.book_loops import book_loop, jmin_loop
 
     if method == "pole-zero":
         K = ivc_pole_zero(book_loop(), None, [0.905, 0.954])

@@ -5,7 +5,7 @@
 * :mod:`~servokit.feedback.dual_stage`: parallel / CMS / DMS dual-stage loops (5.79)-(5.89).
 * :mod:`~servokit.feedback.margins`: every gain/phase/delay/modulus margin on the exact
   frequency response and a Nyquist stability verdict; :mod:`~servokit.feedback.margins_set`
-  the worst case over a plant set; :mod:`~servokit.feedback.frequency_grid` the
+  the worst case over a plant set; :mod:`~servokit.models.frequency_grid` the
   pole-aware grid every Bode/sensitivity figure uses.
 """
 
@@ -23,14 +23,17 @@ from servokit.feedback.filters import (
     pi_controller,
     pseudo_plant,
 )
-from servokit.feedback.frequency_grid import frequency_grid
 from servokit.feedback.margins import Margins, loop_response, stability_margins
 from servokit.feedback.margins_set import SetMargins, margins_over_set
+from servokit.feedback.peak_filtered import PeakFilterSpec, peak_filtered_controller
+from servokit.models.frequency_grid import frequency_grid
 
 __all__ = [
     "DualStageLoops",
     "Margins",
     "SetMargins",
+    "PeakFilterSpec",
+    "peak_filtered_controller",
     "complex_lag",
     "design_peak_filter",
     "discretize_filter",

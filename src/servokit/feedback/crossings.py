@@ -1,6 +1,6 @@
 """Crossing search that cannot miss: adaptive refinement, bracketing, exact verification.
 
-1. Start from a pole-aware grid (:func:`~servokit.feedback.frequency_grid.frequency_grid`).
+1. Start from a pole-aware grid (:func:`~servokit.models.frequency_grid.frequency_grid`).
 2. Refine adaptively: wherever the phase of ``L`` or of ``1 + L`` turns by more than
    0.35 rad, or ``log|L|`` changes by more than 0.35, between neighbours, insert the
    midpoint; repeat until no interval jumps (a black-box callable gets resolved the same

@@ -5,7 +5,7 @@ crossings from polynomial roots; on high-order discrete loops this reports spuri
 crossings (on the 23-state §4.5 loop it gives PM 19.9° at 317 Hz, where |L| = 2.7). Here
 the loop is a product of factors, each evaluated exactly from a reduced form computed
 once (:mod:`~servokit.feedback.factor_response`), on a grid packed around every lightly
-damped pole and zero (:mod:`~servokit.feedback.frequency_grid`) and refined adaptively;
+damped pole and zero (:mod:`~servokit.models.frequency_grid`) and refined adaptively;
 every crossing is bracketed, shrunk and verified on the exact response
 (:mod:`~servokit.feedback.crossings`). A delay multiplies the response by ``e^{-jωτ}``
 exactly (no Padé).
@@ -47,8 +47,8 @@ from servokit.errors import ServokitValueError, check_count, check_finite
 from servokit.feedback.crossings import MAX_POINTS, MAX_STEP, TINY, adapt_grid, cut_intervals
 from servokit.feedback.crossings import find_crossings as _find
 from servokit.feedback.factor_response import Factor, loop_evaluator, make_factor
-from servokit.feedback.frequency_grid import factor_frequencies, pack_around
 from servokit.feedback.nyquist import BoundaryPoles, boundary_poles, winding_verdict
+from servokit.models.frequency_grid import factor_frequencies, pack_around
 
 __all__ = ["Margins", "stability_margins", "loop_response", "loop_factors"]
 

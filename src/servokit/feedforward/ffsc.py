@@ -14,7 +14,7 @@ Implements
 * (2.62)-(2.72): with constraints, the same cost and final-state equality plus the
   constraints' inequality rows, solved as a QP by
   :func:`servokit.feedforward.constraints.solve_fsc_qp`;
-* the search for N over a plant set (§2.4.2) is :func:`servokit.simulate.choose_N`: it
+* the search for N over a plant set (§2.4.2) is :func:`servokit.seek.choose_N`: it
   evaluates designs by simulation, a layer above this one.
 
 Constraint objects are duck-typed: each has ``rows(model: LiftedModel) -> (G, h)`` giving

@@ -4,7 +4,7 @@ The dense formulation of :func:`servokit.feedforward.constraints.solve_fsc_qp` w
 the lifted rows (2.67)-(2.72): every constraint row depends on every earlier input, so
 ``G`` is dense (4N x N for two limits) and an interior-point solve costs ``O(N^3)``
 (4 s at N = 1000).  Keeping the states ``x[1..N]`` as variables instead makes every
-matrix banded:
+matrix banded::
 
     minimise    rho ||U||^2 + ||W_b U||^2                       (2.59)-(2.61), (2.74)
     subject to  x[k+1] - A x[k] - B U[k] = 0,  k = 0..N-1         (dynamics, x[0] given)

@@ -38,7 +38,7 @@ def bode_integral_plot(
         s = 1.0 / (1.0 + loop(np.exp(2j * np.pi * f * loop.dt)))
         xlabel, xscale = "frequency [Hz] (up to Nyquist)", "linear"
     else:
-        from servokit.feedback import frequency_grid
+        from servokit.models.frequency_grid import frequency_grid
 
         top = 10 * max(1.0, float(np.max(np.abs(loop.poles())))) / (2 * np.pi)
         f = frequency_grid(loop, top * 1e-5, top * 10, n_freq)  # no resonance clipped
@@ -116,7 +116,7 @@ def variance_plot(
     """
     import matplotlib.pyplot as plt
 
-    from servokit.feedback import frequency_grid
+    from servokit.models.frequency_grid import frequency_grid
 
     # pole-aware grids: every lightly damped peak of |S| and of the disturbance resolved
     if loop.isdtime():

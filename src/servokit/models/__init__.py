@@ -11,10 +11,7 @@ from servokit.models.catalogue import (
     HDD_BENCHMARK_TS,
     HDD_SAMPLED_DATA_TS,
     galvano_scanner,
-    get_plant,
     hdd_benchmark,
-    hdd_benchmark_variants,
-    hdd_benchmark_variation_set,
     hdd_sampled_data,
     personal_mobility_robot,
     pzt_active_suspension,
@@ -28,12 +25,14 @@ from servokit.models.controllers import (
     controller_eq_4_69,
     controller_fig_4_57,
     cpc_eq_4_72,
-    get_discrete_controller,
-    require_proper,
     vcm_controller_table_5_2,
-    zpk,
 )
-from servokit.models.disturbances import BenchmarkDisturbances, DisturbanceRecord, band_powers
+from servokit.models.disturbances import (
+    BenchmarkDisturbances,
+    DisturbanceRecord,
+    band_powers,
+    disturbance_magnitude,
+)
 from servokit.models.files import (
     PlantFileError,
     load_controller,
@@ -42,10 +41,14 @@ from servokit.models.files import (
     save_plant,
 )
 from servokit.models.frf import FRF_MAX_BYTES, FrfFileError, read_frf, save_frf
-from servokit.models.modal import ModalPlant, Mode, modal_matrices
+from servokit.models.lookup import get_discrete_controller, get_plant
+from servokit.models.modal import ModalPlant, Mode, modal_matrices, without_delay
+from servokit.models.tf import require_proper, zpk
 from servokit.models.variation_file import (
     HDD_BENCHMARK_VARIATIONS,
     VariationFileError,
+    hdd_benchmark_variants,
+    hdd_benchmark_variation_set,
     read_variations,
 )
 from servokit.models.variations import Perturbation, VariationSet
@@ -55,6 +58,7 @@ __all__ = [
     "BenchmarkDisturbances",
     "DisturbanceRecord",
     "band_powers",
+    "disturbance_magnitude",
     "benchmark_controller",
     "ieej_example_controller",
     "CATALOGUE",
@@ -96,5 +100,6 @@ __all__ = [
     "svm_head_plant",
     "vcm_controller_table_5_2",
     "vcm_dual_stage",
+    "without_delay",
     "zpk",
 ]

@@ -120,13 +120,13 @@ def ieej_example_controller(
     list of TransferFunction
         ``[PID, notch 4.1 kHz, notch 5 kHz, notch 7 kHz, low-pass]``, discrete at ``dt``.
     """
-    from servokit.feedback.filters import notch
-
     h = check_positive("dt", dt, "s")
     pid = control.tf(list(IEEJ_PID_NUM), [1.0, -1.0, 0.0], h) * (1.0 / gain)
     out = [pid]
     for f, zeta in ((4100.0, 0.03), (5000.0, 0.01), (7000.0, 0.01)):
-        out.append(_tustin(notch(f, zeta, filter_damping=notch_pole_damping), h, f))
+        w = 2 * np.pi * f  # notch (5.14) with fD = fR (models sit below feedback)
+        section = control.tf([1.0, 2 * zeta * w, w * w], [1.0, 2 * notch_pole_damping * w, w * w])
+        out.append(_tustin(section, h, f))
     w = 2 * np.pi * lowpass_hz
     low = control.tf([w * w], [1.0, 2 * lowpass_damping * w, w * w])
     out.append(_tustin(low, h, lowpass_hz))

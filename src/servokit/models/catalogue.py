@@ -8,21 +8,16 @@ Each entry cites its source (book table / section) in its docstring and in
 from __future__ import annotations
 
 from collections.abc import Callable
-from pathlib import Path
 
 import control
 import numpy as np
 
-from servokit.errors import ServokitValueError
 from servokit.models.modal import ModalPlant, Mode
-from servokit.models.variations import VariationSet
 
 __all__ = [
     "HDD_BENCHMARK_TS",
     "HDD_SAMPLED_DATA_TS",
     "hdd_benchmark",
-    "hdd_benchmark_variation_set",
-    "hdd_benchmark_variants",
     "hdd_sampled_data",
     "vcm_dual_stage",
     "pzt_active_suspension",
@@ -30,7 +25,6 @@ __all__ = [
     "galvano_scanner",
     "personal_mobility_robot",
     "CATALOGUE",
-    "get_plant",
 ]
 
 #: HDD benchmark sampling period: 7200 rpm, 220 servo sectors per revolution (§2.4.1) [s].
@@ -72,48 +66,6 @@ def hdd_benchmark() -> ModalPlant:
         name="hdd-benchmark",
         source="book eq. (2.73), Table 2.2 (HDD Benchmark Problem v2)",
     )
-
-
-def hdd_benchmark_variation_set() -> VariationSet:
-    """Parameter ranges of the HDD benchmark (book Table 2.3), read from the shipped file.
-
-    Ranges (index: meaning): 0 f2 -2/+1 %, 1 f3 -5/+2.5 %, 2 f4..7 -2/+0.5 %,
-    3 A2,4 -200/+0 %, 4 A3 -0/+20 %, 5 zeta5..7 -50/+100 %.  Gain range +-10 %
-    (§2.4.1 "the change in loop gain of +-10 % is also assumed"; §2.4.1 also mentions
-    +-5 % for the benchmark; feedforward-only studies ignore the gain).  The box is the
-    variation file :data:`~servokit.models.variation_file.HDD_BENCHMARK_VARIATIONS`
-    (the modes of one table row move together).
-
-    Returns
-    -------
-    VariationSet
-        The nominal :func:`hdd_benchmark` with the six relative ranges above (mode numbers
-        counted from the rigid body, 1) and the loop-gain range ``(-0.1, 0.1)``.
-    """
-    from servokit.models.variation_file import HDD_BENCHMARK_VARIATIONS, read_variations
-
-    return read_variations(HDD_BENCHMARK_VARIATIONS, hdd_benchmark())
-
-
-def hdd_benchmark_variants() -> list[ModalPlant]:
-    """The fixed set of 18 HDD benchmark plants (book Table 2.3), nominal first.
-
-    Every combination of 3 frequency rows (nominal; all up; all down), 3 damping rows
-    (nominal; -50 %; +100 % on zeta5..7) and 2 residue rows (nominal; A2 -200 %,
-    A3 +20 %, A4 -200 %).
-
-    Returns
-    -------
-    list of ModalPlant
-        18 plants (gain nominal), the nominal benchmark first, named
-        ``"hdd-benchmark #0"`` .. ``"#17"``.
-    """
-    vs = hdd_benchmark_variation_set()
-    freq_row = [((0, "high"), (1, "high"), (2, "high")), ((0, "low"), (1, "low"), (2, "low"))]
-    damp_row = [((5, "low"),), ((5, "high"),)]
-    res_row = [((3, "low"), (4, "high"))]
-    plants = vs.rows([freq_row, damp_row, res_row])
-    return [p.replace(name=f"hdd-benchmark #{i}") for i, p in enumerate(plants)]
 
 
 def hdd_sampled_data() -> ModalPlant:
@@ -328,36 +280,11 @@ CATALOGUE: dict[str, Callable[[], ModalPlant]] = {
 }
 
 
-def get_plant(name_or_file: str | Path) -> ModalPlant:
-    """A catalogue plant by name (``hdd-benchmark``, ...) or a plant TOML file by path.
+def __getattr__(name: str) -> object:
+    # The old import path of get_plant, now in servokit.models.lookup (above this
+    # module); resolved on attribute access so this module imports nothing above it.
+    if name == "get_plant":
+        from servokit.models import lookup
 
-    Parameters
-    ----------
-    name_or_file : str or Path
-        A key of :data:`CATALOGUE` (``"hdd-benchmark"``, ``"hdd-sampled-data"``,
-        ``"vcm-dual-stage"``, ``"pzt-active-suspension"``, ``"svm-head-plant"``,
-        ``"galvano-scanner"``), or the path of a plant file (a ``.toml`` name or an existing
-        file; :func:`~servokit.models.files.load_plant`).
-
-    Returns
-    -------
-    ModalPlant
-        A new copy of the catalogue plant, or the plant loaded from the file.
-
-    Raises
-    ------
-    ServokitValueError
-        If the name is neither a catalogue key nor a plant file; a file's own errors as
-        :class:`~servokit.models.files.PlantFileError`.
-    """
-    key = str(name_or_file)
-    if key in CATALOGUE:
-        return CATALOGUE[key]()
-    path = Path(key)
-    if path.suffix == ".toml" or path.exists():
-        from servokit.models.files import load_plant
-
-        return load_plant(path)
-    raise ServokitValueError(
-        f"unknown plant {key!r}: choose one of {', '.join(CATALOGUE)} or give a .toml plant file"
-    )
+        return lookup.get_plant
+    raise AttributeError(f"module {__name__!r} has no attribute {name!r}")

@@ -8,13 +8,10 @@
 
 from __future__ import annotations
 
-from collections.abc import Sequence
-
 import control
-import numpy as np
 
-from servokit.errors import ServokitValueError
 from servokit.models.catalogue import HDD_SAMPLED_DATA_TS
+from servokit.models.tf import require_proper, zpk
 
 __all__ = [
     "zpk",
@@ -25,48 +22,11 @@ __all__ = [
     "vcm_controller_table_5_2",
     "VCM_PES_TS",
     "CONTROLLERS",
-    "get_discrete_controller",
     "require_proper",
 ]
 
 #: PES sampling period of the dual-stage HDD of chapter 5 (30 kHz, §5.2.1.2) [s].
 VCM_PES_TS = 1.0 / 30000.0
-
-
-def zpk(
-    zeros: Sequence[complex], poles: Sequence[complex], gain: float, dt: float | None = None
-) -> control.TransferFunction:
-    """Transfer function ``gain * prod(x - z) / prod(x - p)`` (x = s or z), real coefficients.
-
-    Parameters
-    ----------
-    zeros, poles : sequence of complex
-        Zeros and poles; complex ones in conjugate pairs.  Empty for none.
-    gain : float
-        Leading coefficient of the numerator (not the DC gain).
-    dt : float, optional
-        Sampling period [s] for a discrete transfer function (``x = z``); continuous
-        (``x = s``) if omitted.
-
-    Returns
-    -------
-    control.TransferFunction
-        SISO transfer function with real polynomial coefficients.
-
-    Raises
-    ------
-    ServokitValueError
-        If the zeros or poles are not closed under conjugation (complex coefficients).
-    """
-    num = gain * np.real_if_close(np.poly(np.asarray(zeros, dtype=complex)), tol=1e6)
-    den = np.real_if_close(np.poly(np.asarray(poles, dtype=complex)), tol=1e6)
-    if np.iscomplexobj(num) or np.iscomplexobj(den):
-        raise ServokitValueError("zeros and poles must come in complex-conjugate pairs")
-    num = np.atleast_1d(num).astype(float)
-    den = np.atleast_1d(den).astype(float)
-    if dt is None:
-        return control.tf(num, den)
-    return control.tf(num, den, dt)
 
 
 def controller_eq_4_69() -> control.TransferFunction:
@@ -175,71 +135,11 @@ CONTROLLERS = {
 }
 
 
-def get_discrete_controller(name_or_file: str, dt: float | None = None) -> control.TransferFunction:
-    """A book controller by name (``eq-4.69``, ...) or a controller TOML file, checked discrete.
+def __getattr__(name: str) -> object:
+    # The old import path of get_discrete_controller, now in servokit.models.lookup (above this
+    # module); resolved on attribute access so this module imports nothing above it.
+    if name == "get_discrete_controller":
+        from servokit.models import lookup
 
-    With ``dt`` given, the controller's sampling period must equal it.
-
-    Parameters
-    ----------
-    name_or_file : str
-        A key of ``CONTROLLERS`` (``"eq-4.69"``, ``"fig-4.57"``, ``"table-5.2"``; each at
-        its book sampling period) or the path of a controller TOML file
-        (:func:`~servokit.models.files.load_controller`).
-    dt : float, optional
-        Required sampling period [s] (matched to a relative 1e-9); not checked if omitted.
-
-    Returns
-    -------
-    control.TransferFunction
-        The discrete controller.
-
-    Raises
-    ------
-    ServokitValueError
-        If the controller is continuous or its period differs from ``dt``; a file's own
-        errors as :class:`~servokit.models.files.PlantFileError`.
-    """
-    if name_or_file in CONTROLLERS:
-        ctrl = CONTROLLERS[name_or_file]()
-    else:
-        from servokit.models.files import load_controller
-
-        ctrl = load_controller(name_or_file)
-    if ctrl.dt is None or ctrl.dt is True or not ctrl.dt:
-        raise ServokitValueError(
-            f"controller {name_or_file} is continuous; give a discrete one (a 'dt' field), "
-            f"or one of {', '.join(CONTROLLERS)}"
-        )
-    if dt is not None and abs(ctrl.dt - dt) > 1e-9 * dt:
-        raise ServokitValueError(
-            f"controller {name_or_file} has dt = {ctrl.dt:g} s; it must match the sampling "
-            f"period {dt:g} s"
-        )
-    return ctrl
-
-
-def require_proper(name: str, sys: control.LTI) -> None:
-    """Raise unless the SISO transfer function ``sys`` is proper (realisable, causal).
-
-    Parameters
-    ----------
-    name : str
-        The system's name in the error message.
-    sys : control.LTI
-        SISO system; a ``TransferFunction`` is checked (numerator degree, after leading
-        zeros are trimmed, at most the denominator's), a ``StateSpace`` is always proper.
-
-    Raises
-    ------
-    ServokitValueError
-        If ``sys`` has more zeros than poles.
-    """
-    if isinstance(sys, control.TransferFunction):
-        num = np.trim_zeros(np.atleast_1d(np.asarray(sys.num[0][0], dtype=float)), "f")
-        den = np.trim_zeros(np.atleast_1d(np.asarray(sys.den[0][0], dtype=float)), "f")
-        if len(num) > len(den):
-            raise ServokitValueError(
-                f"{name} is not proper (more zeros than poles) and cannot be realised; "
-                "add poles or a delay"
-            )
+        return lookup.get_discrete_controller
+    raise AttributeError(f"module {__name__!r} has no attribute {name!r}")

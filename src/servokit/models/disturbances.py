@@ -34,7 +34,7 @@ from scipy import signal
 
 from servokit.errors import ServokitValueError, check_count, check_positive
 
-__all__ = ["BenchmarkDisturbances", "DisturbanceRecord", "band_powers"]
+__all__ = ["BenchmarkDisturbances", "DisturbanceRecord", "band_powers", "disturbance_magnitude"]
 
 _FLUTTER_HZ = (750.0, 780.0, 900.0, 1020.0, 1080.0, 1230.0, 1800.0, 3000.0, 5000.0)
 _FLUTTER_ZETA = (0.01, 0.01, 0.01, 0.01, 0.005, 0.01, 0.005, 0.002, 0.002)
@@ -213,3 +213,35 @@ class BenchmarkDisturbances:
         for h, a, ph in zip(self.rro_harmonics, self.rro_amplitude_track, phases, strict=True):
             rro += a * np.sin(2 * np.pi * h * k / self.samples_per_rev + ph)
         return DisturbanceRecord(sensor, force, flutter, rro, self.dt)
+
+
+def disturbance_magnitude(disturbances, plant_d: control.LTI):
+    """``freq_hz -> |D|`` of the lumped output disturbance for the variance (6.13).
+
+    ``|D|^2 = (flutter + sensor + force-through-plant PSDs) / (2 Ts)``: a discrete shaping
+    filter of unit-variance white noise.  The force noise is taken through the Ts-rate
+    plant ``plant_d`` (its aliasing at the plant-input rate is neglected).
+
+    Parameters
+    ----------
+    disturbances : BenchmarkDisturbances
+        The disturbance model (its ``dt`` is the PES period).
+    plant_d : LTI
+        The plant discretised at ``dt`` (force-noise path).
+
+    Returns
+    -------
+    callable
+        ``freq_hz -> |D(e^{j w Ts})|``.
+    """
+    dt = disturbances.dt
+
+    def mag(freq_hz):
+        f = np.asarray(freq_hz, dtype=float)
+        z = np.exp(2j * np.pi * f * dt)
+        p2 = np.abs(np.asarray(plant_d(z)).reshape(f.shape)) ** 2
+        force = 2 * dt * disturbances.force_sigma_a**2 * p2
+        psd = disturbances.flutter_psd(f) + disturbances.sensor_psd(f) + force
+        return np.sqrt(psd / (2 * dt))
+
+    return mag

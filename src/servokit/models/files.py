@@ -36,8 +36,8 @@ import numpy as np
 import tomli_w
 
 from servokit.errors import ServokitValueError
-from servokit.models.controllers import zpk
 from servokit.models.modal import ModalPlant, Mode
+from servokit.models.tf import zpk
 
 __all__ = ["PlantFileError", "load_plant", "save_plant", "load_controller", "save_controller"]
 
@@ -195,7 +195,7 @@ def load_controller(path: str | Path) -> control.TransferFunction:
     control.TransferFunction
         SISO transfer function, discrete with the file's ``dt`` [s] or continuous
         without one; from ``num``/``den`` (descending powers) when given, else from
-        ``gain``, ``zeros`` and ``poles`` (:func:`~servokit.models.controllers.zpk`).
+        ``gain``, ``zeros`` and ``poles`` (:func:`~servokit.models.tf.zpk`).
 
     Raises
     ------

@@ -29,7 +29,7 @@ from servokit.models._zoh import delayed_zoh
 if TYPE_CHECKING:
     import control
 
-__all__ = ["MAX_DELAY_S", "Mode", "ModalPlant", "modal_matrices"]
+__all__ = ["MAX_DELAY_S", "Mode", "ModalPlant", "modal_matrices", "without_delay"]
 
 #: Largest input delay accepted [s].  Servo delays are micro- to milliseconds; a delay
 #: of seconds is almost always a unit slip (``delay=10`` meant 10 us) and would make the
@@ -146,6 +146,16 @@ class ModalPlant:
     def replace(self, **changes: object) -> ModalPlant:
         """Return a copy with fields replaced (``dataclasses.replace``)."""
         return dataclasses.replace(self, **changes)
+
+    def resonances_hz(self) -> list[float]:
+        """Frequencies of the resonant (non rigid-body) modes [Hz], in mode order.
+
+        Returns
+        -------
+        list of float
+            ``freq_hz`` of every mode with ``freq_hz > 0``.
+        """
+        return [m.freq_hz for m in self.modes if m.freq_hz > 0]
 
     def rigid_body(self) -> ModalPlant:
         """The plant keeping only its rigid-body (freq 0) modes, as used by the book's Design 1."""
@@ -327,3 +337,21 @@ def modal_matrices(
         B[2 * i + 1, 0] = r[i]
         C[0, 2 * i] = 1.0
     return A, B, C
+
+
+def without_delay(plants: ModalPlant | Sequence[ModalPlant]) -> list[ModalPlant]:
+    """Copies of the plants with the input delay removed (the book's §2.4 convention).
+
+    Parameters
+    ----------
+    plants : ModalPlant or sequence of ModalPlant
+        Plants to copy.
+
+    Returns
+    -------
+    list of ModalPlant
+        One copy per plant, ``delay = 0``, everything else unchanged.
+    """
+    if isinstance(plants, ModalPlant):
+        plants = [plants]
+    return [p.replace(delay=0.0) for p in plants]

@@ -47,7 +47,7 @@ def bode_plot(
 
     plist = [plants] if isinstance(plants, ModalPlant) else list(plants)
     if freq_hz is None:
-        from servokit.feedback import frequency_grid
+        from servokit.models.frequency_grid import frequency_grid
 
         f = frequency_grid(plist, 10.0, 5e4, 2000)  # packed at every mode: no clipped peak
     else:

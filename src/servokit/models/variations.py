@@ -29,7 +29,7 @@ import numpy as np
 from servokit.errors import ServokitValueError
 from servokit.models.modal import ModalPlant, Mode
 
-__all__ = ["Perturbation", "VariationSet", "Level"]
+__all__ = ["Perturbation", "VariationSet"]
 
 Param = Literal["freq", "damping", "residue", "delay"]
 Distribution = Literal["uniform", "normal"]

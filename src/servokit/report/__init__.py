@@ -5,7 +5,8 @@ A case study (:mod:`servokit.cases`) returns a :class:`CaseResult` holding
 
 * :mod:`servokit.report.results` — ``results.json`` (rows, summary, shipped JSON schema);
 * :mod:`servokit.report.html` — ``report.html`` (jinja2 template, embedded figures);
-* :mod:`servokit.report.output` — running the cases and writing both atomically;
+* :mod:`servokit.report.files` — writing both atomically (running the cases is
+  :mod:`servokit.cases.runner`'s job);
 * :mod:`servokit.report.pairing` — one-to-one pairing of computed lists with the book's.
 """
 
@@ -16,7 +17,24 @@ from pathlib import Path
 
 import numpy as np
 
-__all__ = ["Comparison", "CaseResult", "nearest", "printed_tolerance", "printed_unit"]
+__all__ = [
+    "KINDS",
+    "MISS_CLASSES",
+    "Comparison",
+    "CaseResult",
+    "nearest",
+    "printed_tolerance",
+    "printed_unit",
+]
+
+#: What a row is (docs/CONVENTIONS.md), in the order the report lists them.
+KINDS = ("reproduced", "fitted", "assumed", "spec", "consistency", "informational")
+#: Why a judged row misses, the unexplained class ``"open"`` first (the report's order):
+#: ``book_misprint`` (a corrected derivation matches the book's intent),
+#: ``book_inconsistent`` (the book's own data give another number),
+#: ``under_determined`` (the book omits data; a stated search cannot reach the number),
+#: ``figure_read`` (the book value is read off a figure or printed as "around").
+MISS_CLASSES = ("open", "book_misprint", "book_inconsistent", "under_determined", "figure_read")
 
 
 @dataclass(frozen=True)
@@ -31,7 +49,12 @@ class Comparison:
     ``note`` says what was read, fitted or assumed.  ``bound`` makes the book value a
     limit instead of a value to match: ``"min"`` (the book asks for more than it, e.g.
     "gain margin greater than 4.5 dB") or ``"max"`` (less than it); ``rel_tol`` then
-    loosens the limit by that fraction of it.
+    loosens the limit by that fraction of it.  ``"informational"`` rows (a sensitivity
+    study, a value the book prints no number for) are shown but never judged.
+
+    A judged row that misses names why in ``miss_class`` (one of :data:`MISS_CLASSES`)
+    and gives the evidence in one sentence in ``miss_note`` (the corrected derivation,
+    the search range and its best value); a miss without a class is ``"open"``.
     """
 
     quantity: str
@@ -44,6 +67,19 @@ class Comparison:
     note: str = ""
     book_text: str = ""
     bound: str = ""
+    miss_class: str = ""
+    miss_note: str = ""
+
+    def __post_init__(self) -> None:
+        if self.kind not in KINDS:
+            raise ValueError(f"kind {self.kind!r} is not one of {KINDS}")
+        if self.miss_class and self.miss_class not in MISS_CLASSES:
+            raise ValueError(f"miss_class {self.miss_class!r} is not one of {MISS_CLASSES}")
+
+    @property
+    def judged(self) -> bool:
+        """Whether the row is judged: a finite book value and not informational."""
+        return self.kind != "informational" and bool(np.isfinite(float(self.book)))
 
     @classmethod
     def printed(
@@ -154,3 +190,41 @@ def nearest(found: object, value: float) -> float:
     """
     arr = np.asarray(found, dtype=float).ravel()
     return float(arr[np.argmin(np.abs(arr - value))]) if arr.size else float("nan")
+
+
+def _old_output_module() -> None:
+    """Keep ``servokit.report.output`` (moved: report.files + cases.runner) importable.
+
+    The old module ran the cases, which made report import cases; the alias resolves its
+    names on attribute access, with a DeprecationWarning, so report imports no case.
+    """
+    import sys
+    import types
+    import warnings
+
+    moved = {
+        "REPORT_FILES": "servokit.report.files",
+        "clear_report": "servokit.report.files",
+        "write_report": "servokit.report.files",
+        "run_cases": "servokit.cases.runner",
+        "select_cases": "servokit.cases.runner",
+    }
+
+    def __getattr__(name: str) -> object:  # noqa: N807
+        if name not in moved:
+            raise AttributeError(f"module 'servokit.report.output' has no attribute {name!r}")
+        warnings.warn(
+            f"servokit.report.output.{name} is deprecated; use {moved[name]}.{name}",
+            DeprecationWarning,
+            stacklevel=2,
+        )
+        from importlib import import_module
+
+        return getattr(import_module(moved[name]), name)
+
+    module = types.ModuleType(f"{__name__}.output", "Deprecated alias (see servokit.report).")
+    module.__getattr__ = __getattr__  # type: ignore[method-assign]
+    sys.modules.setdefault(module.__name__, module)
+
+
+_old_output_module()

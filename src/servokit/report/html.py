@@ -4,8 +4,10 @@ The page renders any :func:`~servokit.report.results.results_document` generical
 summary table per chapter (counts equal those of ``results.json``), then per chapter a
 section per case with its rows (quantity, source, book, servokit, ratio, tolerance,
 within tolerance?, note; non-"reproduced" kinds are labelled in the quantity) and its
-figures.  PNG figures are embedded as data URIs, so the page opens without network or
-the files beside it; an SVG copy beside a PNG is linked.  Captions come from the title
+figures. The summary counts rows by kind and misses by class; each chapter opens with
+its misses, ``open`` ones first, each with its class and evidence. PNG figures are
+embedded as data URIs, so the page opens without network or the files beside it; an SVG
+copy beside a PNG is linked. Captions come from the title
 :func:`servokit._figures.save_figure` stores in the PNG (the book's figure number is in
 every figure title), else from the file name.
 """
@@ -20,7 +22,7 @@ from typing import Any
 
 import jinja2
 
-__all__ = ["CHAPTER_TITLES", "render_html", "figure_caption"]
+__all__ = ["CHAPTER_TITLES", "chapter_misses", "render_html", "figure_caption"]
 
 #: Short titles of the book's chapters for the report's section headings.
 CHAPTER_TITLES = {
@@ -37,11 +39,33 @@ _COUNT_KEYS = (
     "missed",
     "not_comparable",
     "reproduced",
+    "reproduced_kind",
     "fitted",
     "assumed",
     "spec",
     "consistency",
+    "informational",
+    "miss_open",
+    "miss_book_misprint",
+    "miss_book_inconsistent",
+    "miss_under_determined",
+    "miss_figure_read",
 )
+#: Column headings of the summary table.
+_COUNT_LABELS = {
+    "reproduced": "reproduced (within tol.)",
+    "reproduced_kind": "kind: reproduced",
+    "fitted": "kind: fitted",
+    "assumed": "kind: assumed",
+    "spec": "kind: spec",
+    "consistency": "kind: consistency",
+    "informational": "kind: informational",
+    "miss_open": "miss: open",
+    "miss_book_misprint": "miss: book misprint",
+    "miss_book_inconsistent": "miss: book inconsistent",
+    "miss_under_determined": "miss: under-determined",
+    "miss_figure_read": "miss: figure read",
+}
 
 
 def _chapter_label(ch: int | str) -> str:
@@ -49,14 +73,16 @@ def _chapter_label(ch: int | str) -> str:
     return CHAPTER_TITLES.get(ch, f"Chapter {ch}" if ch else "Other cases")
 
 
-def _fmt(value: float | None, digits: int = 7) -> str:
+def _fmt(value: float | str | None, digits: int = 7) -> str:
+    if isinstance(value, str):  # "Infinity", "-Infinity", "NaN" (results.json encoding)
+        return {"Infinity": "∞", "-Infinity": "−∞"}.get(value, "–")
     if value is None or not math.isfinite(value):
         return "–"
     return f"{value:.{digits}g}"
 
 
-def _pct(value: float | None) -> str:
-    return "–" if value is None else f"{100.0 * value:.3g} %"
+def _pct(value: float | str | None) -> str:
+    return "–" if value is None or isinstance(value, str) else f"{100.0 * value:.3g} %"
 
 
 def _row_class(row: dict[str, Any]) -> str:
@@ -101,6 +127,27 @@ def _figure_entry(rel: str, outdir: Path) -> dict[str, str]:
     }
 
 
+def chapter_misses(doc: dict[str, Any], chapter: int) -> list[dict[str, Any]]:
+    """The judged rows of ``chapter`` that miss, ``open`` ones first, then by class.
+
+    Parameters
+    ----------
+    doc : dict
+        A ``results.json`` document.
+    chapter : int
+        Book chapter.
+
+    Returns
+    -------
+    list of dict
+        Row records in report order (class order of ``MISS_CLASSES``, then row order).
+    """
+    from servokit.report import MISS_CLASSES
+
+    rows = [r for r in doc["rows"] if int(r["chapter"]) == int(chapter) and r["miss_class"]]
+    return sorted(rows, key=lambda r: MISS_CLASSES.index(r["miss_class"]))
+
+
 def _chapters(doc: dict[str, Any], outdir: Path) -> list[tuple[int, list[dict[str, Any]]]]:
     grouped: dict[int, list[dict[str, Any]]] = {}
     for case in doc["cases"]:
@@ -124,6 +171,8 @@ def _environment() -> jinja2.Environment:
         "pct": _pct,
         "row_class": _row_class,
         "chapter_label": _chapter_label,
+        "chapter_misses": chapter_misses,
+        "count_label": lambda key: _COUNT_LABELS.get(key, key.replace("_", " ")),
     }
     env.globals.update(helpers)
     return env

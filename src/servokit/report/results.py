@@ -9,7 +9,17 @@ Counting is deliberately conservative: only rows of kind ``"reproduced"`` that a
 within tolerance count as *reproduced*; a row resting on a fitted or assumed parameter,
 a consistency check and a stated specification are counted in their own columns, never
 as an independent reproduction.  A row whose book value is not a finite number (the
-book prints no comparable value) is present with ``within_tolerance`` null.
+book prints no comparable value) and an ``"informational"`` row are present with
+``within_tolerance`` null (not judged).  Every judged row that misses carries a
+``miss_class`` (:data:`servokit.report.MISS_CLASSES`; ``"open"`` when the case gives
+none) and a ``miss_note``; the summary counts the misses per class.
+
+Number encoding (strict JSON, stated in the schema): a finite number is a JSON number;
++-infinity is the string ``"Infinity"`` / ``"-Infinity"`` (an infinite gain margin is a
+value, not a gap); NaN is ``null`` in a row that is not judged (no book number) and the
+string ``"NaN"`` in a judged row (a servokit computation that failed, or the ratio to a
+book value of 0, whose tolerance is absolute), so a judged row never holds ``null``.
+The document names its schema in ``$schema`` (the file written beside it).
 """
 
 from __future__ import annotations
@@ -23,10 +33,11 @@ from pathlib import Path
 from typing import Any
 
 from servokit._io import write_atomic
-from servokit.report import CaseResult, Comparison
+from servokit.report import KINDS, MISS_CLASSES, CaseResult, Comparison
 
 __all__ = [
     "KINDS",
+    "MISS_CLASSES",
     "SCHEMA_NAME",
     "results_document",
     "row_record",
@@ -37,8 +48,6 @@ __all__ = [
     "write_results",
 ]
 
-#: The row kinds of docs/CONVENTIONS.md, in the order the report lists them.
-KINDS = ("reproduced", "fitted", "assumed", "spec", "consistency")
 #: File name of the JSON schema inside the package.
 SCHEMA_NAME = "results.schema.json"
 
@@ -46,6 +55,30 @@ SCHEMA_NAME = "results.schema.json"
 def _finite_or_none(value: float) -> float | None:
     value = float(value)
     return value if math.isfinite(value) else None
+
+
+def encode_number(value: float, *, judged: bool) -> float | str | None:
+    """``value`` as strict JSON: a number, ``"Infinity"``/``"-Infinity"``, or NaN as
+    ``"NaN"`` in a judged row and ``null`` elsewhere (see the module docstring).
+
+    Parameters
+    ----------
+    value : float
+        The number.
+    judged : bool
+        Whether the row it belongs to is judged.
+
+    Returns
+    -------
+    float, str or None
+        The encoded value.
+    """
+    value = float(value)
+    if math.isfinite(value):
+        return value
+    if math.isinf(value):
+        return "Infinity" if value > 0 else "-Infinity"
+    return "NaN" if judged else None
 
 
 def within_tolerance(row: Comparison) -> bool | None:
@@ -61,7 +94,7 @@ def within_tolerance(row: Comparison) -> bool | None:
     bool or None
         True / False as :attr:`Comparison.ok`; None for a non-finite book value.
     """
-    if not math.isfinite(float(row.book)):
+    if not row.judged:
         return None
     return bool(row.ok)
 
@@ -110,24 +143,34 @@ def row_record(case: CaseResult, row: Comparison) -> dict[str, Any]:
     -------
     dict
         ``case, chapter, source, quantity, unit, book, book_text, servokit, ratio,
-        tolerance, within_tolerance, kind, note``; non-finite numbers are None.
+        tolerance, within_tolerance, kind, note, bound, miss_class, miss_note``;
+        numbers encoded by :func:`encode_number`.  ``miss_class``/``miss_note`` are
+        empty unless the row is judged and misses; an unexplained miss is ``"open"``.
     """
+    judged = row.judged
     ratio = row.ratio if math.isfinite(float(row.book)) else float("nan")
+    within = within_tolerance(row)
+    missed = within is False
+    remark = precision_remark(row)
+    miss_class = (row.miss_class or "open") if missed else ""
+    miss_note = (row.miss_note or remark or "no explanation found yet") if missed else ""
     return {
         "case": case.name,
         "chapter": int(case.chapter),
         "source": row.source,
         "quantity": row.quantity,
         "unit": row.unit,
-        "book": _finite_or_none(row.book),
+        "book": encode_number(row.book, judged=judged),
         "book_text": row.book_text,
-        "servokit": _finite_or_none(row.servokit),
-        "ratio": _finite_or_none(ratio),
-        "tolerance": _finite_or_none(row.rel_tol),
-        "within_tolerance": within_tolerance(row),
+        "servokit": encode_number(row.servokit, judged=judged),
+        "ratio": encode_number(ratio, judged=judged),
+        "tolerance": encode_number(row.rel_tol, judged=judged),
+        "within_tolerance": within,
         "kind": row.kind,
-        "note": "; ".join(p for p in (row.note, precision_remark(row)) if p),
+        "note": "; ".join(p for p in (row.note, remark) if p),
         "bound": row.bound,
+        "miss_class": miss_class,
+        "miss_note": miss_note,
     }
 
 
@@ -142,9 +185,12 @@ def _count(rows: Sequence[dict[str, Any]]) -> dict[str, int]:
         "not_comparable": len(rows) - len(judged),
         # the independent reproductions: reproduced-kind rows inside their tolerance
         "reproduced": sum(r["kind"] == "reproduced" for r in within),
+        "reproduced_kind": sum(r["kind"] == "reproduced" for r in rows),
     }
     for kind in KINDS[1:]:
         counts[kind] = sum(r["kind"] == kind for r in rows)
+    for cls in MISS_CLASSES:
+        counts[f"miss_{cls}"] = sum(r["miss_class"] == cls for r in rows)
     return counts
 
 
@@ -160,8 +206,9 @@ def summarize(rows: Sequence[dict[str, Any]]) -> dict[str, Any]:
     -------
     dict
         ``{"total": counts, "chapters": {"2": counts, ...}}``; ``counts`` holds ``rows,
-        judged, within_tolerance, missed, not_comparable, reproduced, fitted, assumed,
-        spec, consistency``.
+        judged, within_tolerance, missed, not_comparable, reproduced`` (reproduced rows
+        within tolerance), ``reproduced_kind`` (all rows of that kind), ``fitted,
+        assumed, spec, consistency, informational`` and ``miss_<class>`` per miss class.
     """
     chapters = sorted({int(r["chapter"]) for r in rows})
     return {
@@ -202,7 +249,8 @@ def results_document(
     Returns
     -------
     dict
-        ``servokit_version, generated_utc, cases, rows, summary``; each case holds
+        ``$schema`` (the schema file written beside it), ``servokit_version,
+        generated_utc, cases, rows, summary``; each case holds
         ``name, title, chapter, runtime_s, figures, notes`` (``notes``: the text-valued
         entries of ``CaseResult.extra``, e.g. a delay convention).
     """
@@ -225,6 +273,7 @@ def results_document(
         for r in results
     ]
     return {
+        "$schema": SCHEMA_NAME,
         "servokit_version": __version__,
         "generated_utc": stamp.strftime("%Y-%m-%dT%H:%M:%SZ"),
         "cases": cases,

@@ -1,15 +1,52 @@
-"""Beyond the book: robust minimum-time feedforward over a plant set, and sweeps at scale.
+"""Deprecated: moved to :mod:`servokit.seek` (removed in the next release).
 
-* :func:`robust_minimum_time` — the shortest worst-case seek guaranteed on a plant set
-  under input, slew and §2.6 limits, as linear programs (:mod:`.feedforward`);
-* :mod:`servokit.robust.sweep` — seek-time distributions over 10^4-10^5 Monte-Carlo
-  plants in bounded memory, in-process or on Dask (``sweep_seek_times``, ``connect_dask``).
+``servokit.robust.robust_minimum_time`` and the other names still resolve, with a
+:class:`DeprecationWarning` naming the new home (SciPy's deprecated-namespace pattern);
+the old submodule paths ``servokit.robust.sweep``, ``servokit.robust.feedforward`` and
+``servokit.robust._matrices`` are aliases of their :mod:`servokit.seek` modules.
 """
 
-from servokit.robust.feedforward import (
-    NoFeasibleSeekError,
-    RobustFeedforwardInput,
-    robust_minimum_time,
-)
+import sys
+import warnings
+from typing import Any
 
+import servokit.seek._matrices
+import servokit.seek.robust
+import servokit.seek.sweep  # noqa: F401  (the modules the old paths alias)
+
+#: old submodule -> its module in servokit.seek
+_MODULES = {
+    "feedforward": "servokit.seek.robust",
+    "sweep": "servokit.seek.sweep",
+    "_matrices": "servokit.seek._matrices",
+}
+#: old name -> where it lives now
+_MOVED = {
+    "NoFeasibleSeekError": "servokit.seek.NoFeasibleSeekError",
+    "RobustFeedforwardInput": "servokit.seek.RobustFeedforwardInput",
+    "robust_minimum_time": "servokit.seek.robust_minimum_time",
+    **_MODULES,
+}
 __all__ = ["NoFeasibleSeekError", "RobustFeedforwardInput", "robust_minimum_time"]
+
+# `from servokit.robust.sweep import X` keeps working: the old module paths are aliases
+for _old, _new in _MODULES.items():
+    sys.modules[f"{__name__}.{_old}"] = sys.modules[_new]
+
+
+def __getattr__(name: str) -> Any:
+    if name not in _MOVED:
+        raise AttributeError(f"module {__name__!r} has no attribute {name!r}")
+    warnings.warn(
+        f"servokit.robust.{name} is deprecated and will be removed in the next release; "
+        f"use {_MOVED[name]}",
+        DeprecationWarning,
+        stacklevel=2,
+    )
+    if name in _MODULES:
+        return sys.modules[_MODULES[name]]
+    return getattr(sys.modules["servokit.seek"], name)
+
+
+def __dir__() -> list[str]:
+    return sorted(set(globals()) | set(_MOVED))

@@ -8,6 +8,7 @@
 * Shock response spectrum of held inputs (§4.4): :func:`shock_response_spectrum`.
 """
 
+from servokit.sampled.hdd_multirate import hdd_multirate, multirate_filter_4_68
 from servokit.sampled.multirate import Multirate, zoh_response
 from servokit.sampled.sensitivity import (
     SampledDataSensitivity,
@@ -43,6 +44,8 @@ from servokit.sampled.unobservable import (
 )
 
 __all__ = [
+    "hdd_multirate",
+    "multirate_filter_4_68",
     # sensitivity (§4.2)
     "Multirate",
     "SampledDataSensitivity",

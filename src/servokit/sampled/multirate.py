@@ -24,8 +24,8 @@ import control
 import numpy as np
 
 from servokit.errors import ServokitTypeError, ServokitValueError, check_positive
-from servokit.models.controllers import require_proper
 from servokit.models.modal import ModalPlant
+from servokit.models.tf import require_proper
 
 __all__ = ["Multirate", "zoh_response", "eval_discrete", "check_discrete"]
 

@@ -40,8 +40,8 @@ from servokit.errors import (
     check_finite,
     check_memory,
 )
-from servokit.models.controllers import require_proper
 from servokit.models.modal import ModalPlant
+from servokit.models.tf import require_proper
 from servokit.simulate._bank import PlantBank, as_plant_list
 from servokit.simulate._closed import Loop, run_closed
 from servokit.simulate._core import run_chunk

@@ -13,18 +13,56 @@ from typing import Protocol
 
 import numpy as np
 
-from servokit.errors import ServokitTypeError, ServokitValueError, check_finite
+from servokit.errors import ServokitTypeError, ServokitValueError, check_finite, check_positive
 from servokit.models.modal import ModalPlant
 from servokit.simulate.hybrid import simulate, simulate_metrics
 
 __all__ = [
+    "READOUT_SUBSTEPS",
     "HeldInput",
     "StepMetrics",
     "settling_time",
     "step_metrics",
     "seek_time",
     "seek_response",
+    "readout_substeps",
 ]
+
+
+#: read-out points per hold period: the benchmark reads the position on a Ts/10 grid (§2.4.1)
+READOUT_SUBSTEPS = 10
+
+
+def readout_substeps(dt: float, grid: float | None = None, *, dt_name: str = "dt") -> int:
+    """Read-out points per hold period: ``dt / grid``, default :data:`READOUT_SUBSTEPS`.
+
+    Parameters
+    ----------
+    dt : float
+        Hold period [s].
+    grid : float, optional
+        Read-out period of the position [s]; must divide ``dt``.  Default ``dt / 10``.
+    dt_name : str
+        Name of ``dt`` in the error message.
+
+    Returns
+    -------
+    int
+        The number of read-out points per hold period.
+
+    Raises
+    ------
+    ServokitValueError
+        If ``grid`` is not positive or does not divide ``dt`` a whole number of times.
+    """
+    if grid is None:
+        return READOUT_SUBSTEPS
+    S = int(round(dt / check_positive("grid", grid, "s")))
+    if S < 1 or abs(S * grid - dt) > 1e-9 * dt:
+        raise ServokitValueError(
+            f"grid ({grid:g} s) must divide {dt_name} ({dt:g} s) a whole number of times"
+        )
+    return S
 
 
 class HeldInput(Protocol):
@@ -125,12 +163,7 @@ def _seek_request(ff: HeldInput, grid: float | None, horizon: float | None) -> d
         )
     u = check_finite("ff.u", ff.u)
     dt = float(ff.dt)
-    grid = dt / 10 if grid is None else float(grid)
-    S = int(round(dt / grid))
-    if S < 1 or abs(S * grid - dt) > 1e-9 * dt:
-        raise ServokitValueError(
-            f"grid ({grid:g} s) must divide ff.dt ({dt:g} s) a whole number of times"
-        )
+    S = readout_substeps(dt, None if grid is None else float(grid), dt_name="ff.dt")
     duration = u.size * dt
     horizon = max(3 * duration, duration + 2e-3) if horizon is None else float(horizon)
     K = int(np.ceil(horizon / dt)) + 1

@@ -27,8 +27,13 @@ from servokit.errors import ServokitValueError, check_positive
 __all__ = ["pade_double_integrator", "fit_delay_ratio", "place_controller", "lead_lag", "notch"]
 
 
-def pade_double_integrator(dt: float, delay: float, gain: float = 1.0) -> control.StateSpace:
+def pade_double_integrator(
+    dt: float, delay: float, gain: float = 1.0, damping: float = 0.0
+) -> control.StateSpace:
     """ZOH discretisation of ``gain / s^2`` behind a first-order Padé delay.
+
+    With ``damping = b > 0`` the mechanics is ``gain / (s (s + b))`` (viscous friction or
+    a velocity loop: the rigid-body pole moves from 0 to -b).
 
     States ``[position, velocity, w]`` where ``w`` is the Padé state
     (``Td/2 w' = u - w``, delayed input ``2 w - u``): ``w = 0`` means no stored input.
@@ -41,6 +46,8 @@ def pade_double_integrator(dt: float, delay: float, gain: float = 1.0) -> contro
         Delay Td approximated by Padé [s] (> 0).
     gain : float
         Acceleration per unit input (e.g. [m/s^2/A]).
+    damping : float
+        Velocity damping ``b`` [1/s] of ``gain / (s (s + b))``; 0 is the double integrator.
 
     Returns
     -------
@@ -49,7 +56,7 @@ def pade_double_integrator(dt: float, delay: float, gain: float = 1.0) -> contro
     """
     dt = check_positive("dt", dt, "s")
     td = check_positive("delay", delay, "s")
-    a = np.array([[0.0, 1.0, 0.0], [0.0, 0.0, 2.0 * gain], [0.0, 0.0, -2.0 / td]])
+    a = np.array([[0.0, 1.0, 0.0], [0.0, -damping, 2.0 * gain], [0.0, 0.0, -2.0 / td]])
     b = np.array([[0.0], [-gain], [2.0 / td]])
     c = np.array([[1.0, 0.0, 0.0]])
     return control.c2d(control.ss(a, b, c, 0), dt, "zoh")

@@ -20,6 +20,7 @@ import numpy as np
 from servokit.errors import ServokitValueError, check_count, check_memory, check_positive
 from servokit.models.variations import VariationSet
 from servokit.simulate import seek_time
+from servokit.simulate.metrics import readout_substeps
 
 __all__ = [
     "SweepResult",
@@ -218,7 +219,7 @@ def plan_chunks(
         If the estimate exceeds ``max_memory_mb``.
     """
     dt = check_positive("ff.dt", ff.dt, "s")
-    S = 10 if grid is None else int(round(dt / check_positive("grid", grid, "s")))
+    S = readout_substeps(dt, grid)
     K = _record(_Held(np.asarray(ff.u), dt), horizon)
     per_plant = chunk_bytes(1, len(vset.nominal.modes), K, max(S, 1))
     limit = 2000.0 if max_memory_mb is None else float(max_memory_mb)

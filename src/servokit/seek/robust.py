@@ -8,7 +8,7 @@ For a step number ``N`` and a settle index ``s`` on the read-out grid ``t_j = j 
 the held samples ``u[0..N-1]`` are feasible when, for every plant ``v``:
 
 * ``|y_v[j] - target| <= band`` for ``s <= j <= J`` (the grid rows of eq. R1 of
-  :mod:`servokit.robust._matrices`; ``J`` is the horizon, ``tail`` after the delayed
+  :mod:`servokit.seek._matrices`; ``J`` is the horizon, ``tail`` after the delayed
   input ends);
 * the rigid body is at rest, ``sum_k u[k] = 0``, and the free motion after the horizon
   stays in the band by the modal envelope bound (R3) - the infinite tail is bounded,
@@ -41,8 +41,9 @@ import scipy.optimize
 from servokit.errors import ServokitValueError, check_finite, check_memory, check_positive
 from servokit.feedforward import FeedforwardInput, constraint_rows, lifted_model, solve_fsc_qp
 from servokit.models.modal import ModalPlant
-from servokit.robust._matrices import PulseBank
+from servokit.seek._matrices import PulseBank
 from servokit.simulate._bank import as_plant_list
+from servokit.simulate.metrics import readout_substeps
 
 __all__ = ["NoFeasibleSeekError", "RobustFeedforwardInput", "robust_minimum_time"]
 
@@ -380,9 +381,7 @@ def robust_minimum_time(
     dt, target, band, u_max, margin, tail = _check_args(dt, target, band, u_max, margin, horizon)
     if objective not in ("peak", "energy"):
         raise ServokitValueError(f"objective must be 'peak' or 'energy', got {objective!r}")
-    S = 10 if grid is None else int(round(dt / check_positive("grid", grid, "s")))
-    if S < 1 or (grid is not None and abs(S * grid - dt) > 1e-9 * dt):
-        raise ServokitValueError(f"grid ({grid} s) must divide dt ({dt} s) a whole number of times")
+    S = readout_substeps(dt, grid)
     if slew_max is not None:
         slew_max = check_positive("slew_max", slew_max)
     band_eff = band * (1.0 - margin)

@@ -1,11 +1,9 @@
-"""Running the cases for ``servokit reproduce --out DIR`` and writing the report files.
+"""Running the cases for ``servokit reproduce --out DIR``.
 
-:func:`run_cases` runs the selected cases one by one (timing each, advancing a progress
-callback) with every figure also saved as SVG; :func:`write_report` then writes
-``results.json`` and ``report.html`` atomically.  :func:`clear_report` removes the
-report files of an earlier run first: the figures are overwritten as the cases run, so
-an old page beside new figures would mix two runs, and a run killed half-way must
-leave no page a reader could take for a complete one.
+:func:`select_cases` picks the cases (from the explicit list of
+:mod:`servokit.cases.registry`, no case imported); :func:`run_cases` runs them one by one
+(timing each, advancing a progress callback) with every figure also saved as SVG;
+:func:`servokit.report.files.write_report` then renders the rows it is given.
 """
 
 from __future__ import annotations
@@ -13,13 +11,15 @@ from __future__ import annotations
 import time
 from collections.abc import Callable, Sequence
 from pathlib import Path
+from typing import TYPE_CHECKING
 
-from servokit.report import CaseResult
+from servokit.cases.registry import case_chapter, case_names, run_all
+from servokit.errors import ServokitValueError
 
-__all__ = ["REPORT_FILES", "clear_report", "run_cases", "select_cases", "write_report"]
+if TYPE_CHECKING:
+    from servokit.report import CaseResult
 
-#: The files ``write_report`` produces, in writing order (the page last).
-REPORT_FILES = ("results.json", "report.html")
+__all__ = ["run_cases", "select_cases"]
 
 
 def select_cases(names: Sequence[str] | None, chapters: Sequence[int] | None) -> list[str]:
@@ -37,10 +37,7 @@ def select_cases(names: Sequence[str] | None, chapters: Sequence[int] | None) ->
     list of str
         Case names; unknown names raise a ``ServokitValueError`` naming ``--case``.
     """
-    from servokit.cases import case_chapter, registry
-    from servokit.errors import ServokitValueError
-
-    known = list(registry())
+    known = case_names()
     chosen = list(names) if names else known
     unknown = [n for n in chosen if n not in known]
     if unknown:
@@ -85,7 +82,6 @@ def run_cases(
         Wall-clock seconds per case name.
     """
     from servokit._figures import also_save_as
-    from servokit.cases import run_all
 
     results: list[CaseResult] = []
     runtimes: dict[str, float] = {}
@@ -96,44 +92,3 @@ def run_cases(
             runtimes[name] = time.perf_counter() - start
             advance()
     return results, runtimes
-
-
-def clear_report(outdir: Path) -> None:
-    """Remove the report files of an earlier run from ``outdir`` (figures stay).
-
-    Parameters
-    ----------
-    outdir : Path
-        The report directory.
-    """
-    for name in reversed(REPORT_FILES):
-        (Path(outdir) / name).unlink(missing_ok=True)
-
-
-def write_report(
-    results: Sequence[CaseResult], outdir: Path, runtimes_s: dict[str, float] | None = None
-) -> tuple[Path, Path]:
-    """Write ``results.json`` and ``report.html`` into ``outdir``, each atomically.
-
-    Parameters
-    ----------
-    results : sequence of CaseResult
-        The cases that ran.
-    outdir : Path
-        Report directory (holds the figures).
-    runtimes_s : dict, optional
-        Runtime [s] per case name.
-
-    Returns
-    -------
-    tuple of Path
-        ``(results.json, report.html)``.
-    """
-    from servokit.report.html import render_html
-    from servokit.report.results import results_document, write_atomic, write_results
-
-    outdir = Path(outdir)
-    doc = results_document(results, outdir=outdir, runtimes_s=runtimes_s)
-    json_path = write_results(doc, outdir / REPORT_FILES[0])
-    html_path = write_atomic(outdir / REPORT_FILES[1], render_html(doc, outdir))
-    return json_path, html_path

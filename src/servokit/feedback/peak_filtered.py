@@ -1,0 +1,62 @@
+"""A controller with a phase-stable peak filter added at one frequency, (5.17)-(5.18).
+
+``C (1 + F)``: the peak filter ``F`` is placed by the discrete pseudo plant at its centre
+so that it deepens the sensitivity there by a chosen depth (used for the RRO/NRRO peaks
+of the HDD PES case, §6.2, and the ``servokit pes`` command).
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import control
+import numpy as np
+
+from servokit.errors import check_positive
+from servokit.feedback.filters import discretize_filter, peak_filter, peak_filter_phase
+
+__all__ = ["PeakFilterSpec", "peak_filtered_controller"]
+
+
+@dataclass(frozen=True)
+class PeakFilterSpec:
+    """Peak filter at ``freq_hz`` with damping ``damping`` and ``depth_db`` of extra
+    attenuation of the sensitivity at its centre."""
+
+    freq_hz: float
+    damping: float
+    depth_db: float
+
+
+def peak_filtered_controller(
+    controller: control.TransferFunction, plant_d: control.LTI, spec: PeakFilterSpec
+) -> control.TransferFunction:
+    """``C (1 + F)`` with F the phase-stable peak filter (5.17)-(5.18) of ``spec``.
+
+    The zero placement uses the discrete pseudo plant at ``freq_hz``; F is sampled by
+    Tustin prewarped at ``freq_hz``, so its response there is exact.
+
+    Parameters
+    ----------
+    controller : discrete TransferFunction
+        Baseline ``C(z)``.
+    plant_d : LTI
+        Plant discretised at the controller's ``dt``.
+    spec : PeakFilterSpec
+        Centre [Hz], damping and attenuation depth [dB].
+
+    Returns
+    -------
+    TransferFunction
+        ``C (1 + F)``.
+    """
+    f1 = check_positive("freq_hz", spec.freq_hz, "Hz")
+    zeta = check_positive("damping", spec.damping)
+    depth = check_positive("depth_db", spec.depth_db, "dB")
+    dt = float(controller.dt)
+    z1 = np.exp(2j * np.pi * f1 * dt)
+    loop = complex(controller(z1)) * complex(plant_d(z1))
+    sh = loop / (1.0 + loop)
+    gain = 2.0 * zeta * (10 ** (depth / 20) - 1.0) / abs(sh)
+    filt = peak_filter(f1, zeta, gain, peak_filter_phase(sh, "stable"))
+    return controller * (1 + discretize_filter(filt, dt, f1))

@@ -1,0 +1,95 @@
+"""Name-or-file lookups: a catalogue plant or book controller by name, else a TOML file.
+
+This module sits above :mod:`~servokit.models.catalogue`, :mod:`~servokit.models.controllers`
+and :mod:`~servokit.models.files`, which import none of it (the old circle
+catalogue -> files -> controllers -> catalogue is gone).
+"""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import control
+
+from servokit.errors import ServokitValueError
+from servokit.models.catalogue import CATALOGUE
+from servokit.models.controllers import CONTROLLERS
+from servokit.models.files import load_controller, load_plant
+from servokit.models.modal import ModalPlant
+
+__all__ = ["get_plant", "get_discrete_controller"]
+
+
+def get_plant(name_or_file: str | Path) -> ModalPlant:
+    """A catalogue plant by name (``hdd-benchmark``, ...) or a plant TOML file by path.
+
+    Parameters
+    ----------
+    name_or_file : str or Path
+        A key of :data:`CATALOGUE` (``"hdd-benchmark"``, ``"hdd-sampled-data"``,
+        ``"vcm-dual-stage"``, ``"pzt-active-suspension"``, ``"svm-head-plant"``,
+        ``"galvano-scanner"``), or the path of a plant file (a ``.toml`` name or an existing
+        file; :func:`~servokit.models.files.load_plant`).
+
+    Returns
+    -------
+    ModalPlant
+        A new copy of the catalogue plant, or the plant loaded from the file.
+
+    Raises
+    ------
+    ServokitValueError
+        If the name is neither a catalogue key nor a plant file; a file's own errors as
+        :class:`~servokit.models.files.PlantFileError`.
+    """
+    key = str(name_or_file)
+    if key in CATALOGUE:
+        return CATALOGUE[key]()
+    path = Path(key)
+    if path.suffix == ".toml" or path.exists():
+        return load_plant(path)
+    raise ServokitValueError(
+        f"unknown plant {key!r}: choose one of {', '.join(CATALOGUE)} or give a .toml plant file"
+    )
+
+
+def get_discrete_controller(name_or_file: str, dt: float | None = None) -> control.TransferFunction:
+    """A book controller by name (``eq-4.69``, ...) or a controller TOML file, checked discrete.
+
+    With ``dt`` given, the controller's sampling period must equal it.
+
+    Parameters
+    ----------
+    name_or_file : str
+        A key of ``CONTROLLERS`` (``"eq-4.69"``, ``"fig-4.57"``, ``"table-5.2"``; each at
+        its book sampling period) or the path of a controller TOML file
+        (:func:`~servokit.models.files.load_controller`).
+    dt : float, optional
+        Required sampling period [s] (matched to a relative 1e-9); not checked if omitted.
+
+    Returns
+    -------
+    control.TransferFunction
+        The discrete controller.
+
+    Raises
+    ------
+    ServokitValueError
+        If the controller is continuous or its period differs from ``dt``; a file's own
+        errors as :class:`~servokit.models.files.PlantFileError`.
+    """
+    if name_or_file in CONTROLLERS:
+        ctrl = CONTROLLERS[name_or_file]()
+    else:
+        ctrl = load_controller(name_or_file)
+    if ctrl.dt is None or ctrl.dt is True or not ctrl.dt:
+        raise ServokitValueError(
+            f"controller {name_or_file} is continuous; give a discrete one (a 'dt' field), "
+            f"or one of {', '.join(CONTROLLERS)}"
+        )
+    if dt is not None and abs(ctrl.dt - dt) > 1e-9 * dt:
+        raise ServokitValueError(
+            f"controller {name_or_file} has dt = {ctrl.dt:g} s; it must match the sampling "
+            f"period {dt:g} s"
+        )
+    return ctrl
