@@ -44,6 +44,16 @@ class LoopCase:
         k = complex(sys(z0)) / (np.prod(z0 - zz) / np.prod(z0 - p))
         return k * np.prod(z[:, None] - zz, axis=1) / np.prod(z[:, None] - p, axis=1)
 
+    def dense(self, f: np.ndarray) -> np.ndarray:
+        """python-control's dense solve per frequency (slow, exact even for clustered
+        poles, where the zpk product of :meth:`response` loses digits)."""
+        f = np.asarray(f, dtype=float)
+        if self.dt is None:
+            return self.response(f)
+        sys = control.ss(self.plant.discretize(self.dt)) * control.ss(self.ctrl)
+        z = np.exp(2j * np.pi * f * self.dt)
+        return np.array([complex(sys(x)) for x in z])
+
     def closed_loop_poles(self, pade_order: int = 10) -> np.ndarray:
         """Poles of 1/(1+L): exact for discrete loops, Padé for a continuous delay."""
         if self.dt is None:

@@ -234,3 +234,21 @@ def test_a_crossing_pair_beside_a_grid_point_exactly_on_0_db():
     assert len(m.gain_crossovers_hz) == 3
     assert m.gain_crossovers_hz[2] == pytest.approx(600.2157, abs=1e-3)
     assert abs(case.response(np.array([600.1]))[0]) > 1 > abs(case.response(np.array([600.3]))[0])
+
+
+def test_two_modes_at_one_frequency_discrete_split_form():
+    # found by the slow property test: two 1 kHz modes (zeta 1e-3 and 5.2e-4) give a pole
+    # cluster that the Sylvester split keeps in one triangular block; the crossings are
+    # exact on python-control's dense evaluation (a zpk product loses 2e-6 there)
+    from _margin_loops import LoopCase, lead
+
+    from servokit.models import ModalPlant
+
+    modes = (Mode(0, 0, 1), Mode(4907.5, 0.01, 0.5), Mode(1000, 1e-3, 1), Mode(1000, 5.233e-4, 1))
+    plant = ModalPlant(13433.318205545413, modes)
+    ctrl = control.sample_system(lead(100.0), 5e-5, method="tustin")
+    case = LoopCase(plant, lead(100.0), 5e-5, ctrl)
+    m = stability_margins(case.factors, fmin=1, fmax=1e4)
+    assert len(m.gain_crossovers_hz) == 3
+    assert np.abs(case.dense(np.array(m.gain_crossovers_hz))) == pytest.approx(1.0, rel=1e-9)
+    assert m.closed_loop_stable is not case.unstable()[0]
