@@ -48,7 +48,8 @@ def _check_against_brute_force(case: LoopCase) -> None:
     if ours180:
         l180 = case.dense(np.array(ours180))
         assert np.all(l180.real < 0)
-        assert np.all(np.abs(l180.imag / np.abs(l180)) < 1e-6)
+        # 1e-5: at a zeta = 1e-6 peak the phase turns by 1 rad per 1e-6 relative frequency
+        assert np.all(np.abs(l180.imag / np.abs(l180)) < 1e-5)
     unstable, distance = case.unstable()
     assume(distance > 1e-7)  # a closed-loop pole on the boundary has no robust verdict
     assert m.closed_loop_stable is (not unstable)

@@ -277,10 +277,34 @@ def find_crossings(
         hi2, g12 = np.where(left, hi_arr, x), np.where(left, g1, gx)
         x = np.where(gx == 0, x, _secant(lo2, hi2, g02, g12))
         gx = _rowwise(resp, x[:, None], w_arr, tests)[:, 0]
+        hard = np.abs(gx) > tol
+        if hard.any():  # a very sharp crossing (zeta ~ 1e-6): bisect to rounding
+            x[hard], gx[hard] = _bisect(
+                resp, tests, w_arr[hard], lo2[hard], hi2[hard], g02[hard], tol
+            )
         for r, e, i in zip(x, gx, w_arr, strict=True):
-            if abs(e) <= tol:
+            if abs(e) <= tol or np.isnan(e):
                 roots[i].append(float(r))
     return [sorted(set(r)) for r in roots]
+
+
+def _bisect(
+    resp: Response, tests: list[Test], which: np.ndarray, a: np.ndarray, b: np.ndarray,
+    ga: np.ndarray, tol: float,
+) -> tuple[np.ndarray, np.ndarray]:
+    """Bisect brackets with a verified sign change down to a few ulps. Returns the midpoint
+    and its value, or NaN as value when the bracket reached rounding with ``|g| > tol``
+    (a sign change verified on the exact response across adjacent doubles: a crossing)."""
+    a, b, ga = a.copy(), b.copy(), ga.copy()
+    for _ in range(60):
+        m = 0.5 * (a + b)
+        gm = _rowwise(resp, m[:, None], which, tests)[:, 0]
+        if np.all((np.abs(gm) <= tol) | (b - a <= 4e-16 * b)):
+            break
+        same = np.sign(gm) == np.sign(ga)
+        a, ga = np.where(same, m, a), np.where(same, gm, ga)
+        b = np.where(same, b, m)
+    return m, np.where(np.abs(gm) <= tol, gm, np.nan)
 
 
 def _secant(a: np.ndarray, b: np.ndarray, ga: np.ndarray, gb: np.ndarray) -> np.ndarray:
