@@ -149,6 +149,9 @@ def closed_loop(n_variants: int, n_baseline: int) -> dict:
     one = plants[:1]
     t1_sk = best_time(lambda: simulate(one, **kw), 20)
     t1_pc = best_time(lambda: pc(one), 20)
+    # the same loop with 4 sub-steps (output between the samples too; issue 24)
+    kw4 = {**kw, "substeps": 4}
+    t4_sk = best_time(lambda: simulate(one, **kw4), 20)
     return {
         "variants": n_variants,
         "samples": K,
@@ -159,5 +162,7 @@ def closed_loop(n_variants: int, n_baseline: int) -> dict:
         "single_plant_servokit_s": t1_sk,
         "single_plant_python_control_s": t1_pc,
         "single_plant_speedup": t1_pc / t1_sk,
+        "single_plant_4_substeps_servokit_s": t4_sk,
+        "single_plant_4_substeps_speedup": t1_pc / t4_sk,
         "max_abs_difference": diff,
     }

@@ -37,6 +37,8 @@ INV = ["filter", "inverse", "--zero-freq", "4449"]
 BODE = ["limits", "bode-integral", "--num", "0.5,0.1", "--den", "1,-0.5,0.1"]
 VAR = ["limits", "variance", "--num", "40000", "--den", "1,300,0", "--dist-num", "1"]
 XFF = ["export", "feedforward"]
+XC = ["export", "controller", "--controller", "eq-4.69"]
+XQ = [*XC, "--precision", "q15", "--u-max", "2"]
 MARG = ["margins", "--plant", "hdd-sampled-data", "--controller", "eq-4.69"]
 
 CASES: list[tuple[list[str], str]] = [
@@ -187,6 +189,7 @@ CASES: list[tuple[list[str], str]] = [
     (["reproduce", "--out", "u.txt"], "--out"),
     (["reproduce", "--out", "u.txt/sub"], "--out"),
     (["reproduce", "--case", "no-such", "--out", "fresh"], "--case"),
+    (["reproduce", "--svg=yes", "--out", "fresh"], "--svg"),
     # ---- feedforward: the flags the first rows leave out
     ([*POLY, "--n-samples", "abc", "--dt", "1e-4"], "--n-samples"),
     ([*POLY, "--n-samples", "40", "--dt", "-1e-4"], "--dt"),
@@ -503,6 +506,28 @@ CASES: list[tuple[list[str], str]] = [
     (["export", "controller", "--controller", "eq-4.69", "--out", "u.txt"], "--out"),
     (["export", "controller", "--controller", "eq-4.69", "--out", "RO/fw"], "--out"),
     (["export", "controller", "--controller", "eq-4.69", "--name", "x y"], "--name"),
+    # ---- export controller, fixed point (issue 26)
+    ([*XC, "--precision", "q40.1"], "--precision"),
+    ([*XC, "--precision", "q1.x"], "--precision"),
+    ([*XC, "--precision", "q0.0"], "--precision"),
+    ([*XC, "--precision", "q15"], "--u-max"),  # an integrator needs the output limit
+    ([*XC, "--precision", "q15", "--u-max", "nan"], "--u-max"),
+    ([*XC, "--precision", "q15", "--u-max", "-1"], "--u-max"),
+    ([*XC, "--precision", "q15", "--u-max", "0"], "--u-max"),
+    ([*XC, "--precision", "q15", "--u-max", "1e-9"], "--u-max"),  # coefficients overflow
+    ([*XQ, "--input-max", "0"], "--input-max"),
+    ([*XQ, "--input-max", "inf"], "--input-max"),
+    ([*XQ, "--rounding", "up"], "--rounding"),
+    ([*XQ, "--overflow", "clip"], "--overflow"),
+    ([*XQ, "--n-samples", "0"], "--n-samples"),
+    ([*XQ, "--n-samples", "abc"], "--n-samples"),
+    ([*XQ, "--realization", "df2"], "--realization"),
+    ([*XQ, "--out", "u.txt"], "--out"),
+    ([*XQ, "--name", "1x"], "--name"),
+    ([*XC, "--precision", "q3.12", "--u-max", "2", "--format", "json"], "--format"),
+    ([*XC, "--u-max", "2"], "--u-max"),  # float: no saturation to apply
+    ([*XC, "--rounding", "truncate"], "--rounding"),
+    ([*XC, "--precision", "q15", "--format", "csv", "--overflow", "wrap"], "--overflow"),
     (["export", "ivc", "--method", "foo"], "--method"),
     (["export", "ivc", "--method", "jmin", "--velocity-weight", "nan"], "--velocity-weight"),
     (["export", "ivc", "--method", "jmin", "--velocity-weight", "-1"], "--velocity-weight"),

@@ -62,7 +62,7 @@ def _run(*args: str) -> subprocess.CompletedProcess[str]:
 
 
 def test_reproduce_writes_report_json_svg(tmp_path: Path) -> None:
-    proc = _run("reproduce", "--case", "zz-fast", "--out", str(tmp_path), "--json")
+    proc = _run("reproduce", "--case", "zz-fast", "--out", str(tmp_path), "--json", "--svg")
     assert proc.returncode == 0, proc.stderr
     assert f"wrote {tmp_path / 'report.html'}" in proc.stderr
     names = {p.name for p in tmp_path.iterdir()}
@@ -106,7 +106,8 @@ def test_killed_run_leaves_no_report(tmp_path: Path) -> None:
     )  # fmt: skip
     try:
         deadline = time.monotonic() + 60
-        while not (tmp_path / "started").exists():
+        # the cases may run in parallel processes: wait for both to have got going
+        while not ((tmp_path / "started").exists() and (tmp_path / "zz_fast.png").exists()):
             assert time.monotonic() < deadline and proc.poll() is None
             time.sleep(0.05)
         proc.send_signal(signal.SIGKILL)

@@ -43,8 +43,13 @@ def figure_title(fig: Figure) -> str:
 def save_figure(fig: Figure, path: str | Path, *, dpi: int = 110) -> Path:
     """Lay out, save and close ``fig``; return ``path`` (closing keeps batch runs lean)."""
     import matplotlib.pyplot as plt
+    from matplotlib.layout_engine import PlaceHolderLayoutEngine
 
-    fig.tight_layout()
+    engine = fig.get_layout_engine()
+    # a figure with a layout engine of its own (constrained, tight) is laid out when it
+    # is drawn: a tight_layout pass here would be redundant
+    if engine is None or isinstance(engine, PlaceHolderLayoutEngine):
+        fig.tight_layout()
     title = figure_title(fig)
     targets = [Path(path)] + [
         Path(path).with_suffix(f".{fmt}")

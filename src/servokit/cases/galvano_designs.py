@@ -295,13 +295,11 @@ def _design_step(
         cons: list[object] = [CurrentLimit(_I_MAX), VelocityLimit(_V_MAX)]
         if limit is not None:
             cons.append(VoltageLimit(limit, motor=motor))
-        # qp="dense": the banded QP fails on every design of this case (the 8 us rigid
-        # body in SI units: PIQP primal infeasible / max iterations, Clarabel numerical
-        # error), which left every design on the dense QP after ~3 s of failed solves
+        # the default QP path: the scaled banded QP now solves these designs (issue 24),
+        # but with 200 band rows the dense QP is the faster one and is chosen
         return fsc_input(
-            plant, dt, n, target, input_weight=1.0, band_weights=bands, constraints=cons,
-            qp="dense",
-        )  # fmt: skip
+            plant, dt, n, target, input_weight=1.0, band_weights=bands, constraints=cons
+        )
 
     binding: list[str] = []
     for n in range(N, N + _N_SEARCH + 1):

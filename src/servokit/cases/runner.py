@@ -1,15 +1,17 @@
 """Running the cases for ``servokit reproduce --out DIR``.
 
 :func:`select_cases` picks the cases (from the explicit list of
-:mod:`servokit.cases.registry`, no case imported); :func:`run_cases` runs them one by one
-(timing each, advancing a progress callback) with every figure also saved as SVG;
+:mod:`servokit.cases.registry`, no case imported); :func:`run_cases` runs them (timing
+each, advancing a progress callback), in parallel processes when there are several
+cores (:func:`iter_cases`, issue 24), with every figure as PNG (and SVG on request);
 :func:`servokit.report.files.write_report` then renders the rows it is given.
 """
 
 from __future__ import annotations
 
+import os
 import time
-from collections.abc import Callable, Sequence
+from collections.abc import Callable, Iterator, Sequence
 from pathlib import Path
 from typing import TYPE_CHECKING
 
@@ -19,7 +21,7 @@ from servokit.errors import ServokitValueError
 if TYPE_CHECKING:
     from servokit.report import CaseResult
 
-__all__ = ["run_cases", "select_cases"]
+__all__ = ["default_workers", "iter_cases", "run_cases", "select_cases"]
 
 
 def select_cases(names: Sequence[str] | None, chapters: Sequence[int] | None) -> list[str]:
@@ -54,14 +56,50 @@ def select_cases(names: Sequence[str] | None, chapters: Sequence[int] | None) ->
     return chosen
 
 
-def run_cases(
-    outdir: Path,
-    names: Sequence[str],
-    *,
-    advance: Callable[[], object] = lambda: None,
-    svg: bool = True,
-) -> tuple[list[CaseResult], dict[str, float]]:
-    """Run ``names`` writing figures to ``outdir``; return the results and runtimes [s].
+def default_workers() -> int:
+    """Processes for the cases: the cores this process may use, at most 4.
+
+    Returns
+    -------
+    int
+        ``>= 1``.
+    """
+    try:
+        cores = len(os.sched_getaffinity(0))
+    except AttributeError:  # not on Linux
+        cores = os.cpu_count() or 1
+    return max(1, min(cores, 4))
+
+
+def _die_with_parent() -> None:
+    """Worker initialiser: end with the parent (a killed ``reproduce`` leaves no worker)."""
+    import ctypes
+    import signal
+
+    try:
+        ctypes.CDLL("libc.so.6").prctl(1, signal.SIGKILL)  # PR_SET_PDEATHSIG
+    except (OSError, AttributeError):  # not glibc: the worker ends after its case
+        pass
+
+
+def _run_one(outdir: Path, name: str, svg: bool) -> tuple[list[CaseResult], float]:
+    """One case with its figure formats (a worker process's job); results and seconds."""
+    from servokit._figures import also_save_as
+
+    start = time.perf_counter()
+    with also_save_as(*(("svg",) if svg else ())):
+        done = run_all(outdir, only=[name])
+    return done, time.perf_counter() - start
+
+
+def iter_cases(
+    outdir: Path, names: Sequence[str], *, svg: bool = False, workers: int | None = None
+) -> Iterator[tuple[str, list[CaseResult], float]]:
+    """Run ``names``, yielding ``(name, results, seconds)`` in ``names`` order.
+
+    With ``workers > 1`` the cases run in a pool of forked processes (each case writes
+    only its own figures, so they do not interfere); results come back in run order so
+    that ``results.json`` does not depend on which case finished first.
 
     Parameters
     ----------
@@ -69,10 +107,51 @@ def run_cases(
         Figure directory (created).
     names : sequence of str
         Registered case names, from :func:`select_cases`.
-    advance : callable, optional
-        Called after each case (a progress bar).
     svg : bool
         Also save every figure as SVG beside its PNG.
+    workers : int, optional
+        Processes; default :func:`default_workers`.  1 runs in this process.
+
+    Yields
+    ------
+    tuple of (str, list of CaseResult, float)
+        Case name, its results and its wall-clock seconds.
+    """
+    Path(outdir).mkdir(parents=True, exist_ok=True)
+    workers = default_workers() if workers is None else int(workers)
+    if workers <= 1 or len(names) <= 1:
+        for name in names:
+            yield (name, *_run_one(outdir, name, svg))
+        return
+    import multiprocessing
+    from concurrent.futures import ProcessPoolExecutor
+
+    # fork: the workers inherit the case registry (including cases registered at run time)
+    ctx = multiprocessing.get_context("fork")
+    with ProcessPoolExecutor(workers, mp_context=ctx, initializer=_die_with_parent) as pool:
+        futures = [pool.submit(_run_one, outdir, name, svg) for name in names]
+        for name, fut in zip(names, futures, strict=True):
+            yield (name, *fut.result())
+
+
+def run_cases(
+    outdir: Path,
+    names: Sequence[str],
+    *,
+    advance: Callable[[], object] = lambda: None,
+    svg: bool = False,
+    workers: int | None = 1,
+) -> tuple[list[CaseResult], dict[str, float]]:
+    """Run ``names`` writing figures to ``outdir``; return the results and runtimes [s].
+
+    Parameters
+    ----------
+    outdir, names, svg
+        As for :func:`iter_cases` (PNG only by default).
+    advance : callable, optional
+        Called after each case (a progress bar).
+    workers : int, optional
+        Processes (see :func:`iter_cases`); ``None``: one per core.
 
     Returns
     -------
@@ -81,14 +160,10 @@ def run_cases(
     runtimes : dict
         Wall-clock seconds per case name.
     """
-    from servokit._figures import also_save_as
-
     results: list[CaseResult] = []
     runtimes: dict[str, float] = {}
-    with also_save_as(*(("svg",) if svg else ())):
-        for name in names:
-            start = time.perf_counter()
-            results += run_all(outdir, only=[name])
-            runtimes[name] = time.perf_counter() - start
-            advance()
+    for name, done, seconds in iter_cases(outdir, names, svg=svg, workers=workers):
+        results += done
+        runtimes[name] = seconds
+        advance()
     return results, runtimes

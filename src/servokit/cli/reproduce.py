@@ -34,6 +34,7 @@ def reproduce(
     json_out: bool = typer.Option(
         False, "--json", help="print results.json on stdout (nothing else on stdout)"
     ),
+    svg: bool = typer.Option(False, "--svg", help="also save every figure as SVG"),
 ) -> None:
     """Reproduce the book's published numbers and figures; write report.html and results.json.
 
@@ -41,7 +42,7 @@ def reproduce(
     figures, notes), rows (case, chapter, source, quantity, unit, book, book_text, servokit,
     ratio, tolerance, within_tolerance, kind, note, bound) and summary (counts per chapter).
     """
-    from servokit.cases.runner import run_cases, select_cases
+    from servokit.cases.runner import iter_cases, select_cases
     from servokit.report.files import clear_report, write_report
 
     out = check_out_dir(out)
@@ -50,12 +51,13 @@ def reproduce(
     clear_report(out)
     results, runtimes = [], {}
     with progress(len(names), "reproducing") as advance:
-        for i, name in enumerate(names, start=1):
-            # one line per case as it starts (stderr: --json output stays clean)
-            typer.echo(f"[{i}/{len(names)}] {name} ...", err=True)
-            done, seconds = run_cases(out, [name])
+        # cases in parallel processes when there are cores; one line per case as it is
+        # collected, in run order (stderr: --json output stays clean)
+        cases = iter_cases(out, names, svg=svg)
+        for i, (name, done, seconds) in enumerate(cases, start=1):
+            typer.echo(f"[{i}/{len(names)}] {name} done ({seconds:.1f} s)", err=True)
             results += done
-            runtimes |= seconds
+            runtimes[name] = seconds
             advance()
     json_path, html_path = write_report(results, out, runtimes)
     wrote(json_path)

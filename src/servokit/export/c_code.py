@@ -38,10 +38,18 @@ def c_literal(value: float, fmt: str) -> str:
     -------
     str
         E.g. ``"1.2345678e-05f"`` for float.
+
+    Raises
+    ------
+    ServokitValueError
+        For a non-finite value or one that overflows ``float``: never written to C.
     """
+    too_big = fmt == "float" and abs(value) > float(np.finfo(np.float32).max)
+    if not np.isfinite(value) or too_big:
+        raise ServokitValueError(f"refusing to write the non-finite {fmt} value {value!r} to C")
     if fmt == "float":
         return np.format_float_scientific(np.float32(value), unique=True, trim="0") + "f"
-    return repr(float(value)).replace("inf", "INFINITY")
+    return repr(float(value))
 
 
 def _values_text(values: np.ndarray, fmt: str) -> str:

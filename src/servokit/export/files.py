@@ -7,13 +7,16 @@ import io
 import json
 from collections.abc import Sequence
 from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 from servokit.errors import ServokitValueError
 from servokit.export.c_code import c_files
 from servokit.export.tables import FORMATS, FirmwareTable, quantize
 
-__all__ = ["FILE_FORMATS", "tables_csv", "tables_json", "write_export"]
+if TYPE_CHECKING:
+    from servokit.export.fixed_point import FixedPointDesign
+
+__all__ = ["FILE_FORMATS", "tables_csv", "tables_json", "write_export", "write_fixed_export"]
 
 #: ``--format`` choices.
 FILE_FORMATS = ("c", "csv", "json")
@@ -154,4 +157,39 @@ def write_export(
         return [write_atomic(outdir / f"{module}.json", text + "\n")]
     return [
         write_atomic(outdir / f"{module}_{t.name}.csv", tables_csv(t, precision)) for t in tables
+    ]
+
+
+def write_fixed_export(
+    design: FixedPointDesign, outdir: Path, module: str, *, title: str = "", n_samples: int = 10_000
+) -> list[Path]:
+    """Write ``module.h`` and ``module.c`` of a fixed-point controller; return their paths.
+
+    Parameters
+    ----------
+    design : FixedPointDesign
+        From :func:`~servokit.export.fixed_point.design_fixed_point`.
+    outdir : Path
+        Existing or new directory.
+    module : str
+        File stem and C prefix.
+    title : str
+        A line describing the controller.
+    n_samples : int
+        Horizon of the error bound stated in the header.
+
+    Returns
+    -------
+    list of Path
+        The two files.
+    """
+    from servokit.export.fixed_c import fixed_c_files
+    from servokit.report.results import write_atomic
+
+    header, source = fixed_c_files(design, module, title=title, n_samples=n_samples)
+    outdir = Path(outdir)
+    outdir.mkdir(parents=True, exist_ok=True)
+    return [
+        write_atomic(outdir / f"{module}.h", header),
+        write_atomic(outdir / f"{module}.c", source),
     ]

@@ -233,27 +233,32 @@ def _final_state(plant: ModalPlant, target: float, n: int) -> np.ndarray:
     return xN
 
 
-def _cost_factor(
-    dt: float, N: int, bands: list[BandWeight], input_weight: float
-) -> np.ndarray | None:
-    """W with ``J_w = ||W U||^2``, eqs. (2.59)-(2.61) / (2.74): jerk term and band terms."""
-    rows = [np.sqrt(input_weight) * np.eye(N)]
+def _band_rows(dt: float, N: int, bands: list[BandWeight]) -> np.ndarray | None:
+    """Band rows ``W_b`` of the cost, eqs. (2.59)-(2.61) / (2.74), or None without bands."""
     freqs, weights = [], []
     for f_lo, f_hi, q, n_pts in bands:
         if q > 0:
             freqs.append(band_frequencies(f_lo, f_hi, n_pts))
             weights.append(np.full(n_pts, q))
-    if freqs:
-        f = np.concatenate(freqs)
-        E = held_spectrum_matrix(f, dt, N)
-        # Uc = Omega_w U (2.46)-(2.48): u_c[k] = sum_{i<k} u[i], a strictly lower cumulative sum.
-        E_u = np.cumsum(E[:, ::-1], axis=1)[:, ::-1]
-        E_u = np.concatenate([E_u[:, 1:], np.zeros((f.size, 1))], axis=1)
-        sq = np.sqrt(np.concatenate(weights))[:, None]
-        rows += [sq * E_u.real, sq * E_u.imag]
-    else:
+    if not freqs:
+        return None
+    f = np.concatenate(freqs)
+    E = held_spectrum_matrix(f, dt, N)
+    # Uc = Omega_w U (2.46)-(2.48): u_c[k] = sum_{i<k} u[i], a strictly lower cumulative sum.
+    E_u = np.cumsum(E[:, ::-1], axis=1)[:, ::-1]
+    E_u = np.concatenate([E_u[:, 1:], np.zeros((f.size, 1))], axis=1)
+    sq = np.sqrt(np.concatenate(weights))[:, None]
+    return np.vstack([sq * E_u.real, sq * E_u.imag])
+
+
+def _cost_factor(
+    dt: float, N: int, bands: list[BandWeight], input_weight: float
+) -> np.ndarray | None:
+    """W with ``J_w = ||W U||^2``, eqs. (2.59)-(2.61) / (2.74): jerk term and band terms."""
+    Wb = _band_rows(dt, N, bands)
+    if Wb is None:
         return None  # a scalar multiple of I does not change the minimiser
-    return np.vstack(rows)
+    return np.vstack([np.sqrt(input_weight) * np.eye(N), Wb])
 
 
 def fsc_input(
@@ -293,10 +298,11 @@ def fsc_input(
     input_weight : float, optional
         Weight rho of ``sum u[k]^2``; default ``1/N`` as in (2.74).  Use 1.0 for (2.44).
     qp : {"auto", "dense"}
-        Formulation of a constrained design: ``"auto"`` tries the banded sparse QP from
-        ``N >= 100`` steps and falls back to the dense QP when it fails; ``"dense"`` goes
-        straight to the dense QP (same result as ``"auto"`` on a problem the banded
-        solvers fail on, without the seconds they spend failing).
+        Formulation of a constrained design: ``"auto"`` tries the banded sparse QP when
+        :func:`~servokit.feedforward.sparse_qp.prefers_banded` expects it to be faster
+        (from ``N >= 200`` steps, few band rows) and falls back to the dense QP when it
+        fails; ``"dense"`` goes straight to the dense QP.  Both return the same optimum
+        (to ~1e-7 relative; bench/qp.py).
 
     Returns
     -------
@@ -339,12 +345,12 @@ def fsc_input(
         )
     x0 = np.zeros(n + 1)
     xN = _final_state(design_plant, target, n)
-    W = _cost_factor(dt, N, bands, rho)
     cons = list(constraints)
     if cons:
-        jerk = _constrained(A, B, N, x0, xN, W, dt, n, cons, banded=qp == "auto")
+        Wb = _band_rows(dt, N, bands)
+        jerk = _constrained(A, B, N, x0, xN, (rho, Wb), dt, n, cons, banded=qp == "auto")
     else:
-        jerk = final_state_control(A, B, N, x0, xN, Q_factor=W)
+        jerk = final_state_control(A, B, N, x0, xN, Q_factor=_cost_factor(dt, N, bands, rho))
     u_c = np.concatenate([[0.0], np.cumsum(jerk)[:-1]])
     desc = f"{'FFSC' if bands else 'FSC'} on {design_plant.name or 'plant'}, N={N}"
     return FeedforwardInput(u=u_c, dt=dt, target=target, jerk=jerk, design=desc)
@@ -356,16 +362,17 @@ def _constrained(
     N: int,
     x0: np.ndarray,
     xN: np.ndarray,
-    W: np.ndarray | None,
+    cost: tuple[float, np.ndarray | None],
     dt: float,
     n: int,
     constraints: list[Any],
     banded: bool = True,
 ) -> np.ndarray:
     """Constrained FSC as the QP of (2.64)-(2.72) solved by ``solve_fsc_qp`` (the banded
-    QP first from ``SPARSE_MIN_STEPS`` steps if ``banded``)."""
+    QP first if ``banded`` and it is expected to be faster); ``cost = (rho, W_b)`` gives
+    ``J = rho ||U||^2 + ||W_b U||^2``."""
     from servokit.feedforward.constraints import constraint_rows, solve_fsc_qp
-    from servokit.feedforward.sparse_qp import SPARSE_MIN_STEPS, sparse_constrained_fsc
+    from servokit.feedforward.sparse_qp import prefers_banded, sparse_constrained_fsc
 
     pos = np.zeros(n + 1)
     pos[0:n:2] = 1.0
@@ -373,16 +380,20 @@ def _constrained(
     vel[1:n:2] = 1.0
     input_row = np.zeros(n + 1)
     input_row[n] = 1.0
-    if banded and N >= SPARSE_MIN_STEPS:  # banded QP (issue 8); None: on to the dense path
+    rho, Wb = cost
+    # banded QP (issues 8, 24) when it should be faster; None: on to the dense path
+    if banded and prefers_banded(N, A.shape[0], 0 if Wb is None else Wb.shape[0]):
         U = sparse_constrained_fsc(
-            A, B, N, x0, xN, W, dt=dt, position=pos, velocity=vel, input_row=input_row,
-            constraints=constraints,
+            A, B, N, x0, xN, rho=rho, band_rows=Wb, dt=dt, position=pos, velocity=vel,
+            input_row=input_row, constraints=constraints,
         )  # fmt: skip
         if U is not None:
             return U
     lm = lifted_model(A, B, N, x0, dt=dt, position=pos, velocity=vel, input_row=input_row)
     G, h, groups = constraint_rows(constraints, lm)
-    P = np.eye(N) if W is None else W.T @ W
+    P = np.eye(N) if Wb is None else Wb.T @ Wb  # rho I + W_b^T W_b, never W^T W with I in W
+    if Wb is not None:
+        P[np.diag_indices(N)] += rho
     Sigma = lm.x_gain[N]
     X = xN - lm.x_offset[N]
     # Equilibrated equality rows (same solution set) keep the QP solver's tolerances meaningful.

@@ -13,14 +13,26 @@ matrix banded::
 
 with, for ``z[k] = Cz x[k] + a uc[k] + b (uc[k+1] - uc[k]) / dt`` and ``uc[k] = c_u x[k]``
 (the integrator state of the augmented model, ``uc[N] = 0``), ``d = Cz + (a - b/dt) c_u``
-and ``e = (b/dt) c_u`` (no ``e`` term at ``k = N-1``).  Dense frequency-shaping rows
-``W_b`` enter through auxiliary variables ``s = W_b U`` with cost ``||s||^2``, so the
-Hessian stays diagonal.  The sparse problem goes to Clarabel (or PIQP's sparse backend)
-through qpsolvers; the final state is then restored exactly by the minimum-norm
-correction ``U += Sigma^T (Sigma Sigma^T)^-1 (x_N - x[N](U))`` (``Sigma`` of (2.30)),
-which moves the inequalities by the solver's tolerance only.  The caller checks the
-result and falls back to the dense path (which names binding constraints of an
-infeasible problem) when the sparse solve fails.
+and ``e = (b/dt) c_u`` (no ``e`` term at ``k = N-1``).
+
+Dense frequency-shaping rows ``W_b`` are first compressed to their numerical rank
+(:func:`compress_band_rows`: 480 rows of the HDD Table 2.4 bands carry ~110 directions at
+N = 300) and enter through auxiliary variables ``s = R U`` with cost ``||s||^2``, so the
+Hessian stays diagonal.  When even the compressed rows would dominate the factorisation,
+:func:`prefers_banded` sends the problem to the dense QP instead.
+
+The problem is scaled before a solver sees it (issue 24): the HDD benchmark in SI units
+has inputs of ~1e-7 per step and an objective of ~1e-13, so the absolute tolerances of
+the solvers (1e-11 ... 1e-12) stopped them far from the optimum (a cost 80 % off).  With
+``U = s_u U~`` and ``x = diag(s_x) x~`` (scales of the minimum-norm input reaching the
+final state and of its states), every limit divided by its bound and the cost by
+``rho s_u^2``, all variables and rows are O(1).  The answer of Clarabel (or PIQP's sparse
+backend) is accepted only when its KKT residuals (primal, dual, duality gap) are below
+:data:`KKT_TOL`, iterations are capped, and the final state is then restored exactly by
+the minimum-norm correction ``U += Sigma^T (Sigma Sigma^T)^-1 (x_N - x[N](U))`` (``Sigma``
+of (2.30)), which moves the inequalities by the solver's tolerance only.  The caller
+checks the result and falls back to the dense path (which names binding constraints of
+an infeasible problem) when the sparse solve fails.
 """
 
 from __future__ import annotations
@@ -31,7 +43,13 @@ from collections.abc import Sequence
 import numpy as np
 import scipy.sparse as sp
 
-__all__ = ["SparseRow", "limit_violation", "solve_banded_fsc_qp"]
+__all__ = [
+    "SparseRow",
+    "compress_band_rows",
+    "limit_violation",
+    "prefers_banded",
+    "solve_banded_fsc_qp",
+]
 
 SparseRow = tuple[np.ndarray | None, float, float, float]  # (Cz, a, b, zmax)
 
@@ -70,21 +88,40 @@ def _limit_rows(rows: Sequence[SparseRow], input_row: np.ndarray, dt: float, N: 
     return sp.vstack(blocks, format="csc"), np.concatenate(hs)
 
 
+#: accepted KKT residuals of the scaled problem (states, inputs and limits all O(1))
+KKT_TOL = 1e-7
+
+
 def _solve(P, q, G, h, E, b, solver: str) -> np.ndarray | None:
+    """Solution of the scaled QP, or None unless its KKT residuals are all small.
+
+    The problem is scaled (module docstring), so relative tolerances apply and the
+    solver's answer is accepted only after checking primal and dual residuals and the
+    duality gap against :data:`KKT_TOL` (a solver's "found" alone is not trusted).
+    """
     from qpsolvers import Problem, solve_problem
 
     opts: dict[str, object]
     if solver == "clarabel":
-        opts = {"tol_gap_abs": 1e-12, "tol_gap_rel": 1e-12, "tol_feas": 1e-12}
+        opts = {"tol_gap_abs": 1e-10, "tol_gap_rel": 1e-10, "tol_feas": 1e-10,
+                "max_iter": 60}  # fmt: skip
     else:
-        opts = {"backend": "sparse", "eps_abs": 1e-11, "eps_rel": 1e-11}
+        opts = {"backend": "sparse", "eps_abs": 1e-10, "eps_rel": 1e-10, "max_iter": 60}
+    problem = Problem(P, q, G, h, E, b)
     with warnings.catch_warnings():
         warnings.simplefilter("ignore")
         try:
-            sol = solve_problem(Problem(P, q, G, h, E, b), solver=solver, **opts)
+            sol = solve_problem(problem, solver=solver, **opts)
         except Exception:  # noqa: BLE001 - a failing backend returns None to the caller
             return None
     if not sol.found or sol.x is None or not np.all(np.isfinite(sol.x)):
+        return None
+    cost = abs(float(sol.x @ (P @ sol.x)))
+    if (
+        sol.primal_residual() > KKT_TOL
+        or sol.dual_residual() > KKT_TOL * max(1.0, float(np.abs(P @ sol.x).max()))
+        or sol.duality_gap() > KKT_TOL * max(1.0, cost)
+    ):
         return None
     return np.asarray(sol.x, dtype=float)
 
@@ -146,6 +183,48 @@ def limit_violation(
     return worst
 
 
+def compress_band_rows(band_rows: np.ndarray | None, rho: float) -> np.ndarray:
+    """Rows ``R`` (r, N) with ``||R U||^2 = ||W_b U||^2`` up to ``1e-12 rho ||U||^2``.
+
+    The band rows of (2.74) are numerically low-rank (a narrow band of a length-N
+    sequence has few degrees of freedom): of the 480 rows of the HDD Table 2.4 bands at
+    N = 300 about 120 carry any weight.  A thin SVD keeps the directions whose squared
+    singular value exceeds ``1e-12 rho``; the discarded part of the cost is below
+    ``1e-12`` of the jerk term ``rho ||U||^2``, so it moves the minimiser by a relative
+    ``1e-12`` at most (the Hessian is ``>= rho I``).
+
+    Parameters
+    ----------
+    band_rows : numpy.ndarray or None
+        ``W_b`` (m, N): the frequency-shaping rows of the cost factor.
+    rho : float
+        Weight of ``||U||^2`` in the cost.
+
+    Returns
+    -------
+    numpy.ndarray
+        ``R`` (r, N), ``r <= min(m, N)``; ``(0, N)`` when there are no band rows.
+    """
+    if band_rows is None or band_rows.shape[0] == 0:
+        return np.zeros((0, 0 if band_rows is None else band_rows.shape[1]))
+    _, sv, vt = np.linalg.svd(band_rows, full_matrices=False)
+    keep = sv**2 > 1e-12 * rho
+    return sv[keep, None] * vt[keep]
+
+
+def _scales(A, B, x0, xN, Sigma):
+    """Input scale and per-state scales from the minimum-norm input reaching ``xN``."""
+    free = xN - _states(A, B, x0, np.zeros(Sigma.shape[1]))[-1]
+    row = np.linalg.norm(Sigma, axis=1)
+    row[row == 0] = 1.0
+    U_ref = np.linalg.lstsq(Sigma / row[:, None], free / row, rcond=None)[0]
+    xs = _states(A, B, x0, U_ref)
+    su = float(np.max(np.abs(U_ref), initial=0.0)) or 1.0
+    sx = np.max(np.abs(xs), axis=0)
+    floor = float(np.max(sx, initial=0.0)) or 1.0
+    return su, np.where(sx > 1e-9 * floor, sx, floor)
+
+
 def solve_banded_fsc_qp(
     A: np.ndarray,
     B: np.ndarray,
@@ -156,7 +235,8 @@ def solve_banded_fsc_qp(
     dt: float,
     input_row: np.ndarray,
     limits: Sequence[SparseRow],
-    W: np.ndarray | None = None,
+    rho: float = 1.0,
+    band_rows: np.ndarray | None = None,
     solver: str = "clarabel",
 ) -> np.ndarray | None:
     """The constrained FSC input ``U`` (N,) of the banded QP (module docstring), or None.
@@ -175,53 +255,81 @@ def solve_banded_fsc_qp(
         Row giving the held plant input ``uc[k] = input_row @ x[k]``.
     limits : sequence of (Cz or None, a, b, zmax)
         ``|Cz x[k] + a uc[k] + b (uc[k+1] - uc[k]) / dt| <= zmax``.
-    W : ndarray, optional
-        Cost factor ``J = ||W U||^2``; rows ``sqrt(rho) I`` first (as built by the FFSC
-        design), any further rows become auxiliary variables.  ``None``: ``J = ||U||^2``.
+    rho : float
+        Weight of ``||U||^2`` (2.74).
+    band_rows : ndarray (m, N), optional
+        Frequency-shaping rows ``W_b``: the cost is ``rho ||U||^2 + ||W_b U||^2``; they
+        are compressed by :func:`compress_band_rows` before they enter the QP.
     solver : {"clarabel", "piqp"}
 
     Returns
     -------
-    ndarray (N,) or None when the solver fails (infeasible or numerical trouble).
+    ndarray (N,) or None when the solver fails (infeasible, numerical trouble, or an
+    answer whose KKT residuals are not small).
     """
     n = A.shape[0]
-    rho, Wb = 1.0, np.zeros((0, N))
-    if W is not None:
-        rho = float(W[0, 0] ** 2)
-        Wb = W[N:]
-    n_aux = Wb.shape[0]
-    E, rhs = _dynamics(A, B, N, x0, n_aux)
-    # final state and the auxiliary rows s - W_b U = 0
+    Sigma = _reachability(A, B, N)
+    su, sx = _scales(A, B, x0, xN, Sigma)
+    # scaled model: x = sx * xt, U = su * Ut; limits divided by zmax; cost by rho su^2
+    As, Bs = A * sx[None, :] / sx[:, None], np.asarray(B, dtype=float).reshape(-1) * su / sx
+    x0s, xNs = x0 / sx, xN / sx
+    rows = [(None if Cz is None else np.asarray(Cz) * sx / zm, a / zm, b / zm, 1.0)
+            for Cz, a, b, zm in limits]  # fmt: skip
+    R = compress_band_rows(band_rows, rho) / np.sqrt(rho)
+    n_aux = R.shape[0]
+    E, rhs = _dynamics(As, Bs, N, x0s, n_aux)
     sel = sp.hstack([sp.csc_matrix((n, N + (N - 1) * n)), sp.identity(n),
                      sp.csc_matrix((n, n_aux))], format="csc")  # fmt: skip
-    eq = [E, sel]
-    b = [rhs, np.asarray(xN, dtype=float)]
-    if n_aux:
-        eq.append(sp.hstack([sp.csc_matrix(-Wb), sp.csc_matrix((n_aux, N * n)),
+    eq, b = [E, sel], [rhs, xNs]
+    if n_aux:  # auxiliary rows s - R U = 0 keep the Hessian diagonal
+        eq.append(sp.hstack([sp.csc_matrix(-R), sp.csc_matrix((n_aux, N * n)),
                              sp.identity(n_aux)], format="csc"))  # fmt: skip
         b.append(np.zeros(n_aux))
-    Aeq = sp.vstack(eq, format="csc")
-    beq = np.concatenate(b)
-    diag = np.r_[np.full(N, rho), np.zeros(N * n), np.ones(n_aux)]
-    P = sp.diags(diag, format="csc")
-    G, h = _limit_rows(limits, np.asarray(input_row, dtype=float), dt, N, x0, n_aux)
-    v = _solve(P, np.zeros(diag.size), G, h, Aeq, beq, solver)
+    diag = np.r_[np.ones(N), np.zeros(N * n), np.ones(n_aux)]
+    G, h = _limit_rows(rows, np.asarray(input_row, dtype=float) * sx, dt, N, x0s, n_aux)
+    v = _solve(sp.diags(diag, format="csc"), np.zeros(diag.size), G, h,
+               sp.vstack(eq, format="csc"), np.concatenate(b), solver)  # fmt: skip
     if v is None:
         return None
-    U = v[:N]
+    U = su * v[:N]
     # exact final state: minimum-norm correction of the n final-state rows, equilibrated
     # (the Gram matrix Sigma Sigma^T of a fast-sampled rigid body is too ill-conditioned)
-    Sigma = _reachability(A, B, N)
     resid = xN - _states(A, B, x0, U)[-1]
     scale = np.linalg.norm(Sigma, axis=1)
     scale[scale == 0] = 1.0
-    U = U + np.linalg.lstsq(Sigma / scale[:, None], resid / scale, rcond=None)[0]
-    return U
+    return U + np.linalg.lstsq(Sigma / scale[:, None], resid / scale, rcond=None)[0]
 
 
-#: from this many steps on the constrained FSC tries the banded QP first (at N = 200 it
-#: is already 10x faster than the dense path; below ~100 both take milliseconds)
-SPARSE_MIN_STEPS = 100
+#: from this many steps on the constrained FSC tries the banded QP first (measured by
+#: bench/qp.py: at N = 100 the dense path is as fast, at N = 300 it is 6x slower)
+SPARSE_MIN_STEPS = 200
+
+
+def prefers_banded(N: int, n_states: int, n_band_rows: int) -> bool:
+    """Whether the banded QP is expected to beat the dense one (module docstring).
+
+    The dense interior-point iteration costs ``~N^3``; the banded one ``~N n (n + r)^2``
+    once the ``r <= min(m, N)`` band rows fill the factor.  The factor 8 is measured:
+    with the HDD Table 2.4 bands (m = 480 rows, n = 15) the banded QP lost at every
+    N = 100 ... 1000 (0.2-3 s vs 0.02-2.5 s), so such problems go to the dense path.
+
+    Parameters
+    ----------
+    N : int
+        Steps.
+    n_states : int
+        States of the design model.
+    n_band_rows : int
+        Frequency-shaping rows ``m`` of the cost (0 without bands).
+
+    Returns
+    -------
+    bool
+    """
+    if N < SPARSE_MIN_STEPS:
+        return False
+    r = min(n_band_rows, N)
+    return r == 0 or 8 * n_states * (n_states + r) ** 2 <= N**2
 
 
 def limits_of(
@@ -252,8 +360,9 @@ def sparse_constrained_fsc(
     N: int,
     x0: np.ndarray,
     xN: np.ndarray,
-    W: np.ndarray | None,
     *,
+    rho: float,
+    band_rows: np.ndarray | None,
     dt: float,
     position: np.ndarray,
     velocity: np.ndarray,
@@ -261,15 +370,35 @@ def sparse_constrained_fsc(
     constraints: Sequence[object],
     rtol: float = 1e-9,
 ) -> np.ndarray | None:
-    """The banded QP with checks: ``U`` meeting the limits (1e-6) and the final state
-    (``rtol``), or None (unsupported constraint, solver failure, infeasible)."""
+    """The banded QP with checks, or None (unsupported constraint, solver failure,
+    infeasible, an answer missing the limits (1e-6) or the final state (``rtol``)).
+
+    Parameters
+    ----------
+    A, B, N, x0, xN, rho, band_rows, dt, input_row
+        As for :func:`solve_banded_fsc_qp`.
+    position, velocity : numpy.ndarray
+        State rows of the output position and velocity (for the constraint objects).
+    constraints : sequence
+        Constraint objects of :mod:`servokit.feedforward.constraints`.
+    rtol : float
+        Accepted relative error of the final state.
+
+    Returns
+    -------
+    numpy.ndarray or None
+        ``U`` (N,), or None when the dense path must decide.
+    """
     limits = limits_of(constraints, position, velocity)
     if limits is None:
         return None
-    for solver in ("piqp", "clarabel"):
+    # Clarabel first: its sparse LDL copes with the (compressed) band rows; PIQP's sparse
+    # backend is the second opinion
+    for solver in ("clarabel", "piqp"):
         U = solve_banded_fsc_qp(
-            A, B, N, x0, xN, dt=dt, input_row=input_row, limits=limits, W=W, solver=solver
-        )
+            A, B, N, x0, xN, dt=dt, input_row=input_row, limits=limits, rho=rho,
+            band_rows=band_rows, solver=solver,
+        )  # fmt: skip
         if U is None:
             continue
         xs_end = _states(A, B, x0, U)[-1]

@@ -127,11 +127,19 @@ def vcm_controller_table_5_2(dt: float = VCM_PES_TS) -> control.TransferFunction
     return zpk(zeros, poles, 0.1365, dt)
 
 
-#: Book controllers by command-line name (all discrete, at their book sampling period).
+def _hdd_benchmark_controller() -> control.TransferFunction:
+    from servokit.models.benchmark_controller import benchmark_controller
+
+    return benchmark_controller()
+
+
+#: Book controllers by command-line name (all discrete, at their book sampling period),
+#: and servokit's baseline tracking controller of the HDD benchmark (PI + lead + notches).
 CONTROLLERS = {
     "eq-4.69": controller_eq_4_69,
     "fig-4.57": controller_fig_4_57,
     "table-5.2": vcm_controller_table_5_2,
+    "hdd-benchmark": _hdd_benchmark_controller,
 }
 
 

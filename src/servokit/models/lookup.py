@@ -61,8 +61,8 @@ def get_discrete_controller(name_or_file: str, dt: float | None = None) -> contr
     Parameters
     ----------
     name_or_file : str
-        A key of ``CONTROLLERS`` (``"eq-4.69"``, ``"fig-4.57"``, ``"table-5.2"``; each at
-        its book sampling period) or the path of a controller TOML file
+        A key of ``CONTROLLERS`` (``"eq-4.69"``, ``"fig-4.57"``, ``"table-5.2"``,
+        ``"hdd-benchmark"``; each at its book sampling period) or the path of a controller TOML file
         (:func:`~servokit.models.files.load_controller`).
     dt : float, optional
         Required sampling period [s] (matched to a relative 1e-9); not checked if omitted.

@@ -71,7 +71,8 @@ def bode_plot(
         ax_m.plot([], [], color="gray", lw=0.8, label=f"{len(plist) - 1} variants")
     ax_m.legend(loc="best", fontsize=8)
     ax_m.set_title(title or ("Bode plot: " + (plist[0].name or "plant")))
-    fig.tight_layout()
-    if path is not None:
+    if path is not None:  # save_figure lays the figure out once
         save_figure(fig, path, dpi=120)
+    else:
+        fig.tight_layout()
     return fig

@@ -499,7 +499,8 @@ def unobservable_plot(
     ax.set_title(title)
     ax.grid(True, which="both", alpha=0.3)
     ax.legend()
-    fig.tight_layout()
-    if path is not None:
+    if path is not None:  # save_figure lays the figure out once
         save_figure(fig, path)
+    else:
+        fig.tight_layout()
     return fig

@@ -18,9 +18,9 @@ from typing import Any
 import numpy as np
 
 from servokit.errors import ServokitValueError, check_count, check_memory, check_positive
+from servokit.models.variation_arrays import modal_arrays_from_draws
 from servokit.models.variations import VariationSet
-from servokit.simulate import seek_time
-from servokit.simulate.metrics import readout_substeps
+from servokit.simulate.metrics import readout_substeps, seek_time_of_arrays
 
 __all__ = [
     "SweepResult",
@@ -128,9 +128,15 @@ def _chunk_seek_times(
     grid: float | None,
     horizon: float | None,
 ) -> np.ndarray:
-    """Seek times of the plants of one chunk (runs in-process or on a Dask worker)."""
-    plants = vset.from_draws(draws, gains)
-    return seek_time(plants, ff, target, band=band, grid=grid, horizon=horizon)
+    """Seek times of the plants of one chunk (runs in-process or on a Dask worker).
+
+    Draws go straight to modal arrays (no plant objects, issue 24); the numbers are
+    those of ``seek_time(vset.from_draws(draws, gains), ...)``.
+    """
+    modal = modal_arrays_from_draws(vset, draws, gains)
+    return seek_time_of_arrays(
+        modal, vset.nominal.delay, ff, target, band=band, grid=grid, horizon=horizon
+    )
 
 
 def connect_dask(scheduler: str | None = None, workers: int | None = None) -> Any:
@@ -257,6 +263,7 @@ def sweep_seek_times(
     max_memory_mb: float | None = None,
     client: Any = None,
     progress: Callable[[int], None] | None = None,
+    threads: int = 1,
 ) -> SweepResult:
     """Seek time of ``ff`` on ``n`` Monte-Carlo plants of ``vset``, chunk by chunk.
 
@@ -283,6 +290,9 @@ def sweep_seek_times(
         Run the chunks on Dask (see :func:`connect_dask`); default in-process.
     progress : callable, optional
         Called with the number of plants of each finished chunk.
+    threads : int
+        In-process: chunks simulated at the same time by threads (numpy releases the
+        GIL in the kernel's array operations); one chunk per thread in memory.
 
     Returns
     -------
@@ -291,7 +301,8 @@ def sweep_seek_times(
     n = check_count("n", n, lo=1)
     band = check_positive("band", band)
     held = _Held(np.asarray(ff.u, dtype=float), check_positive("ff.dt", ff.dt, "s"))
-    n_workers = 1 if client is None else max(1, len(client.scheduler_info()["workers"]))
+    threads = check_count("threads", threads, lo=1, hi=256)
+    n_workers = threads if client is None else max(1, len(client.scheduler_info()["workers"]))
     chunk_size, per_plant = plan_chunks(
         vset,
         held,
@@ -307,9 +318,7 @@ def sweep_seek_times(
     times = np.empty(n)
     tick = progress or (lambda k: None)
     if client is None:
-        for sl in _chunks(n, chunk_size):
-            times[sl] = _chunk_seek_times(vset, draws[sl], gains[sl], *args)
-            tick(sl.stop - sl.start)
+        _run_local(vset, draws, gains, args, chunk_size, times, tick, threads)
         backend = "numpy"
     else:
         _run_dask(client, vset, draws, gains, args, chunk_size, times, tick)
@@ -318,6 +327,32 @@ def sweep_seek_times(
     return SweepResult(
         times, draws[worst], gains[worst], chunk_size, chunk_size * per_plant / 1e6, backend
     )
+
+
+def _run_local(
+    vset: VariationSet, draws: np.ndarray, gains: np.ndarray, args: tuple, chunk_size: int,
+    out: np.ndarray, tick: Callable[[int], None], threads: int,
+) -> None:  # fmt: skip
+    """The chunks in this process, ``threads`` at a time; fill ``out`` in order."""
+    slices = list(_chunks(draws.shape[0], chunk_size))
+
+    def one(sl: slice) -> np.ndarray:
+        return _chunk_seek_times(vset, draws[sl], gains[sl], *args)
+
+    if threads == 1:
+        results: Iterator[np.ndarray] = map(one, slices)
+    else:
+        from concurrent.futures import ThreadPoolExecutor
+
+        pool = ThreadPoolExecutor(threads)
+        results = pool.map(one, slices)  # in order; at most `threads` chunks live
+    try:
+        for sl, res in zip(slices, results, strict=True):
+            out[sl] = res
+            tick(sl.stop - sl.start)
+    finally:
+        if threads > 1:
+            pool.shutdown(cancel_futures=True)
 
 
 def _run_dask(

@@ -14,12 +14,19 @@ Everything is built in closed form per 2x2 modal block
 modes instead of a matrix exponential per block (30x faster for 1000 HDD variants,
 same values to 1e-15 relative).  The powers ``Phi^i`` are elementwise products of the
 one-step matrices (rounding ``i eps``).
+
+The model at a multiple ``dt = S h`` of the fine step (the sample-rate plant the
+controller sees) is not discretised again: over one period the held input enters through
+the block maps ``Phi^(S-1-s) G`` of the fine model, and grouping them by the sample they
+read gives the sample-rate ``Gnew``/``Gold`` with ``Phi^S`` as transition (exact: the sum
+of the sub-interval integrals; rounding ``S eps``).  One discretisation per plant and
+rate (issue 24: ``modal_delayed_zoh`` at both rates was 44 % of a one-plant loop).
 """
 
 from __future__ import annotations
 
 from collections.abc import Sequence
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 
 import numpy as np
 
@@ -74,13 +81,23 @@ class PlantBank:
     Gold: np.ndarray  # (V, M, 2)
     dd: int  # whole fine steps of delay
     h: float
+    # transition rows and block maps per sub-step count, shared by discrete() and the
+    # simulation kernel (read-only arrays)
+    _cache: dict = field(default_factory=dict, compare=False, repr=False)
 
     @classmethod
     def build(cls, plants: Sequence[ModalPlant], h: float) -> PlantBank:
-        w, z, r, real = modal_arrays(plants)
-        delay = plants[0].delay
-        Phi, Gnew, Gold, dd = modal_delayed_zoh(w, z, r, h, delay)
-        return cls(w, z, r, real, delay, Phi, Gnew, Gold, dd, h)
+        return cls.from_arrays(*modal_arrays(plants), plants[0].delay, h)
+
+    @classmethod
+    def from_arrays(
+        cls, w: np.ndarray, zeta: np.ndarray, r: np.ndarray, real: np.ndarray, delay: float,
+        h: float,
+    ) -> PlantBank:  # fmt: skip
+        """The bank of modal arrays (V, M) directly, e.g. from
+        :func:`servokit.models.variation_arrays.modal_arrays_from_draws`."""
+        Phi, Gnew, Gold, dd = modal_delayed_zoh(w, zeta, r, h, delay)
+        return cls(w, zeta, r, real, delay, Phi, Gnew, Gold, dd, h)
 
     @property
     def shape(self) -> tuple[int, int]:
@@ -93,8 +110,11 @@ class PlantBank:
         mode and step; a closed form at every ``t = i h`` costs three transcendental
         calls each, 10x more); the rounding grows as ``i eps``, below 1e-13 for
         hundreds of sub-steps.  Time-major so that every step and the block maps built
-        from them are contiguous.
+        from them are contiguous.  Computed once per ``S`` (cached; do not modify).
         """
+        key = ("rows", S)
+        if key in self._cache:
+            return self._cache[key]
         V, M = self.shape
         f00, f01, f10, f11 = (self.Phi[..., i, j] for i in range(2) for j in range(2))
         out = np.empty((4, S + 1, V, M))
@@ -105,7 +125,47 @@ class PlantBank:
             out[1, i + 1] = a * f01 + b * f11
             out[2, i + 1] = c * f00 + d * f10
             out[3, i + 1] = c * f01 + d * f11
+        self._cache[key] = out
         return out
+
+    def block_maps(self, S: int) -> np.ndarray:
+        """``B2`` (2S, V, 2M): effect of each delayed input of a period on the end state.
+
+        ``B2[s] = Phi^(S-1-s) Gnew`` for the new inputs (``s < S``), ``Phi^(2S-1-s) Gold``
+        for the old ones, written with the entries of ``Phi^i`` (:meth:`transition_rows`).
+        Input-major, so that a shared input drives all variants with one GEMM.  Cached.
+        """
+        key = ("maps", S)
+        if key in self._cache:
+            return self._cache[key]
+        V, M = self.shape
+        rows = self.transition_rows(S)
+        p00, p01, p10, p11 = rows[:, S - 1 :: -1] if S > 1 else rows[:, :1]
+        out = np.empty((2, S, V, M, 2))
+        for n, G in enumerate((self.Gnew, self.Gold)):
+            g0, g1 = G[..., 0], G[..., 1]
+            out[n, ..., 0] = p00 * g0 + p01 * g1
+            out[n, ..., 1] = p10 * g0 + p11 * g1
+        self._cache[key] = out = out.reshape(2 * S, V, 2 * M)
+        return out
+
+    def _period_model(self, S: int) -> tuple[np.ndarray, np.ndarray, np.ndarray, int]:
+        """``(Phi, Gnew, Gold, d)`` at ``dt = S h`` from the fine model (module docstring).
+
+        Fine input ``j`` is sample ``j // S``; in period ``k`` the new input of sub-step
+        ``s`` is fine input ``kS + s - dd``, i.e. sample ``k - ceil((dd - s) / S)``, the
+        old one sample ``k - ceil((dd + 1 - s) / S)``: lags ``d = dd // S`` or ``d + 1``.
+        """
+        V, M = self.shape
+        rows = self.transition_rows(S)
+        Phi = rows[:, S].transpose(1, 2, 0).reshape(V, M, 2, 2)
+        maps = self.block_maps(S).reshape(2, S, V, M, 2)
+        s = np.arange(S)
+        lags = np.stack([-((s - self.dd) // S), -((s - self.dd - 1) // S)])  # ceil
+        d = self.dd // S
+        Gnew = maps[lags == d].sum(axis=0)
+        Gold = maps[lags == d + 1].sum(axis=0)
+        return Phi, Gnew, Gold, d
 
     def discrete(self, dt: float) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         """Stacked exact ZOH models at ``dt`` with delay states, like ``ModalPlant.discretize``.
@@ -115,8 +175,11 @@ class PlantBank:
         ``Phi = 0`` so that they add only poles at ``z = 0``.
         """
         V, M = self.shape
+        S = round(dt / self.h)
         if dt == self.h:  # a sample-rate bank (substeps=1): already discretised
             Phi, Gnew, Gold, d = self.Phi, self.Gnew, self.Gold, self.dd
+        elif S >= 1 and abs(S * self.h - dt) <= 1e-12 * dt:  # a multiple: from the fine maps
+            Phi, Gnew, Gold, d = self._period_model(S)
         else:
             Phi, Gnew, Gold, d = modal_delayed_zoh(self.w, self.zeta, self.r, dt, self.delay)
         Phi = np.where(self.real[..., None, None], Phi, 0.0)

@@ -27,23 +27,6 @@ __all__ = ["run_chunk"]
 StateSpace = tuple[np.ndarray, np.ndarray, np.ndarray, float]
 
 
-def _block_maps(rows: np.ndarray, bank: PlantBank, S: int) -> np.ndarray:
-    """``B2`` (2S, V, 2M): effect of each delayed input of a period on the end state.
-
-    ``B2[s] = Phi^(S-1-s) Gnew`` for the new inputs (``s < S``), ``Phi^(2S-1-s) Gold``
-    for the old ones, written with the entries of ``Phi^i`` (:meth:`transition_rows`).
-    Input-major, so that a shared input drives all variants with one GEMM.
-    """
-    V, M = bank.shape
-    p00, p01, p10, p11 = rows[:, S - 1 :: -1] if S > 1 else rows[:, :1]
-    out = np.empty((2, S, V, M, 2))
-    for n, G in enumerate((bank.Gnew, bank.Gold)):
-        g0, g1 = G[..., 0], G[..., 1]
-        out[n, ..., 0] = p00 * g0 + p01 * g1
-        out[n, ..., 1] = p10 * g0 + p11 * g1
-    return out.reshape(2 * S, V, 2 * M)
-
-
 def _windows(ubuf: np.ndarray, S: int, lo: int, hi: int) -> np.ndarray:
     """Delayed inputs of periods lo..hi-1 as (Vu, hi-lo, 2S): new then old."""
     Vu = ubuf.shape[0]
@@ -71,8 +54,9 @@ def _forced_output(H2: np.ndarray, W: np.ndarray, S: int) -> np.ndarray:
     idx = np.arange(S)
     n = W.shape[1]
     Wp = np.concatenate([np.zeros((W.shape[0], n, 1)), W], axis=2)  # leading zero pad
-    if W.shape[0] == 1:
+    if W.shape[0] == 1 and V > 1:
         # shared input: its per-period Toeplitz Wt[l, k, i] = w[k, i-1-l] is built once
+        # (for one variant the (2S, S) Toeplitz of its impulse response below is smaller)
         lag = np.clip(idx[None, :] - idx[:, None], 0, None)  # [l, i] -> i - l (0 = pad)
         Wt_new = Wp[0][:, lag].transpose(1, 0, 2)  # (S, n, S)
         Wt_old = Wp[0][:, S + lag].transpose(1, 0, 2)
@@ -104,7 +88,7 @@ def run_chunk(
     V, M = bank.shape
     Nt = K * S
     rows = bank.transition_rows(S)  # entries of Phi^i, (4, S+1, V, M)
-    B2 = _block_maps(rows, bank, S)  # (2S, V, 2M)
+    B2 = bank.block_maps(S)  # (2S, V, 2M)
     Vu = u_open.shape[0]
     # u_j sits at ubuf[:, j + dd + 1]; the plant sees u[j-dd] (new) and u[j-dd-1] (old)
     # (the feedback of a closed loop arrives here as a per-variant input, see _closed)

@@ -244,3 +244,47 @@ def seek_time(
         max_memory_mb=max_memory_mb,
         **_seek_request(ff, grid, horizon),
     )
+
+
+def seek_time_of_arrays(
+    modal: tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray],
+    delay: float,
+    ff: HeldInput,
+    target: float,
+    band: float = 0.1,
+    grid: float | None = None,
+    horizon: float | None = None,
+) -> np.ndarray:
+    """:func:`seek_time` of plants given as modal arrays, in one chunk (issue 24).
+
+    The sweep path: no plant objects, the bank built from the arrays; the same kernel,
+    record and read-out as :func:`seek_time`, so the same numbers.
+
+    Parameters
+    ----------
+    modal : tuple of numpy.ndarray
+        ``(w [rad/s], zeta, r, real)``, each (V, M), e.g. from
+        :func:`servokit.models.variation_arrays.modal_arrays_from_draws`.
+    delay : float
+        Input delay shared by the plants [s].
+    ff, target, band, grid, horizon
+        As for :func:`seek_time`.
+
+    Returns
+    -------
+    numpy.ndarray (V,)
+        Seek time per plant [s] (``inf`` if not settled within the record).
+    """
+    from servokit.simulate._bank import PlantBank
+    from servokit.simulate._core import run_chunk
+
+    req = _seek_request(ff, grid, horizon)
+    dt, K, S, u = req["dt"], req["n_samples"], req["substeps"], req["feedforward"]
+    h, Nt = dt / S, K * S
+    u_open = np.zeros((1, Nt))
+    fine = np.repeat(u, S)[:Nt]
+    u_open[0, : fine.size] = fine
+    bank = PlantBank.from_arrays(*modal, float(delay), h)
+    with np.errstate(over="ignore", invalid="ignore"):
+        y, _ = run_chunk(bank, S, K, u_open)
+    return settling_time(h * np.arange(Nt), y, float(target), float(band))

@@ -187,6 +187,10 @@ def _radii(A: np.ndarray) -> np.ndarray:
     return np.abs(np.linalg.eigvals(A)).max(axis=-1)
 
 
+#: up to this many loops the spectral radii are computed directly (no squaring pass)
+_DIRECT_MAX = 4
+
+
 def unstable(A: np.ndarray, margin: float = 1e-10) -> tuple[np.ndarray, np.ndarray]:
     """Variants of the stack ``A`` (V, N, N) with spectral radius ``>= 1 - margin``.
 
@@ -213,6 +217,10 @@ def unstable(A: np.ndarray, margin: float = 1e-10) -> tuple[np.ndarray, np.ndarr
         return np.zeros(0, dtype=int), np.zeros(0)
     todo = np.arange(V)
     X = A
+    if V <= _DIRECT_MAX:  # a few loops: their eigenvalues cost less than the squarings
+        rho = _radii(A)
+        bad = rho >= 1.0 - margin
+        return todo[bad], rho[bad]
     with np.errstate(over="ignore", invalid="ignore"):
         for j in range(_SQUARINGS):
             if j >= _UNCHECKED:  # norms of the first powers rarely certify anything

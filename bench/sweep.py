@@ -1,0 +1,91 @@
+"""Seek-time sweeps of the HDD benchmark (Table 2.3 ranges, Design 2, 10 tracks): draws
+straight to arrays (issue 24), 10^5 and 10^6 variants in chunks, in-process.
+
+Per size: wall seconds with 2 threads and the share of the time spent outside the
+simulation kernel ``run_chunk`` (draws, arrays, plant bank, settling-time read-out); at
+10^5 also 1 thread and the plant-object path it replaced (``seek_time(vset.from_draws(...))``
+per chunk, same numbers required).
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import time
+
+import numpy as np
+
+from servokit.cases.hdd_seek import DESIGNS
+from servokit.models import hdd_benchmark, hdd_benchmark_variation_set
+from servokit.seek import sweep as sweep_mod
+from servokit.simulate import _core, seek_time
+
+
+def _timed_kernel() -> tuple[list[float], object]:
+    """Patch ``run_chunk`` to add up its wall time; returns (accumulator, original)."""
+    spent = [0.0]
+    original = _core.run_chunk
+
+    def timed(*a, **k):
+        t0 = time.perf_counter()
+        out = original(*a, **k)
+        spent[0] += time.perf_counter() - t0
+        return out
+
+    _core.run_chunk = timed
+    return spent, original
+
+
+def _plant_path(vset, ff, n: int, seed: int, chunk: int) -> np.ndarray:
+    draws, gains = vset.draw(n, seed)
+    out = np.empty(n)
+    for lo in range(0, n, chunk):
+        sl = slice(lo, min(n, lo + chunk))
+        out[sl] = seek_time(vset.from_draws(draws[sl], gains[sl]), ff, 10.0, band=0.1)
+    return out
+
+
+def _run(vset, ff, n: int, threads: int) -> tuple[object, float, float]:
+    """One sweep: (result, wall seconds, kernel seconds summed over threads, CPU seconds
+    of the process: on a shared machine the CPU time is the steadier figure)."""
+    spent, original = _timed_kernel()
+    try:
+        t0, c0 = time.perf_counter(), time.process_time()
+        res = sweep_mod.sweep_seek_times(vset, ff, 10.0, n=n, seed=2026, threads=threads)
+        wall, cpu = time.perf_counter() - t0, time.process_time() - c0
+    finally:
+        _core.run_chunk = original
+    return res, wall, spent[0], cpu
+
+
+def sweeps(sizes: tuple[int, ...] = (100_000, 1_000_000), baseline_max: int = 100_000) -> dict:
+    """Sweep seconds per size (2 threads; up to ``baseline_max`` also 1 thread and the
+    replaced plant-object path), and the share of the time spent outside the kernel."""
+    vset = dataclasses.replace(hdd_benchmark_variation_set(), gain=(0.0, 0.0))
+    ff = DESIGNS[3].design(hdd_benchmark().replace(delay=0.0))
+    out: dict = {}
+    for n in sizes:
+        key = f"n{n:.0e}".replace("+0", "")
+        res, wall, kernel, cpu = _run(vset, ff, n, 2)
+        out[f"{key}_2_threads_s"] = wall
+        out[f"{key}_2_threads_cpu_s"] = cpu
+        out[f"{key}_2_threads_share_outside_simulation"] = 1.0 - kernel / (2 * wall)
+        out[f"{key}_chunk_size"] = res.chunk_size
+        if n <= baseline_max:
+            res1, wall1, kernel1, cpu1 = _run(vset, ff, n, 1)
+            assert np.array_equal(res.seek_times, res1.seek_times)
+            out[f"{key}_s"] = wall1
+            out[f"{key}_cpu_s"] = cpu1
+            out[f"{key}_share_outside_simulation"] = 1.0 - kernel1 / wall1
+            t0 = time.perf_counter()
+            ref = _plant_path(vset, ff, n, 2026, res1.chunk_size)
+            out[f"{key}_plant_object_path_s"] = time.perf_counter() - t0
+            out[f"{key}_same_numbers"] = bool(np.array_equal(ref, res.seek_times))
+    return out
+
+
+if __name__ == "__main__":
+    import sys
+
+    sizes = tuple(int(float(a)) for a in sys.argv[1:]) or (100_000,)
+    for k, v in sweeps(sizes).items():
+        print(f"  {k:45s} {v:.4g}" if isinstance(v, float) else f"  {k:45s} {v}", flush=True)
