@@ -31,6 +31,7 @@ test-all: $(STAMP)
 bench: $(STAMP)
 	MPLBACKEND=Agg $(BIN)/python bench/run.py
 	MPLBACKEND=Agg $(BIN)/python bench/robust_seek.py
+	MPLBACKEND=Agg $(BIN)/python bench/fit_modal.py
 
 lint: $(STAMP)
 	$(BIN)/ruff check src tests bench

@@ -127,6 +127,30 @@ CASES: list[tuple[list[str], str]] = [
     (["seek", "--settle-band", "0"], "--settle-band"),
     (["seek", "--settle-band", "-1"], "--settle-band"),
     (["seek", "--plant", "no-such"], "--plant"),
+    # ---- report
+    (["report", "--plant", "hdd-benchmark"], "--frf"),
+    (["report", "--plant", "no-such", "--seek", "BAD.json"], "--plant"),
+    (["report", "--plant", "hdd-benchmark", "--seek", "BAD.json"], "--seek"),
+    (["report", "--plant", "hdd-benchmark", "--seek", "missing.json"], "--seek"),
+    (["report", "--plant", "hdd-benchmark", "--seek", "BAD.json", "--out", "r.png"], "--out"),
+    (["report", "--plant", "hdd-benchmark", "--seek", "BAD.json", "--out", "DIR"], "--out"),
+    (["report", "--plant", "hdd-benchmark", "--seek", "BAD.json", "--out", "RO/r.html"], "--out"),
+    (["report", "--plant", "hdd-benchmark", "--seek", "BAD.json", "--out", "no/r.html"], "--out"),
+    (["report", "--plant", "hdd-benchmark", "--seek", "BAD.json", "--n-plants", "0"], "--n-plants"),
+    (["report", "--plant", "hdd-benchmark", "--frf", "missing.csv"], "missing.csv"),
+    (["report", "--plant", "hdd-benchmark", "--controller", "no-such"], "--controller"),
+    (["seek", "--method", "robust", "--u-max", "1", "--variations", "missing.toml"], "missing"),
+    (["seek", "--method", "robust", "--u-max", "1", "--variations", "GARBAGE.toml"], "GARBAGE"),
+    (["seek", "--method", "robust", "--u-max", "1", "--variations", "DIR"], "DIR"),
+    (["seek", "--method", "fsc", "--variations", "GARBAGE.toml"], "--variations"),
+    (
+        ["seek", "--method", "robust", "--variations", "GARBAGE.toml", "--n-validation", "0"],
+        "--n-validation",
+    ),
+    (
+        ["seek", "--method", "robust", "--variations", "GARBAGE.toml", "--n-validation", HUGE],
+        "--n-validation",
+    ),
     (["seek", "--plant", "galvano-scanner"], "--dt"),
     (["seek", "--plot", "noext"], "--plot"),
     # ---- sensitivity
@@ -557,6 +581,44 @@ CASES: list[tuple[list[str], str]] = [
     ([*XFF, "--n-samples", "abc"], "--n-samples"),
     (["export", "table", "--input", "u.txt", "--precision", "q7"], "--precision"),
     (["export", "table", "--input", "u.txt", "--out", "u.txt/sub"], "--out"),
+    # ---- fit
+    (["fit", "missing.csv", "--out", "o"], "FRF_FILE"),
+    (["fit", "DIR", "--out", "o"], "FRF_FILE"),
+    (["fit", "EMPTY.txt", "--out", "o"], "FRF_FILE"),
+    (["fit", "", "--out", "o"], "FRF_FILE"),
+    (["fit", "BADFRF.csv", "--out", "o"], "FRF_FILE"),
+    (["fit", "NAN.csv", "--out", "o"], "FRF_FILE"),
+    (["fit", "GARBAGE.toml", "--out", "o"], "FRF_FILE"),
+    (["fit", "FRF.csv"], "--out"),
+    (["fit", "FRF.csv", "--out", "u.txt"], "--out"),
+    (["fit", "FRF.csv", "--out", "RO/sub"], "--out"),
+    (["fit", "FRF.csv", "--out", "o", "--modes", "-1"], "--modes"),
+    (["fit", "FRF.csv", "--out", "o", "--modes", "abc"], "--modes"),
+    (["fit", "FRF.csv", "--out", "o", "--modes", "1.5"], "--modes"),
+    (["fit", "FRF.csv", "--out", "o", "--modes", "9"], "--modes"),
+    (["fit", "FRF.csv", "--out", "o", "--band", "5"], "--band"),
+    (["fit", "FRF.csv", "--out", "o", "--band", "100:10"], "--band"),
+    (["fit", "FRF.csv", "--out", "o", "--band", "a:b"], "--band"),
+    (["fit", "FRF.csv", "--out", "o", "--band", "nan:100"], "--band"),
+    (["fit", "FRF.csv", "--out", "o", "--band", "1:11"], "--band"),
+    (["fit", "FRF.csv", "--out", "o", "--plot", "noext"], "--plot"),
+    (["fit", "FRF.csv", "--out", "o", "--plot", "DIR"], "--plot"),
+    # ---- --variations (simulate, sweep)
+    ([*SIM, "--step", "1", "--variations", "missing.toml"], "--variations"),
+    ([*SIM, "--step", "1", "--variations", "DIR"], "--variations"),
+    ([*SIM, "--step", "1", "--variations", "GARBAGE.toml"], "--variations"),
+    ([*SIM, "--step", "1", "--variations", "EMPTY.txt"], "--variations"),
+    ([*SIM, "--step", "1", "--variations", "BADVAR.toml"], "--variations"),
+    ([*SIM, "--step", "1", "--variations", "VAR.toml", "--variants"], "--variations"),
+    (["seek", "--variations", "missing.toml"], "--variations"),
+    (["seek", "--variations", "BADVAR.toml"], "--variations"),
+    (["seek", "--method", "fsc", "--n-samples", "12", "--u-max", "0"], "--u-max"),
+    (["seek", "--method", "fsc", "--n-samples", "12", "--u-max", "nan"], "--u-max"),
+    (["seek", "--method", "fsc", "--n-samples", "12", "--u-max", "1e-6"], "--u-max"),
+    (["sweep", "--variations", "missing.toml"], "--variations"),
+    (["sweep", "--variations", "DIR"], "--variations"),
+    (["sweep", "--variations", "VAR.toml"], "--variations"),
+    (["sweep", "--variations", "BADVAR.toml", "--n-variants", "5"], "--variations"),
 ]
 
 # Known failures: row id ("settle train --c 0") -> reason; none at present. Strict xfail: a
@@ -584,6 +646,17 @@ def _materialise(args: list[str], where: Path, monkeypatch: pytest.MonkeyPatch) 
     (where / "u.txt").write_text("1e-3\n-1e-3\n")
     (where / "BAD.json").write_text('{"input": "not numbers", "dt_s": "x"}\n')
     (where / "NAN.csv").write_text("1,nan\n2,3\n")
+    f = [10.0 * 1.05**k for k in range(150)]
+    (where / "FRF.csv").write_text(
+        "freq_hz,re,im\n" + "".join(f"{x!r},{-1 / (6.2832 * x) ** 2!r},1e-9\n" for x in f)
+    )
+    (where / "BADFRF.csv").write_text("freq_hz,re,im\n10,1,2\n20,x,3\n")
+    (where / "VAR.toml").write_text(
+        'kind = "variations"\nplant = "galvano-scanner"\ngain_rel = 0.1\n'
+    )
+    (where / "BADVAR.toml").write_text(
+        'kind = "variations"\nplant = "hdd-benchmark"\n[[modes]]\nfreq_hz = 3333\nfreq_rel = 0.1\n'
+    )
     ro = where / "RO"
     ro.mkdir(exist_ok=True)
     ro.chmod(0o500)

@@ -92,3 +92,40 @@ def test_bad_input_one_line_exit_2(
     err = capsys.readouterr().err
     assert exc.value.code == 2
     assert err.count("\n") == 1 and err.startswith("servokit: error:") and flag in err
+
+
+@pytest.mark.slow
+def test_variations_reports_the_validated_worst(tmp_path):
+    """``--variations``: seek_time_s is the validated worst, checked against the plain
+    simulator on the validation sample and on a dense grid over the 2-D box."""
+    from servokit.feedforward import FeedforwardInput
+    from servokit.models import read_variations
+    from servokit.simulate import seek_time
+
+    save_plant(
+        ModalPlant(gain=4e6, modes=(Mode(0, 0, 1.0), Mode(2000, 0.02, -0.3)), name="small"),
+        tmp_path / "small.toml",
+    )
+    box = tmp_path / "box.toml"
+    box.write_text(
+        'kind = "variations"\nplant = "small.toml"\nseed = 3\n'
+        "[[modes]]\nfreq_hz = 2000\nfreq_rel = 0.08\ndamping_rel = 0.5\n"
+    )
+    args = ["--variations", str(box), "--dt", "1e-4", "--target", "1", "--settle-band", "0.01"]
+    args += ["--u-max", "1", "--n-validation", "300", "--margin", "0", "--json"]
+    res = _seek(*args)
+    assert res.exit_code == 0, res.output
+    data = json.loads(res.stdout)
+    assert data["n_validation"] == 300 and data["converged"]
+    vset = read_variations(box)
+    ff = FeedforwardInput(
+        u=np.array(data["input"]), dt=1e-4, target=1.0, jerk=np.zeros(data["n_samples"])
+    )
+    mc = seek_time(vset.monte_carlo(300, seed=4), ff, 1.0, band=0.01)
+    np.testing.assert_allclose(data["seek_times_s"], mc)
+    g = np.linspace(-1, 1, 31)
+    rel = np.array([(0.08 * a, 0.5 * b) for a in g for b in g])
+    grid = seek_time(vset.from_draws(rel, np.zeros(len(rel))), ff, 1.0, band=0.01).max()
+    assert data["seek_time_s"] >= mc.max()
+    assert abs(data["seek_time_s"] - max(grid, mc.max())) <= 1e-5 + 1e-12
+    assert data["seek_time_s"] <= data["guaranteed_seek_time_s"] + 1e-5 + 1e-12

@@ -203,7 +203,9 @@ def _smaller(argv: list[str]) -> list[str]:
 @pytest.mark.slow
 @pytest.mark.parametrize("script", [s for _, s in SCRIPTS], ids=[str(b) for b, _ in SCRIPTS])
 def test_readme_commands_run(script: list[tuple[int, list[str]]], tmp_path: Path) -> None:
-    """The lines of one shell block, in order, in one directory."""
+    """The lines of one shell block, in order, in one directory (the repository's
+    examples/ linked into it, so that the pages' paths read as from the repository root)."""
+    (tmp_path / "examples").symlink_to(ROOT / "examples")
     for n, words in script:
         if words[0] == "echo":
             argv, target = _split_redirect(words)

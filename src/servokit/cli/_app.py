@@ -27,7 +27,7 @@ from servokit.errors import ServokitError
 #: commands not named here follow alphabetically.
 COMMAND_ORDER = (
     # models and simulation, then the book's chapters 2-6, then output
-    "plant", "simulate",
+    "plant", "fit", "simulate",
     "feedforward", "seek", "sweep",
     "switching",
     "sensitivity", "unobservable", "srs", "identify",
@@ -84,6 +84,15 @@ DurationOpt = Annotated[float, typer.Option("--duration", help="simulated time [
 SettleBandOpt = Annotated[
     float,
     typer.Option("--settle-band", help="settling band half-width around the target [output unit]"),
+]
+VariationsOpt = Annotated[
+    Path | None,
+    typer.Option(
+        "--variations",
+        help='variation file (TOML, kind = "variations"): the plant set; its nominal is '
+        "the file's plant, else --plant",
+        metavar="FILE",
+    ),
 ]
 PlantOpt = Annotated[
     str, typer.Option("--plant", help="catalogue name or .toml plant file", metavar="NAME_OR_TOML")
@@ -192,6 +201,34 @@ def load_controller(value: str, dt: float | None = None, flag: str = "--controll
 
     with flag_names({}, prefix=f"{flag}: "):
         return get_discrete_controller(value, dt)
+
+
+#: Most corner plants a command builds from ``--variations`` (3^7: seven ranges, 3 levels).
+MAX_CORNERS = 2187
+
+
+def variation_corners(vset: Any, flag: str = "--variations") -> list:
+    """Every corner of a variation set (nominal first), refused above :data:`MAX_CORNERS`."""
+    from servokit.errors import ServokitValueError
+
+    if vset.n_corners > MAX_CORNERS:
+        raise ServokitValueError(
+            f"{flag}: {vset.n_corners} corner plants, above {MAX_CORNERS}; give fewer ranges "
+            "(or use servokit sweep for Monte-Carlo sets)"
+        )
+    return [p.replace(name=f"{vset.name} corner {i}") for i, p in enumerate(vset.corners())]
+
+
+def load_variations(value: Path | str, fallback: Any = None, flag: str = "--variations") -> Any:
+    """A variation file named on the command line (:func:`~servokit.models.read_variations`);
+    ``fallback`` is the nominal plant when the file names none.  Errors name ``flag``."""
+    from servokit.errors import check_input_file
+
+    path = check_input_file(value, flag)
+    from servokit.models import read_variations
+
+    with flag_names({}, prefix=f"{flag} "):
+        return read_variations(path, fallback=fallback)
 
 
 @contextmanager

@@ -6,6 +6,7 @@ The ``seek`` command forwards ``--method robust`` here; the design is
 
 from __future__ import annotations
 
+import dataclasses
 import time
 from dataclasses import dataclass
 from pathlib import Path
@@ -17,17 +18,19 @@ from servokit.cli._app import console, emit_json, plot_target, wrote
 from servokit.errors import ServokitValueError, check_positive
 
 if TYPE_CHECKING:
-    from servokit.models import ModalPlant
-    from servokit.seek import RobustFeedforwardInput
+    from servokit.models import ModalPlant, VariationSet
+    from servokit.seek import RobustFeedforwardInput, ValidatedSeek
 
-__all__ = ["RobustSeekRequest", "robust_seek"]
+__all__ = ["RobustSeekRequest", "box_variations", "robust_seek"]
 
 #: JSON keys of ``servokit seek --method robust --json`` (documented in its help)
 JSON_KEYS = (
     "plant, method, target, n_samples, dt_s, u_max, peak_input, settle_band, design_band, "
     "margin, seek_time_s (simulated worst case), guaranteed_seek_time_s (LP), worst_plant, "
     "binding_plant, n_plants, seek_times_s, design_time_s, n_lp, input, n_search "
-    "{n_samples, guaranteed_seek_time_s}, plot"
+    "{n_samples, guaranteed_seek_time_s}, plot; with --variations: seek_time_s (validated "
+    "worst inside the box), guaranteed_seek_time_s (design set), n_validation, n_adversarial, "
+    "n_design, converged, rounds, worst_source, seek_times_s (validation sample)"
 )
 
 
@@ -48,9 +51,40 @@ class RobustSeekRequest:
     objective: str
     plot: Path | None
     json_out: bool
+    variations: VariationSet | None = None
+    n_validation: int = 2000
 
 
-def _design(req: RobustSeekRequest) -> RobustFeedforwardInput:
+def box_variations(vset: VariationSet | None, delay: bool) -> VariationSet | None:
+    """The ``--variations`` box, its nominal without delay under ``--no-delay``."""
+    if vset is None or delay:
+        return vset
+    return dataclasses.replace(vset, nominal=vset.nominal.replace(delay=0.0))
+
+
+def _box_design(req: RobustSeekRequest) -> ValidatedSeek:
+    """The design validated over the ``--variations`` box (issue 22 item 4)."""
+    from servokit.seek import robust_seek_over_box
+
+    assert req.variations is not None and req.u_max is not None
+    kw = {} if req.n_steps is None else {"N": req.n_steps}
+    return robust_seek_over_box(
+        req.variations,
+        req.dt,
+        req.target,
+        band=req.settle_band,
+        u_max=req.u_max,
+        n_validation=req.n_validation,
+        margin=req.margin,
+        N_max=req.n_max,
+        slew_max=req.slew_max,
+        objective=req.objective,
+        progress=None if req.json_out else console.print,
+        **kw,
+    )
+
+
+def _design(req: RobustSeekRequest) -> RobustFeedforwardInput | ValidatedSeek:
     from servokit.seek import NoFeasibleSeekError, SeekRequest, design_seek
 
     if req.u_max is None:
@@ -66,6 +100,8 @@ def _design(req: RobustSeekRequest) -> RobustFeedforwardInput:
     if req.objective not in ("peak", "energy"):
         raise ServokitValueError(f"--objective must be 'peak' or 'energy', got {req.objective!r}")
     try:
+        if req.variations is not None:
+            return _box_design(req)
         request = SeekRequest(
             req.plants,
             req.dt,
@@ -103,6 +139,10 @@ def robust_seek(req: RobustSeekRequest) -> None:
     t0 = time.perf_counter()
     ff = _design(req)
     design_time = time.perf_counter() - t0
+    from servokit.seek import ValidatedSeek
+
+    if isinstance(ff, ValidatedSeek):
+        return _report_box(req, ff, design_time, plot)
     # a record far beyond the input and its guarantee (the tail bound holds after it too)
     horizon = max(20 * ff.duration, ff.duration + 0.02)
     out = simulate_seek(req.plants, ff, req.target, band=req.settle_band, horizon=horizon)
@@ -150,4 +190,67 @@ def robust_seek(req: RobustSeekRequest) -> None:
         f"{out.worst * 1e3:.6g} ms simulated ({data['worst_plant']}, {len(req.plants)} "
         f"plant(s); LP guarantee {ff.guaranteed_seek_time * 1e3:.6g} ms within "
         f"+-{ff.band:g}), peak input {data['peak_input']:.4g}, designed in {design_time:.2f} s"
+    )
+
+
+def _report_box(
+    req: RobustSeekRequest, res: ValidatedSeek, design_time: float, plot: Path | None
+) -> None:
+    """Print or emit the design validated over the ``--variations`` box."""
+    from servokit.cli._app import warn
+    from servokit.seek import seek_plot, simulate_seek
+
+    assert req.variations is not None
+    ff = res.ff
+    if plot is not None:
+        plants = [req.variations.nominal, res.worst_plant.replace(name="validated worst")]
+        seek_plot(
+            simulate_seek(plants, ff, req.target, band=req.settle_band),
+            req.target,
+            f"Robust seek of {req.target:g} validated over {req.variations.name or 'the box'}"
+            f", N = {ff.N}, |u| <= {req.u_max:g}",
+            plot,
+            resonances_hz=plants[0].resonances_hz(),
+            band=req.settle_band,
+        )
+        wrote(plot)
+    if not res.converged:
+        warn(
+            f"the validated worst ({res.seek_time * 1e3:.6g} ms) still exceeds the design "
+            f"guarantee ({res.design_seek_time * 1e3:.6g} ms) after {len(res.rounds)} rounds"
+        )
+    data = {
+        "plant": req.plant_name,
+        "method": "robust",
+        "target": req.target,
+        "n_samples": ff.N,
+        "dt_s": ff.dt,
+        "u_max": req.u_max,
+        "peak_input": float(np.abs(ff.u).max()),
+        "settle_band": req.settle_band,
+        "design_band": ff.band,
+        "margin": req.margin,
+        "seek_time_s": res.seek_time,
+        "guaranteed_seek_time_s": res.design_seek_time,
+        "n_validation": res.n_validation,
+        "n_adversarial": res.n_adversarial,
+        "n_design": res.n_design,
+        "converged": res.converged,
+        "rounds": len(res.rounds),
+        "worst_source": res.worst_source,
+        "seek_times_s": res.validation_seek_times,
+        "design_time_s": design_time,
+        "n_lp": ff.n_lp,
+        "input": ff.u,
+        "plot": str(plot) if plot else None,
+    }
+    if req.json_out:
+        emit_json(data)
+        return
+    console.print(
+        f"ROBUST seek of {req.target:g} on {req.plant_name}: N = {ff.N}, worst-case seek time "
+        f"{res.seek_time * 1e3:.6g} ms validated ({res.n_validation} Monte-Carlo plants + "
+        f"{res.n_adversarial} adversarial, worst {res.worst_source}); design guarantee "
+        f"{res.design_seek_time * 1e3:.6g} ms on {res.n_design} plants, peak input "
+        f"{data['peak_input']:.4g}, designed in {design_time:.2f} s"
     )

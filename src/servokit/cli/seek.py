@@ -12,14 +12,17 @@ from servokit.cli._app import (
     PlantOpt,
     PlotOpt,
     SettleBandOpt,
+    VariationsOpt,
     app,
     console,
     emit_json,
     example,
     flag_names,
     load_plant,
+    load_variations,
     plot_target,
     progress,
+    variation_corners,
     warn,
     wrote,
 )
@@ -48,7 +51,8 @@ _SETTLE_RECORD_S = 2e-3
 _SUBSTEPS = 10
 _JSON_KEYS = (
     "plant, method, target, n_samples, dt_s, seek_time_s, worst_plant, n_plants, seek_times_s, "
-    "peak, delay_simulated, input, n_search {n_samples, worst_seek_time_s} (null unless auto), "
+    "peak (output), peak_input, u_max, variations, delay_simulated, input, "
+    "n_search {n_samples, worst_seek_time_s} (null unless auto), "
     "plot"
 )
 
@@ -149,9 +153,12 @@ def seek_cmd(
     u_max: Annotated[
         float | None,
         typer.Option(
-            "--u-max", help="robust: input limit |u| [plant input unit, A for hdd-benchmark]"
+            "--u-max",
+            help="input limit |u| [plant input unit, A for hdd-benchmark]; fsc/ffsc: a QP "
+            "constraint (eq. 2.72)",
         ),
     ] = None,
+    variations: VariationsOpt = None,
     margin: Annotated[float, typer.Option("--margin", help="robust: band shrink [fraction]")] = 0.2,
     slew_max: Annotated[
         float | None,
@@ -162,11 +169,19 @@ def seek_cmd(
     objective: Annotated[
         str, typer.Option("--objective", help="robust: 'peak' or 'energy'")
     ] = "peak",
+    n_validation: Annotated[
+        int,
+        typer.Option(
+            "--n-validation",
+            help="robust with --variations: Monte-Carlo plants validating the worst case "
+            "inside the box [count]",
+        ),
+    ] = 2000,
 ) -> None:
     """Design an FSC/FFSC seek input and report the worst-case seek time over the plant set.
 
     For hdd-benchmark the input is evaluated on the 18 plants of Table 2.3; a plant
-    file is evaluated on itself.
+    file is evaluated on itself, or with --variations FILE on every corner of the box.
     """
     if method not in ("fsc", "ffsc", "robust"):
         raise ServokitValueError(f"--method must be 'fsc', 'ffsc' or 'robust', got {method!r}")
@@ -190,6 +205,16 @@ def seek_cmd(
     is_hdd = plant == "hdd-benchmark"
     nominal = load_plant(plant)
     plants = hdd_benchmark_variants() if is_hdd else [nominal]
+    vset = None
+    if variations is not None:
+        if method == "robust":  # validated over the box, not a corner set
+            check_count("--n-validation", n_validation, lo=1, hi=1_000_000)
+        vset = load_variations(variations, fallback=nominal)
+        nominal = vset.nominal
+        plants = [nominal] if method == "robust" else variation_corners(vset)
+        is_hdd = is_hdd and nominal.name == "hdd-benchmark"
+    if u_max is not None:
+        check_positive("--u-max", u_max)
     if dt is None:
         if not is_hdd:
             raise ServokitValueError("--dt is required for plants other than hdd-benchmark")
@@ -216,11 +241,11 @@ def seek_cmd(
     )
     sim_plants = plants if delay else without_delay(plants)
     if method == "robust":  # servokit.cli.robust: design over the set, verify, report
-        from servokit.cli.robust import RobustSeekRequest, robust_seek
+        from servokit.cli.robust import RobustSeekRequest, box_variations, robust_seek
 
         return robust_seek(
             RobustSeekRequest(
-                plant,
+                plant if variations is None else str(variations),
                 sim_plants,
                 dt,
                 target,
@@ -233,8 +258,15 @@ def seek_cmd(
                 objective,
                 plot,
                 json_out,
+                box_variations(vset, delay),
+                n_validation,
             )
         )
+    limits: tuple = ()
+    if u_max is not None:  # |u| <= u_max as a QP constraint of the FSC/FFSC design
+        n_flag = "--n-samples-max" if auto else "--n-samples"
+        design_kw = {"band_weights": bands, "model": model}
+        limits = _input_limit(nominal, dt, n_top, target, u_max, design_kw, n_flag)
     with flag_names(_FLAGS):
         from servokit.seek import SeekRequest, simulate_seek
 
@@ -248,6 +280,7 @@ def seek_cmd(
             N_max=n_top,
             band_weights=bands,
             model=model,
+            limits=limits,
             design_plant=nominal,
         )
         ff, search = _design(request, show=not json_out)
@@ -261,6 +294,8 @@ def seek_cmd(
     if plot is not None:
         _plot(out, nominal, target, method, plant, ff.N, plot, bands, settle_band, is_hdd)
     data = _result(plant, method, target, ff, dt, out, plants, delay, search, plot)
+    data["u_max"] = u_max
+    data["variations"] = None if variations is None else str(variations)
     if json_out:
         emit_json(data)
         return
@@ -269,6 +304,24 @@ def seek_cmd(
         f"{out.worst * 1e3:.6g} ms ({data['worst_plant']}, {len(plants)} plant(s)"
         f"{'' if delay else ', input delay not simulated'})"
     )
+
+
+def _input_limit(nominal, dt, n_top, target, u_max, design_kw, n_flag) -> tuple:  # noqa: ANN001
+    """``|u| <= u_max`` as a QP constraint, refused naming the limit when the largest N
+    tried cannot meet it (more samples only make the limit easier)."""
+    from servokit.feedforward.constraints import InfeasibleConstraintsError, InputLimit
+
+    limit = (InputLimit(float(u_max)),)
+    try:
+        from servokit.feedforward import fsc_input
+
+        fsc_input(nominal, dt, n_top, target, **design_kw, constraints=limit)
+    except InfeasibleConstraintsError as exc:
+        raise ServokitValueError(
+            f"--u-max {u_max:g}: no input of N = {n_top} samples reaches the target within "
+            f"|u| <= {u_max:g} ({str(exc).splitlines()[0]}); raise --u-max or {n_flag}"
+        ) from None
+    return limit
 
 
 def _parse_n(text: str) -> int | str:
@@ -321,6 +374,7 @@ def _result(plant, method, target, ff, dt, out, plants, delay, search, plot) -> 
         "n_plants": len(plants),
         "seek_times_s": out.seek_times,
         "peak": float(np.max(out.y)),
+        "peak_input": float(np.max(np.abs(ff.u))),
         "delay_simulated": delay,
         "input": ff.u,
         "n_search": None

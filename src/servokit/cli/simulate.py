@@ -15,6 +15,7 @@ from servokit.cli._app import (
     PlantOpt,
     PlotOpt,
     SettleBandOpt,
+    VariationsOpt,
     app,
     console,
     emit_json,
@@ -22,7 +23,9 @@ from servokit.cli._app import (
     flag_names,
     load_controller,
     load_plant,
+    load_variations,
     plot_target,
+    variation_corners,
     wrote,
 )
 from servokit.errors import (
@@ -52,7 +55,9 @@ _ARRAYS_PER_FINE_STEP = 3
         "servokit simulate --plant hdd-sampled-data --dt 153.5e-6 --duration 0.02 --step 1 "
         "--controller eq-4.69 --json"
     )
-    + "  JSON: plants, final, peak, settling_time_s, worst_plant, worst_settling_time_s, plot.",
+    + "  --variations FILE simulates every corner of the file's box (nominal, low, high of "
+    "each range).  JSON: plants, final, peak, settling_time_s, worst_plant, "
+    "worst_settling_time_s, plot.",
 )
 def simulate_cmd(
     dt: DtOpt,
@@ -62,6 +67,7 @@ def simulate_cmd(
         bool,
         typer.Option("--variants", help="run the 18 HDD benchmark variants (hdd-benchmark only)"),
     ] = False,
+    variations: VariationsOpt = None,
     substeps: Annotated[
         int,
         typer.Option("--substeps", help="fine steps per period for the continuous output [count]"),
@@ -105,11 +111,13 @@ def simulate_cmd(
         )
     if variants and plant != "hdd-benchmark":
         raise ServokitValueError("--variants is only defined for --plant hdd-benchmark")
+    if variants and variations is not None:
+        raise ServokitValueError("give --variants or --variations FILE, not both")
     if input_file is not None:
         check_input_file(input_file, "--input")
     plot = plot_target(plot)
     n_periods = duration / dt
-    plants = _plants(plant, variants)
+    plants = _plants(plant, variants, variations)
     n_states = max(p.order for p in plants) + 4
     check_memory(
         n_periods * substeps * len(plants) * (n_states + _ARRAYS_PER_FINE_STEP) * 8,
@@ -149,7 +157,9 @@ def simulate_cmd(
     )
 
 
-def _plants(plant: str, variants: bool) -> list:
+def _plants(plant: str, variants: bool, variations: Path | None) -> list:
+    if variations is not None:  # every range at nominal / low / high (gain included)
+        return variation_corners(load_variations(variations, fallback=load_plant(plant)))
     if variants:
         from servokit.models import hdd_benchmark_variants
 

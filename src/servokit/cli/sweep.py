@@ -16,12 +16,13 @@ from servokit.cli._app import (
     JsonOpt,
     MaxMemoryOpt,
     PlotOpt,
-    SeedOpt,
+    VariationsOpt,
     app,
     console,
     emit_json,
     example,
     flag_names,
+    load_variations,
     plot_target,
     progress,
     wrote,
@@ -186,12 +187,17 @@ def sweep_cmd(
     n_variants: Annotated[
         int, typer.Option("--n-variants", help="Monte-Carlo plants drawn from Table 2.3 [count]")
     ] = 10_000,
-    seed: SeedOpt = 0,
+    seed: Annotated[
+        int | None,
+        typer.Option("--seed", help="random seed (default: the variation file's seed, else 0)"),
+    ] = None,
+    variations: VariationsOpt = None,
     gain_range: Annotated[
         bool,
         typer.Option(
             "--gain-range/--no-gain-range",
-            help="also draw the +-10 % loop gain (an open-loop seek cannot absorb it)",
+            help="Table 2.3 box: also draw the +-10 % loop gain (an open-loop seek cannot "
+            "absorb it); a --variations file's gain_rel is always drawn",
         ),
     ] = False,
     delay: Annotated[
@@ -226,7 +232,9 @@ def sweep_cmd(
 
     Percentiles are nearest-rank over all plants; unsettled plants count as inf.
 
-    JSON keys: n_variants, seed, backend, chunk_size, chunk_memory_mb (estimate), design
+    --variations FILE draws the plants from a variation file instead of the Table 2.3 box.
+
+    JSON keys: n_variants, seed, variations, backend, chunk_size, chunk_memory_mb (estimate), design
     {source, n_samples, dt_s, peak_input}, target, settle_band, mean_s, percentiles_s {p50,
     p90, p99, p99_9, p100}, worst_index, worst_seek_time_s, worst_plant {modes, gain},
     n_unsettled, elapsed_s, plot.
@@ -243,11 +251,20 @@ def sweep_cmd(
         raise ServokitValueError("--target must be non-zero (a seek distance)")
     if design is None:
         _check_design_args(method, n_samples, u_max, max_memory_mb)
-    if seed < 0:
+    if seed is not None and seed < 0:
         raise ServokitValueError(f"--seed must be >= 0 (got {seed})")
-    vset = hdd_benchmark_variation_set()
-    if not gain_range:
-        vset = dataclasses.replace(vset, gain=(0.0, 0.0))
+    if variations is not None:
+        vset = load_variations(variations)
+        if design is None and vset.nominal.name != "hdd-benchmark":
+            raise ServokitValueError(
+                f"--variations {variations}: the design methods use the HDD benchmark; for "
+                f"plant {vset.nominal.name!r} give --design FILE (from servokit seek --json)"
+            )
+    else:
+        vset = hdd_benchmark_variation_set()
+        if not gain_range:
+            vset = dataclasses.replace(vset, gain=(0.0, 0.0))
+    seed = vset.seed if seed is None else seed
     if not delay:
         vset = dataclasses.replace(vset, nominal=without_delay(vset.nominal)[0])
     d = (
@@ -284,14 +301,15 @@ def sweep_cmd(
         _histogram(
             res.seek_times,
             pct,
-            f"{d.source}: seek times of {n} Monte-Carlo plants\n(Table 2.3 ranges; beyond the "
-            f"book, cf. Figs. 2.18-2.21)",
+            f"{d.source}: seek times of {n} Monte-Carlo plants\n({vset.name or 'variation set'}"
+            f"{'; beyond the book, cf. Figs. 2.18-2.21' if variations is None else ''})",
             plot,
         )
         wrote(plot)
     data = {
         "n_variants": n,
         "seed": seed,
+        "variations": vset.name,
         "backend": res.backend,
         "chunk_size": res.chunk_size,
         "chunk_memory_mb": res.chunk_mb,

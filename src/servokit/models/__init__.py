@@ -40,15 +40,16 @@ from servokit.models.files import (
     save_controller,
     save_plant,
 )
+from servokit.models.fit import BandError, ModalFit, delay_from_phase, fit_modal
 from servokit.models.frf import FRF_MAX_BYTES, FrfFileError, read_frf, save_frf
+from servokit.models.hdd_variations import hdd_benchmark_variants, hdd_benchmark_variation_set
 from servokit.models.lookup import get_discrete_controller, get_plant
 from servokit.models.modal import ModalPlant, Mode, modal_matrices, without_delay
+from servokit.models.plots import fit_plot
 from servokit.models.tf import require_proper, zpk
 from servokit.models.variation_file import (
     HDD_BENCHMARK_VARIATIONS,
     VariationFileError,
-    hdd_benchmark_variants,
-    hdd_benchmark_variation_set,
     read_variations,
 )
 from servokit.models.variations import Perturbation, VariationSet
@@ -68,6 +69,11 @@ __all__ = [
     "HDD_BENCHMARK_TS",
     "HDD_SAMPLED_DATA_TS",
     "VCM_PES_TS",
+    "BandError",
+    "ModalFit",
+    "delay_from_phase",
+    "fit_modal",
+    "fit_plot",
     "FRF_MAX_BYTES",
     "FrfFileError",
     "read_frf",

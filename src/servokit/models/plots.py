@@ -1,4 +1,4 @@
-"""Bode plots of modal plants (exact frequency response, delay included)."""
+"""Bode plots of modal plants (exact frequency response, delay included) and of modal fits."""
 
 from __future__ import annotations
 
@@ -8,9 +8,10 @@ from pathlib import Path
 import numpy as np
 
 from servokit._figures import save_figure
+from servokit.models.fit import ModalFit
 from servokit.models.modal import ModalPlant
 
-__all__ = ["bode_plot"]
+__all__ = ["bode_plot", "fit_plot"]
 
 
 def bode_plot(
@@ -75,4 +76,57 @@ def bode_plot(
         save_figure(fig, path, dpi=120)
     else:
         fig.tight_layout()
+    return fig
+
+
+def fit_plot(fit: ModalFit, *, path: str | Path | None = None, title: str | None = None):
+    """Draw a modal fit: data and model magnitude, phase and the relative error.
+
+    Parameters
+    ----------
+    fit : ModalFit
+        Result of :func:`~servokit.models.fit_modal`.
+    path : str or Path, optional
+        Image file to write (at 120 dpi); the figure is then closed.
+    title : str, optional
+        Figure title; default names the plant, its mode count and the median error.
+
+    Returns
+    -------
+    matplotlib.figure.Figure
+        Three panels against frequency [Hz] (log axis): magnitude [dB], phase [deg] and
+        relative error |model - data| / |data| [%].
+    """
+    import matplotlib.pyplot as plt
+
+    f, H, G = fit.freq_hz, fit.response, fit.model
+    fig, (ax_m, ax_p, ax_e) = plt.subplots(3, 1, sharex=True, figsize=(7, 8))
+    ax_m.semilogx(f, 20 * np.log10(np.abs(H)), ".", ms=2, color="gray", label="data")
+    ax_m.semilogx(f, 20 * np.log10(np.abs(G)), lw=1.2, color="C0", label="fitted model")
+    # one unwrap of the data; the model drawn on the same 360-degree branch point by point
+    ph_h = np.degrees(np.unwrap(np.angle(H)))
+    ph_h -= 360.0 * np.ceil(ph_h[0] / 360.0)  # start in (-360, 0] as servo plots do
+    ph_g = ph_h + np.degrees(np.angle(G / H))
+    ax_p.semilogx(f, ph_h, ".", ms=2, color="gray", label="data")
+    ax_p.semilogx(f, ph_g, lw=1.2, color="C0", label="fitted model")
+    ax_e.semilogx(f, 100 * fit.rel_error, lw=0.8, color="C3", label="|model - data| / |data|")
+    for m in fit.plant.modes:
+        if m.freq_hz > 0:
+            for ax in (ax_m, ax_p, ax_e):
+                ax.axvline(m.freq_hz, color="k", lw=0.5, ls=":")
+    ax_m.set_ylabel("Magnitude [dB]")
+    ax_p.set_ylabel("Phase [deg]")
+    ax_e.set_ylabel("Relative error [%]")
+    ax_e.set_xlabel("Frequency [Hz]")
+    for ax in (ax_m, ax_p, ax_e):
+        ax.grid(True, which="both", alpha=0.3)
+        ax.legend(loc="best", fontsize=8)
+    ax_m.set_title(
+        title
+        or f"Modal fit: {fit.n_modes} resonance(s), delay {fit.plant.delay * 1e6:.3g} us, "
+        f"median error {100 * fit.median_error:.2g} %"
+    )
+    fig.tight_layout()
+    if path is not None:
+        save_figure(fig, path, dpi=120)
     return fig

@@ -39,14 +39,11 @@ from typing import Any
 
 from servokit._io import check_regular_file
 from servokit.errors import ServokitValueError
-from servokit.models.catalogue import hdd_benchmark
 from servokit.models.modal import ModalPlant
 from servokit.models.variations import Perturbation, VariationSet
 
 __all__ = [
     "HDD_BENCHMARK_VARIATIONS",
-    "hdd_benchmark_variants",
-    "hdd_benchmark_variation_set",
     "VARIATION_FILE_MAX_BYTES",
     "VariationFileError",
     "read_variations",
@@ -149,9 +146,13 @@ def _mode_ranges(path: Path, k: int, table: Any, nominal: ModalPlant) -> list[Pe
     return out
 
 
-def _nominal(path: Path, data: dict[str, Any], nominal: ModalPlant | None) -> ModalPlant:
+def _nominal(
+    path: Path, data: dict[str, Any], nominal: ModalPlant | None, fallback: ModalPlant | None
+) -> ModalPlant:
     if nominal is not None:
         return nominal
+    if "plant" not in data and fallback is not None:
+        return fallback
     if "plant" not in data:
         raise VariationFileError(
             f'{path}: no nominal plant; add plant = "NAME_OR_FILE" or pass the plant'
@@ -180,7 +181,12 @@ def _check_overlap(path: Path, ranges: list[Perturbation]) -> None:
             seen[p.param, m] = r
 
 
-def read_variations(path: str | Path | Any, nominal: ModalPlant | None = None) -> VariationSet:
+def read_variations(
+    path: str | Path | Any,
+    nominal: ModalPlant | None = None,
+    *,
+    fallback: ModalPlant | None = None,
+) -> VariationSet:
     """Read a variation file (format in the module docstring) as a :class:`VariationSet`.
 
     Parameters
@@ -190,6 +196,9 @@ def read_variations(path: str | Path | Any, nominal: ModalPlant | None = None) -
     nominal : ModalPlant, optional
         The nominal plant; when omitted, the file's ``plant`` (a catalogue name, or a plant
         file relative to the variation file) is loaded.
+    fallback : ModalPlant, optional
+        The nominal plant when neither ``nominal`` is given nor the file names one (the
+        command line's ``--plant``).
 
     Returns
     -------
@@ -206,7 +215,7 @@ def read_variations(path: str | Path | Any, nominal: ModalPlant | None = None) -
     """
     if not isinstance(path, str | Path):  # a packaged resource
         with resources.as_file(path) as real:
-            return read_variations(real, nominal)
+            return read_variations(real, nominal, fallback=fallback)
     path = Path(path)
     check_regular_file(
         path,
@@ -225,7 +234,7 @@ def read_variations(path: str | Path | Any, nominal: ModalPlant | None = None) -
         raise VariationFileError(
             f"{path}: unknown key '{extra[0]}'; allowed: {', '.join(sorted(_TOP_KEYS))}"
         )
-    plant = _nominal(path, data, nominal)
+    plant = _nominal(path, data, nominal, fallback)
     tables = data.get("modes", [])
     if not isinstance(tables, list):
         raise VariationFileError(f"{path}: field 'modes' must be a list of [[modes]] tables")
@@ -246,43 +255,3 @@ def read_variations(path: str | Path | Any, nominal: ModalPlant | None = None) -
     return VariationSet(
         plant, tuple(ranges), gain=gain, distribution=dist, seed=seed, name=str(name)
     )
-
-
-def hdd_benchmark_variation_set() -> VariationSet:
-    """Parameter ranges of the HDD benchmark (book Table 2.3), read from the shipped file.
-
-    Ranges (index: meaning): 0 f2 -2/+1 %, 1 f3 -5/+2.5 %, 2 f4..7 -2/+0.5 %,
-    3 A2,4 -200/+0 %, 4 A3 -0/+20 %, 5 zeta5..7 -50/+100 %.  Gain range +-10 %
-    (§2.4.1 "the change in loop gain of +-10 % is also assumed"; §2.4.1 also mentions
-    +-5 % for the benchmark; feedforward-only studies ignore the gain).  The box is the
-    variation file :data:`~servokit.models.variation_file.HDD_BENCHMARK_VARIATIONS`
-    (the modes of one table row move together).
-
-    Returns
-    -------
-    VariationSet
-        The nominal :func:`hdd_benchmark` with the six relative ranges above (mode numbers
-        counted from the rigid body, 1) and the loop-gain range ``(-0.1, 0.1)``.
-    """
-    return read_variations(HDD_BENCHMARK_VARIATIONS, hdd_benchmark())
-
-
-def hdd_benchmark_variants() -> list[ModalPlant]:
-    """The fixed set of 18 HDD benchmark plants (book Table 2.3), nominal first.
-
-    Every combination of 3 frequency rows (nominal; all up; all down), 3 damping rows
-    (nominal; -50 %; +100 % on zeta5..7) and 2 residue rows (nominal; A2 -200 %,
-    A3 +20 %, A4 -200 %).
-
-    Returns
-    -------
-    list of ModalPlant
-        18 plants (gain nominal), the nominal benchmark first, named
-        ``"hdd-benchmark #0"`` .. ``"#17"``.
-    """
-    vs = hdd_benchmark_variation_set()
-    freq_row = [((0, "high"), (1, "high"), (2, "high")), ((0, "low"), (1, "low"), (2, "low"))]
-    damp_row = [((5, "low"),), ((5, "high"),)]
-    res_row = [((3, "low"), (4, "high"))]
-    plants = vs.rows([freq_row, damp_row, res_row])
-    return [p.replace(name=f"hdd-benchmark #{i}") for i, p in enumerate(plants)]

@@ -180,6 +180,14 @@ class VariationSet:
         gain = (-abs(gain_rel), abs(gain_rel))
         return cls(nominal, tuple(ranges), gain=gain, **kwargs)  # type: ignore[arg-type]
 
+    @property
+    def n_corners(self) -> int:
+        """Number of plants :meth:`corners` returns (computed without building them)."""
+        n = len(_levels(*self.gain))
+        for p in self.ranges:
+            n *= len(_levels(p.low, p.high))
+        return n
+
     def corners(self) -> list[ModalPlant]:
         """Full factorial over every range and the gain range at nominal / low / high.
 

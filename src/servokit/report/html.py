@@ -22,7 +22,14 @@ from typing import Any
 
 import jinja2
 
-__all__ = ["CHAPTER_TITLES", "chapter_misses", "render_html", "figure_caption"]
+__all__ = [
+    "CHAPTER_TITLES",
+    "chapter_misses",
+    "environment",
+    "figure_caption",
+    "png_data_uri",
+    "render_html",
+]
 
 #: Short titles of the book's chapters for the report's section headings.
 CHAPTER_TITLES = {
@@ -114,11 +121,27 @@ def figure_caption(path: Path) -> str:
     return path.stem.replace("_", " ")
 
 
+def png_data_uri(png: bytes) -> str:
+    """A PNG as a ``data:`` URI, so that a page shows it without the file beside it.
+
+    Parameters
+    ----------
+    png : bytes
+        PNG file contents.
+
+    Returns
+    -------
+    str
+        ``data:image/png;base64,...``.
+    """
+    return "data:image/png;base64," + base64.b64encode(png).decode("ascii")
+
+
 def _figure_entry(rel: str, outdir: Path) -> dict[str, str]:
     path = outdir / rel
     src = rel
     if path.suffix.lower() == ".png" and path.exists():
-        src = "data:image/png;base64," + base64.b64encode(path.read_bytes()).decode("ascii")
+        src = png_data_uri(path.read_bytes())
     svg = path.with_suffix(".svg")
     return {
         "src": src,
@@ -158,7 +181,15 @@ def _chapters(doc: dict[str, Any], outdir: Path) -> list[tuple[int, list[dict[st
     return sorted(grouped.items())
 
 
-def _environment() -> jinja2.Environment:
+def environment() -> jinja2.Environment:
+    """The jinja2 environment of servokit's HTML reports (templates, number helpers).
+
+    Returns
+    -------
+    jinja2.Environment
+        Package templates (``report.html.j2``, ``design.html.j2`` and the shared
+        ``_style.html.j2``), autoescaped, strict about undefined names.
+    """
     env = jinja2.Environment(
         loader=jinja2.PackageLoader("servokit.report", "templates"),
         autoescape=jinja2.select_autoescape(["html", "j2"]),
@@ -193,5 +224,5 @@ def render_html(doc: dict[str, Any], outdir: Path) -> str:
     str
         The HTML page.
     """
-    template = _environment().get_template("report.html.j2")
+    template = environment().get_template("report.html.j2")
     return template.render(doc=doc, chapters=_chapters(doc, Path(outdir)), count_keys=_COUNT_KEYS)

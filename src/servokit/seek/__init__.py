@@ -11,7 +11,10 @@ This layer sits above :mod:`servokit.feedforward` (the designs) and
 * :func:`robust_minimum_time` — the shortest worst-case seek guaranteed on a plant set
   under input, slew and §2.6 limits, as linear programs (:mod:`.robust`);
 * :func:`sweep_seek_times` — seek-time distributions over 10^4-10^5 Monte-Carlo plants
-  in bounded memory, in-process or on Dask (:mod:`.sweep`).
+  in bounded memory, in-process or on Dask (:mod:`.sweep`);
+* :func:`robust_seek_over_box` — the robust seek whose worst case is validated inside a
+  variation box (Monte-Carlo and adversarial search, redesign until they agree;
+  :mod:`.validated`).
 """
 
 from servokit.seek.hdd import DESIGNS, SeekDesign, search_range, table_2_4_weights
@@ -31,6 +34,7 @@ from servokit.seek.sweep import (
     plan_chunks,
     sweep_seek_times,
 )
+from servokit.seek.validated import BoxRound, ValidatedSeek, robust_seek_over_box
 
 __all__ = [
     "DESIGNS",
@@ -54,4 +58,7 @@ __all__ = [
     "plan_chunks",
     "robust_minimum_time",
     "sweep_seek_times",
+    "BoxRound",
+    "ValidatedSeek",
+    "robust_seek_over_box",
 ]

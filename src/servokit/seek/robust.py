@@ -260,12 +260,24 @@ def _limit_rows(bank: PulseBank, N: int, limits: Sequence[object]) -> tuple[np.n
     return np.vstack(G_parts), np.concatenate(h_parts)
 
 
-def _settle_search(lp: _SeekLP, hi: int) -> tuple[int, np.ndarray] | None:
-    """Smallest settle index ``s <= hi`` with a feasible input (bisection), or None."""
-    x = lp.solve(hi)
+def _settle_search(lp: _SeekLP, hi: int, lo: int = -1) -> tuple[int, np.ndarray] | None:
+    """Smallest settle index ``lo < s <= hi`` with a feasible input (bisection), or None.
+
+    With a known infeasible ``lo`` (e.g. the guarantee of a subset of the plants, which
+    no superset can beat) the search gallops up from it first: a redesign on a few more
+    plants usually moves the settle index by a step or two.
+    """
+    step = 1
+    while lo >= 0 and lo + step < hi:
+        x = lp.solve(lo + step)
+        if x is not None:
+            hi = lo + step
+            break
+        lo, step = lo + step, 2 * step
+    else:
+        x = lp.solve(hi)
     if x is None:
         return None
-    lo = -1
     while hi - lo > 1:
         mid = (lo + hi) // 2
         cand = lp.solve(mid)
@@ -319,6 +331,7 @@ def robust_minimum_time(
     objective: Literal["peak", "energy"] = "peak",
     patience: int = 4,
     max_memory_mb: float | None = None,
+    settle_below: float | None = None,
 ) -> RobustFeedforwardInput:
     """Shortest worst-case seek guaranteed on a plant set under input limits (LP/QP).
 
@@ -363,6 +376,9 @@ def robust_minimum_time(
         Stop the N scan after this many N in a row that do not improve the seek time.
     max_memory_mb : float, optional
         Refuse designs whose output maps are estimated above this [MB].
+    settle_below : float, optional
+        A seek time [s] known to be infeasible for this set (e.g. below the guarantee of a
+        subset, with the same ``N``): the settle search starts above it.
 
     Returns
     -------
@@ -403,7 +419,8 @@ def robust_minimum_time(
     )
     bank = PulseBank.build(plist, dt, S, duration)
     setup = _Setup(target, band_eff, u_max, tail, slew_max, tuple(limits or ()), objective)
-    return _scan(bank, setup, (N_lo, N_hi), patience)
+    lo = -1 if settle_below is None else int(np.floor(settle_below / (dt / S) + 1e-6))
+    return _scan(bank, setup, (N_lo, N_hi), patience, lo)
 
 
 @dataclass(frozen=True)
@@ -420,7 +437,7 @@ class _Setup:
 
 
 def _scan(
-    bank: PulseBank, setup: _Setup, N_range: tuple[int, int], patience: int
+    bank: PulseBank, setup: _Setup, N_range: tuple[int, int], patience: int, lo: int = -1
 ) -> RobustFeedforwardInput:
     """Scan N upward; keep the smallest guaranteed settle time (smallest N on ties)."""
     target, band, u_max, objective = setup.target, setup.band, setup.u_max, setup.objective
@@ -432,7 +449,7 @@ def _scan(
         lp = _SeekLP(bank, N, target, lp_band, u_max, setup.tail, setup.slew_max, setup.limits)
         h = bank.dt / bank.substeps
         hi = lp.J if best is None else min(lp.J, int(round(best[0] / h)) - 1)
-        found = _settle_search(lp, hi) if hi >= 0 else None
+        found = _settle_search(lp, hi, lo) if hi > lo else None
         n_lp += lp.n_lp
         lp.n_lp = 0
         Ns.append(N)

@@ -1,0 +1,138 @@
+"""``servokit report``: an HTML design report for a user's actuator (issue 22 item 6)."""
+
+from __future__ import annotations
+
+import json
+from pathlib import Path
+from typing import Annotated, Any
+
+import typer
+
+from servokit.cli._app import app, console, example, load_controller, load_plant, wrote
+from servokit.errors import ServokitValueError, check_count
+
+#: largest ``--seek`` JSON read [bytes] (a seek result with 10^6 seek times is ~20 MB)
+_SEEK_MAX_BYTES = 64 * 1024 * 1024
+
+
+def _out_path(out: Path) -> Path:
+    """``--out``: a new or existing .html file in an existing, writable directory."""
+    import os
+
+    if str(out).endswith(("/", "\\")) or out.is_dir():
+        raise ServokitValueError(f"--out {out} is a directory; give a file name ending .html")
+    if out.suffix.lower() not in (".html", ".htm"):
+        raise ServokitValueError(f"--out {out}: use a file name ending .html")
+    parent = out.parent if str(out.parent) else Path(".")
+    if not parent.is_dir():
+        raise ServokitValueError(f"--out {out}: directory {parent} does not exist; create it")
+    if not os.access(out if out.exists() else parent, os.W_OK):
+        raise ServokitValueError(f"--out {out} is not writable; choose another path")
+    return out
+
+
+def _seek_section(path: Path) -> Any:
+    """A seek-time section from the JSON of ``servokit seek --json``."""
+    from servokit._io import check_regular_file
+    from servokit.report.design import SeekSection
+
+    check_regular_file(
+        path,
+        max_bytes=_SEEK_MAX_BYTES,
+        what="--seek (a seek --json file)",
+        error=ServokitValueError,
+    )
+    try:
+        data = json.loads(path.read_text(encoding="utf-8"))
+        times = [float(t) for t in data["seek_times_s"]]
+        worst = float(data["seek_time_s"])
+    except (ValueError, KeyError, TypeError, UnicodeDecodeError):
+        raise ServokitValueError(
+            f"--seek {path}: not the JSON of `servokit seek --json` (needs seek_times_s and "
+            "seek_time_s)"
+        ) from None
+    guarantee = data.get("guaranteed_seek_time_s")
+    return SeekSection(times, worst, None if guarantee is None else float(guarantee))
+
+
+def _plant_set(nominal: Any, variations: Path | None, n_plants: int) -> list[Any]:
+    """The nominal plant and ``n_plants`` Monte-Carlo plants of the ``--variations`` box."""
+    if variations is None:
+        return [nominal]
+    from servokit.cli._app import load_variations
+
+    box = load_variations(variations, fallback=nominal)
+    return [nominal, *box.monte_carlo(n_plants)]
+
+
+@app.command(
+    "report",
+    epilog=example(
+        "servokit report --plant stage.toml --frf stage_frf.csv --out report.html",
+        "servokit report --plant stage.toml --controller ctrl.toml --variations box.toml "
+        "--seek seek.json --out report.html",
+    ),
+)
+def report_cmd(
+    plant: Annotated[
+        str, typer.Option("--plant", help="design plant: catalogue name or .toml plant file")
+    ],
+    out: Annotated[Path, typer.Option("--out", help="HTML file to write", metavar="FILE")] = Path(
+        "report.html"
+    ),
+    frf: Annotated[
+        Path | None,
+        typer.Option("--frf", help="measured FRF (CSV/NPZ/MAT): fit section", metavar="FILE"),
+    ] = None,
+    controller: Annotated[
+        str | None,
+        typer.Option("--controller", help="controller file or name: margins and sensitivity"),
+    ] = None,
+    variations: Annotated[
+        Path | None,
+        typer.Option("--variations", help="variation file (TOML): the plant set", metavar="FILE"),
+    ] = None,
+    n_plants: Annotated[
+        int,
+        typer.Option("--n-plants", help="Monte-Carlo plants of --variations [count]"),
+    ] = 50,
+    seek: Annotated[
+        Path | None,
+        typer.Option("--seek", help="JSON of `servokit seek --json`: histogram", metavar="FILE"),
+    ] = None,
+    title: Annotated[str, typer.Option("--title", help="page title")] = "Design report",
+) -> None:
+    """Build report.html for a design: fit, margins per plant, seek times, sensitivity."""
+    out = _out_path(out)
+    check_count("--n-plants", n_plants, lo=1, hi=10_000)
+    if frf is None and controller is None and seek is None:
+        raise ServokitValueError("give at least one of --frf, --controller, --seek to report on")
+    from servokit.report.design import (
+        FitSection,
+        MarginsSection,
+        SensitivitySection,
+        design_report,
+    )
+
+    nominal = load_plant(plant)
+    sections: list[Any] = []
+    notes = [f"Plant: {plant}."]
+    if frf is not None:
+        from servokit.models import read_frf
+
+        sections.append(FitSection(*read_frf(frf), nominal))
+        notes.append(f"Measured frequency response: {frf}.")
+    if controller is not None:
+        ctrl = load_controller(controller)
+        plants = _plant_set(nominal, variations, n_plants)
+        sections += [MarginsSection(plants, ctrl), SensitivitySection(plants, ctrl)]
+        notes.append(
+            f"Controller: {controller}; plant set: nominal"
+            + (f" and {n_plants} Monte-Carlo plants of {variations}." if variations else ".")
+        )
+    if seek is not None:
+        sections.append(_seek_section(seek))
+        notes.append(f"Seek times: {seek}.")
+    design_report(out, sections, title=title, notes=notes)
+    console.print(f"{len(sections)} section(s)")
+    wrote(out)
