@@ -12,7 +12,8 @@ the modal recursion / measured DGEMM peak), 10^5 variants through ``simulate_met
 constrained FSC QP (default path vs dense, N = 100 ... 3000, banded and unbanded;
 issue 24), ``sampled_data_sensitivity`` over 10^4 frequencies, and ``demo``:
 the five original ``make demo`` cases in CPU seconds, against the paths the demo speed-up
-replaced (same numbers required).
+replaced (same numbers required), and ``margins``: the IEEJ benchmark loop's full margins
+against python-control's ``stability_margins`` (issue 20).
 """
 
 from __future__ import annotations
@@ -31,6 +32,7 @@ from pathlib import Path  # noqa: E402
 sys.path.insert(0, str(Path(__file__).parent))
 
 import demo  # noqa: E402
+import margins  # noqa: E402
 import numpy as np  # noqa: E402
 import qp  # noqa: E402
 import sensitivity  # noqa: E402
@@ -51,6 +53,7 @@ TARGETS = {
     "sweep.n1e6_2_threads_s": ("<", 60.0),
     "demo.total_cpu_s": ("<", 8.0),
     "demo.max_relative_difference": ("<=", 1e-12),
+    "margins.speedup_vs_python_control": (">=", 1.0),
 }
 
 
@@ -82,6 +85,7 @@ def main() -> None:
         "sensitivity": lambda: sensitivity.sensitivity(2000 if q else 10_000),
         "sweep": lambda: sweep.sweeps((10_000,) if q else (100_000, 1_000_000)),
         "demo": lambda: demo.demo(1 if q else 2),
+        "margins": lambda: margins.margins(3 if q else 7),
     }
     wanted = args.only or list(sections)
     results: dict = {
@@ -105,7 +109,7 @@ def main() -> None:
         print(f"[{name}]")
         for k, v in results[name].items():
             print(f"  {k:40s} {v:.4g}" if isinstance(v, float) else f"  {k:40s} {v}")
-    print("[targets (issues 8 and 24)]")
+    print("[targets (issues 8, 20 and 24)]")
     for key, v, op, t, ok in rows:
         print(f"  {'met ' if ok else 'MISS'}  {key:48s} {v:10.4g} {op} {t:g}")
     print(f"wrote {args.out}")

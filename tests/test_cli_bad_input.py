@@ -426,6 +426,11 @@ CASES: list[tuple[list[str], str]] = [
     ([*MARG, "--n-freq", HUGE], "--n-freq"),
     ([*MARG, "--plot", "DIR"], "--plot"),
     ([*MARG, "--plot", "RO/fig.png"], "--plot"),
+    ([*MARG, "--delay", "1e300"], "--delay"),
+    ([*MARG, "--delay", "1"], "--delay"),
+    ([*MARG, "--variations", "no-such.toml"], "--variations"),
+    ([*MARG, "--variations", "GARBAGE.toml"], "--variations"),
+    ([*MARG, "--variations", "DIR"], "--variations"),
     # ---- dual-stage
     (["dual-stage", "--method", "foo"], "--method"),
     (["dual-stage", "--structure", "foo"], "--structure"),

@@ -13,6 +13,7 @@ from __future__ import annotations
 
 import random
 import shlex
+import shutil
 import signal
 import time
 import typing
@@ -34,7 +35,9 @@ QUICK = {
     "identify": ["--fmin", "20000", "--fmax", "21000", "--freq-step", "500"],
     "sweep": ["--n-variants", "200"],
     "settle train": ["--n-distances", "2", "--n-lengths", "2"],
+    "loopshape": ["--time-limit", "2"],
 }
+EXAMPLE_DATA = Path(__file__).resolve().parents[1] / "examples" / "data"
 
 
 def _leaf_commands() -> list[tuple[str, click.Command]]:
@@ -116,6 +119,8 @@ class _Hang(BaseException):
 
 
 def _run(args: list[str], tmp_path: Path, monkeypatch, capsys) -> tuple[int, str, str, float]:
+    # the help examples name the shipped example files (fit, loopshape) from the repo root
+    shutil.copytree(EXAMPLE_DATA, tmp_path / "examples" / "data", dirs_exist_ok=True)
     monkeypatch.chdir(tmp_path)
     monkeypatch.setattr("sys.argv", ["servokit", *args])
 

@@ -115,3 +115,42 @@ def test_bad_input_is_one_line_exit_2(command, flag, monkeypatch, capsys):
     assert exc.value.code == 2
     lines = capsys.readouterr().err.strip().splitlines()
     assert len(lines) == 1 and lines[0].startswith("servokit: error:") and flag in lines[0]
+
+
+def test_margins_json_has_the_stability_verdict_and_modulus_margin():
+    out = run("margins", "--plant", "hdd-sampled-data", "--controller", "eq-4.69", "--json")
+    data = json.loads(out.stdout)
+    assert data["closed_loop_stable"] is True
+    assert 0 < data["modulus_margin"] < 1
+    assert len(data["delay_margins_s"]) == len(data["gain_crossovers_hz"])
+
+
+def test_margins_of_an_unstable_loop_print_one_warning_line():
+    # 12 samples of extra delay: far beyond the ~0.1 ms delay margin of the section 4.5 loop
+    out = run(
+        "margins", "--plant", "hdd-sampled-data", "--controller", "eq-4.69", "--loop-delay", "2e-3"
+    )
+    assert out.exit_code == 0, out.output
+    warnings = [ln for ln in out.output.splitlines() if "warning" in ln]
+    assert len(warnings) == 1 and "UNSTABLE" in warnings[0]
+    js = run(
+        *"margins --plant hdd-sampled-data --controller eq-4.69 --loop-delay 2e-3 --json".split()
+    )
+    assert json.loads(js.stdout)["closed_loop_stable"] is False
+
+
+def test_margins_over_a_variation_file_name_the_worst_plant(tmp_path):
+    box = tmp_path / "box.toml"
+    box.write_text(
+        'kind = "variations"\ngain_rel = 0.2\n[[modes]]\nfreq_hz = 4449.0\nfreq_rel = 0.05\n'
+    )
+    out = run(
+        *"margins --plant vcm-dual-stage --controller table-5.2 --json --variations".split(),
+        str(box),
+    )
+    assert out.exit_code == 0, out.output
+    data = json.loads(out.stdout)
+    assert len(data["plants"]) == 9  # 3 gain levels x 3 frequency levels
+    worst = data["plants"][data["worst_index"]]
+    assert worst["modulus_margin"] == min(p["modulus_margin"] for p in data["plants"])
+    assert data["all_stable"] is True

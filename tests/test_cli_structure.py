@@ -32,7 +32,6 @@ OVER: dict[str, int] = {
     "switching.ivc_cmd": 50,
     "sensitivity.sensitivity_cmd": 47,
     "switching.cost_map_cmd": 45,
-    "resonance.margins_cmd": 44,
     "unobservable.magnitude_cmd": 43,
     "settle.train_cmd": 41,
 }

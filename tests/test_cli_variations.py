@@ -57,7 +57,7 @@ def test_simulate_runs_every_corner_of_a_user_box(tmp_path, monkeypatch, capsys)
     assert len(data["plants"]) == 27  # frequency, residue and gain at nominal/low/high
     assert data["plants"][0] == "box corner 0"
     # open loop: the output of a rigid body under a held step scales with the gain
-    finals = sorted(data["final"])
+    finals = sorted(data["final_out"])
     assert finals[-1] / finals[0] == pytest.approx(1.1 / 0.9, rel=0.05)
 
 

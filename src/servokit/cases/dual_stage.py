@@ -236,7 +236,9 @@ def _amd_figure(plant, cd, path: Path) -> Path:
     import control
     import matplotlib.pyplot as plt
 
-    f = np.geomspace(1e3, 3e4, 3000)
+    from servokit.models.frequency_grid import frequency_grid
+
+    f = frequency_grid([plant, cd], 1e3, 3e4, 3000)
     s = 2j * np.pi * f
     p = np.asarray(plant(s)).ravel()
     damped = np.asarray(control.feedback(plant, cd)(s)).ravel()

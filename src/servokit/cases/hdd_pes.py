@@ -96,7 +96,9 @@ def _freq_figures(c0, c1, pd, outdir: Path) -> list[Path]:
     from servokit._figures import save_figure
 
     dt = float(c0.dt)
-    f = np.geomspace(50.0, 0.5 / dt * 0.999, 2000)
+    from servokit.models.frequency_grid import frequency_grid
+
+    f = frequency_grid([pd, c0, c1], 50.0, 0.5 / dt * 0.999, 2000)
     z = np.exp(2j * np.pi * f * dt)
     p = np.asarray(pd(z)).ravel()
     cs = [np.asarray(c(z)).ravel() for c in (c0, c1)]

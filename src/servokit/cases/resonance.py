@@ -14,7 +14,7 @@ import control
 import numpy as np
 
 from servokit.cases import register
-from servokit.feedback import Margins, complex_lag, stability_margins
+from servokit.feedback import Margins, complex_lag, frequency_grid, stability_margins
 from servokit.feedback.plots import bode_responses_plot
 from servokit.report import CaseResult, Comparison
 
@@ -136,7 +136,7 @@ def resonance_filters_case(outdir: Path) -> CaseResult:
     lag, rows = _lag_rows()
     m, margin_rows = _margin_rows()
     rows += margin_rows
-    f = np.geomspace(1e3, 3e4, 1500)
+    f = frequency_grid(lag, 1e3, 3e4, 1500)
     fig = bode_responses_plot(
         {"Clag (ζ 0.1, 6900 Hz, φm 1.1519 rad)": lag},
         f,

@@ -5,6 +5,7 @@ from __future__ import annotations
 
 from collections.abc import Iterator
 from contextlib import contextmanager
+from pathlib import Path
 from typing import TYPE_CHECKING, Annotated, Any
 
 import numpy as np
@@ -102,8 +103,9 @@ def _show(
     info = _describe(tf, freq, dt)
     if target is not None:
         from servokit.feedback.plots import bode_responses_plot
+        from servokit.models.frequency_grid import frequency_grid
 
-        f = np.geomspace(freq / 100, min(freq * 100, 1e6), 2000)
+        f = frequency_grid(tf, freq / 100, min(freq * 100, 1e6), 2000)
         systems: dict[str, Any] = {f"{name} (continuous)": tf}
         if dt is not None:
             from servokit.feedback import discretize_filter
@@ -287,13 +289,19 @@ def _build(fb: Any, kind: str, x: list[float]) -> tuple[control.TransferFunction
     epilog=example(
         "servokit margins --plant hdd-sampled-data --controller eq-4.69",
         "servokit margins --plant vcm-dual-stage --controller table-5.2 --json",
+        "servokit margins --plant vcm-dual-stage --controller table-5.2 --variations box.toml",
     ),
-    help="Gain, phase, delay and second phase margins of the digital loop P(z) C(z) F(z)"
-    " (P discretised exactly under a ZOH, filters by prewarped Tustin); every crossover is"
-    " found on a dense grid refined by root finding, the extra delay is exact."
-    " JSON keys: gain_margin_db, phase_margin_deg, gm_freq_hz, pm_freq_hz, delay_margin_s,"
-    " second_phase_margin_deg, gain_crossovers_hz, phase_margins_deg, phase_crossovers_hz,"
-    " gain_margins_db, plant, controller, dt_s.",
+    help="Gain, phase, delay and modulus margins and the closed-loop stability of the digital"
+    " loop P(z) C(z) F(z) (P discretised exactly under a ZOH, filters by prewarped Tustin);"
+    " every crossover is found on a grid packed around every pole and zero, refined"
+    " adaptively and verified on the exact response; the extra delay is exact. Stability"
+    " comes from the Nyquist winding count; an unstable loop gets one warning line."
+    " --variations FILE: margins over the corners of a variation file, worst plant named."
+    " JSON keys: closed_loop_stable, gain_margin_db, phase_margin_deg, gm_freq_hz,"
+    " pm_freq_hz, delay_margin_s, modulus_margin, modulus_margin_freq_hz,"
+    " second_phase_margin_deg, gain_crossovers_hz, phase_margins_deg, delay_margins_s,"
+    " phase_crossovers_hz, gain_margins_db, plant, controller, dt_s (with --variations:"
+    " all_stable, worst_index, worst_plant, min_*_margin_* and their *_index, plants).",
 )
 def margins_cmd(
     plant: Annotated[str, typer.Option("--plant", help="catalogue name or .toml plant")],
@@ -310,7 +318,15 @@ def margins_cmd(
     ] = None,
     delay: Annotated[float, typer.Option("--loop-delay", help="extra loop delay [s]")] = 0.0,
     delay_old: old_name("--delay") = None,
-    n_freq: Annotated[int, typer.Option("--n-freq", help="search grid points", min=16)] = 20000,
+    n_freq: Annotated[
+        int, typer.Option("--n-freq", help="background grid points (packed and refined)", min=16)
+    ] = 500,
+    variations: Annotated[
+        Path | None,
+        typer.Option(
+            "--variations", help="variation file (.toml): margins over its corners", metavar="FILE"
+        ),
+    ] = None,
     plot: PlotOpt = None,
     json_out: JsonOpt = False,
 ) -> None:
@@ -325,43 +341,111 @@ def margins_cmd(
     p = load_plant(plant)
     ctrl = load_controller(controller)
     dt = float(ctrl.dt)
-    if delay > _MARGINS_MAX_DELAY_SAMPLES * dt:
-        # the phase of e^{-s delay} wraps once per 1/delay Hz: beyond this the grid cannot
-        # resolve a crossing and the search would not end
-        raise ServokitValueError(
-            f"{delay_flag} {delay:g} s is more than {_MARGINS_MAX_DELAY_SAMPLES} sampling periods "
-            f"({_MARGINS_MAX_DELAY_SAMPLES * dt:g} s) of the controller; give a smaller delay"
-        )
-    loop: list[Any] = [p.discretize(dt), ctrl]
+    _check_delay(delay, dt, delay_flag)
+    chain: list[Any] = [ctrl]
     for spec in filters or []:
         tf, f0 = parse_filter(spec)
-        loop.append(discretize_filter(tf, dt, f0))
+        chain.append(discretize_filter(tf, dt, f0))
+    if variations is not None:
+        _margins_over_file(p, chain, variations, delay, n_freq, json_out, controller, dt)
+        return
+    loop: list[Any] = [p.discretize(dt), *chain]
     m = stability_margins(loop, delay, n_freq=n_freq)
     if target is not None:
-        from servokit.feedback.plots import bode_responses_plot
-
-        f = np.geomspace(10.0, 0.5 / dt, 3000)
-        title = (
-            f"open loop L: PM {m.phase_margin_deg:.3g}° at {m.pm_freq_hz:.4g} Hz, "
-            f"GM {m.gain_margin_db:.3g} dB at {m.gm_freq_hz:.4g} Hz"
-        )
-        wrote(bode_responses_plot({"L = P C F": loop}, f, path=target, title=title))
+        _margins_plot(loop, m, dt, target)
+    _warn_unstable(m.closed_loop_stable, p.name)
     if json_out:
         emit_json({"plant": p.name, "controller": controller, "dt_s": dt, **m.to_dict()})
         return
     console.print(
         f"{p.name} with {controller} (dt = {dt:g} s): GM {m.gain_margin_db:.4g} dB at "
         f"{m.gm_freq_hz:.5g} Hz, PM {m.phase_margin_deg:.4g} deg at {m.pm_freq_hz:.5g} Hz, "
-        f"delay margin {m.delay_margin_s * 1e6:.4g} us"
+        f"delay margin {m.delay_margin_s * 1e6:.4g} us, modulus margin "
+        f"{m.modulus_margin:.4g} at {m.modulus_margin_freq_hz:.5g} Hz"
     )
-    for f, pm in zip(m.gain_crossovers_hz, m.phase_margins_deg, strict=True):
-        console.print(f"  gain crossover {f:10.5g} Hz  phase margin {pm:8.4g} deg")
+    for f, pm, dm in zip(m.gain_crossovers_hz, m.phase_margins_deg, m.delay_margins_s, strict=True):
+        console.print(
+            f"  gain crossover {f:10.5g} Hz  phase margin {pm:8.4g} deg"
+            f"  delay margin {dm * 1e6:8.4g} us"
+        )
     for f, gm in zip(m.phase_crossovers_hz, m.gain_margins_db, strict=True):
         console.print(f"  phase crossover {f:9.5g} Hz  gain margin {gm:8.4g} dB")
 
 
+#: Largest extra loop delay ``margins`` accepts, in sampling periods.
+_MARGINS_MAX_DELAY_SAMPLES = 100
+
+
+def _check_delay(delay: float, dt: float, flag: str = "--loop-delay") -> None:
+    if delay > _MARGINS_MAX_DELAY_SAMPLES * dt:
+        raise ServokitValueError(
+            f"{flag} {delay:g} s is {delay / dt:.3g} sampling periods; a loop delay that"
+            f" large is not a margin question: give at most {_MARGINS_MAX_DELAY_SAMPLES} dt"
+            f" = {_MARGINS_MAX_DELAY_SAMPLES * dt:g} s (the delay is in seconds)"
+        )
+
+
+def _warn_unstable(stable: bool | None, name: str) -> None:
+    if stable is False:
+        typer.echo(
+            f"servokit: warning: the closed loop with {name} is UNSTABLE (Nyquist count);"
+            " its margins do not describe a working loop",
+            err=True,
+        )
+
+
+def _margins_plot(loop: list[Any], m: Any, dt: float, target: Any) -> None:
+    from servokit.feedback.plots import bode_responses_plot
+    from servokit.models.frequency_grid import frequency_grid
+
+    f = frequency_grid(loop, 10.0, 0.5 / dt, 3000)
+    title = (
+        f"open loop L: PM {m.phase_margin_deg:.3g}° at {m.pm_freq_hz:.4g} Hz, "
+        f"GM {m.gain_margin_db:.3g} dB at {m.gm_freq_hz:.4g} Hz"
+    )
+    wrote(bode_responses_plot({"L = P C F": loop}, f, path=target, title=title))
+
+
+def _margins_over_file(
+    p: Any, chain: list[Any], path: str, delay: float, n_freq: int, json_out: bool,
+    controller: str, dt: float,
+) -> None:
+    from servokit.feedback import margins_over_set
+    from servokit.models.variation_file import read_variations
+
+    try:
+        plants = read_variations(path, nominal=p).corners()
+    except ServokitValueError as exc:
+        raise ServokitValueError(f"--variations: {exc}") from None
+    res = margins_over_set(chain, plants, delay, n_freq=n_freq)
+    worst = plants[res.worst_index]
+    _warn_unstable(False if res.all_stable is False else None, f"plant {res.worst_index}")
+    if json_out:
+        emit_json(
+            {
+                "plant": p.name,
+                "controller": controller,
+                "dt_s": dt,
+                "worst_plant": str(worst),
+                **res.to_dict(),
+            }
+        )
+        return
+    m = res.worst
+    console.print(
+        f"{len(plants)} plants of {path} with {controller}: worst plant {res.worst_index}"
+        f" ({worst}): GM {m.gain_margin_db:.4g} dB, PM {m.phase_margin_deg:.4g} deg,"
+        f" modulus margin {m.modulus_margin:.4g}, stable {m.closed_loop_stable}"
+    )
+    console.print(
+        f"  smallest GM {res.min_gain_margin_db:.4g} dB (plant {res.min_gain_margin_index}),"
+        f" PM {res.min_phase_margin_deg:.4g} deg (plant {res.min_phase_margin_index}),"
+        f" delay margin {res.min_delay_margin_s * 1e6:.4g} us"
+        f" (plant {res.min_delay_margin_index})"
+    )
+
+
 #: Largest --n-freq of ``margins`` (the library's limit).
-_MARGINS_MAX_DELAY_SAMPLES = 1000
 _MARGINS_MAX_FREQ = 10_000_000
 
 #: Most excitation frequencies ``identify`` accepts (~40 ms each: about an hour).

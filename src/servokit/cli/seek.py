@@ -88,12 +88,12 @@ def _check_size(
     check_memory(design + sim, what=f"{flag} {n_max}", max_memory_mb=max_mb)
 
 
-#: Flags of the robust design only: given with another --method they are refused.
+#: Flags of the robust design only: given with another --method they are refused
+#: (--u-max applies to every method: a QP constraint for fsc/ffsc, the LP limit for robust).
 _ROBUST_ONLY = {
     name: (flag, ("robust",))
     for name, flag in (
-        ("u_max", "--u-max"), ("margin", "--margin"), ("slew_max", "--slew-max"),
-        ("objective", "--objective"),
+        ("margin", "--margin"), ("slew_max", "--slew-max"), ("objective", "--objective"),
     )
 }  # fmt: skip
 

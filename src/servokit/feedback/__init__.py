@@ -3,8 +3,10 @@
 * :mod:`~servokit.feedback.filters`: notch (5.14), inverse pairs, complex lag (5.92)-(5.94),
   lead-lag (5.91), lag (5.96), PI, peak filter (5.17), pseudo plant (5.16).
 * :mod:`~servokit.feedback.dual_stage`: parallel / CMS / DMS dual-stage loops (5.79)-(5.89).
-* :mod:`~servokit.feedback.margins`: gain/phase/delay/second phase margins on the exact
-  frequency response.
+* :mod:`~servokit.feedback.margins`: every gain/phase/delay/modulus margin on the exact
+  frequency response and a Nyquist stability verdict; :mod:`~servokit.feedback.margins_set`
+  the worst case over a plant set; :mod:`~servokit.models.frequency_grid` the
+  pole-aware grid every Bode/sensitivity figure uses.
 * :mod:`~servokit.feedback.loopshape_iterate`: fixed-structure controller design from the
   measured FRFs of a plant set (convex-concave iteration, stability certificate); set-up in
   ``loopshape_problem``/``loopshape_init``, cone program in ``loopshape_socp``, tables in
@@ -33,7 +35,9 @@ from servokit.feedback.loopshape_problem import (
     pid_notch_structure,
 )
 from servokit.feedback.margins import Margins, loop_response, stability_margins
+from servokit.feedback.margins_set import SetMargins, margins_over_set
 from servokit.feedback.peak_filtered import PeakFilterSpec, peak_filtered_controller
+from servokit.models.frequency_grid import frequency_grid
 
 __all__ = [
     "DualStageLoops",
@@ -46,16 +50,19 @@ __all__ = [
     "loopshape",
     "pid_notch_structure",
     "Margins",
+    "SetMargins",
     "PeakFilterSpec",
     "peak_filtered_controller",
     "complex_lag",
     "design_peak_filter",
     "discretize_filter",
     "dual_stage_loops",
+    "frequency_grid",
     "inverse_pair",
     "lag",
     "lead_lag",
     "loop_response",
+    "margins_over_set",
     "notch",
     "peak_filter",
     "peak_filter_phase",

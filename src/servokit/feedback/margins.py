@@ -1,28 +1,38 @@
-"""Stability margins evaluated on the loop frequency response, exact delay included.
+"""Stability margins on the exact loop frequency response, every crossing, a stability verdict.
 
-python-control's ``stability_margins`` converts the loop to a polynomial ratio and finds
-crossings from polynomial roots; on high-order discrete loops this both overflows and
-reports spurious crossings (on the 23-state §4.5 loop it gives PM 19.9° at 317 Hz,
-where |L| = 2.7). Here the loop is evaluated directly at s = jω (or z = e^{jωT}) on a
-dense logarithmic grid; every sign change of log|L| (gain crossover) and of sin(arg L)
-with cos(arg L) < 0 (phase crossover) is refined by Brent's method on the exact
-response. A delay multiplies the response by e^{-jωτ} exactly (no Padé).
+python-control's ``stability_margins`` converts the loop to one polynomial ratio and finds
+crossings from polynomial roots; on high-order discrete loops this reports spurious
+crossings (on the 23-state §4.5 loop it gives PM 19.9° at 317 Hz, where |L| = 2.7). Here
+the loop is a product of factors, each evaluated exactly from a reduced form computed
+once (:mod:`~servokit.feedback.factor_response`), on a grid packed around every lightly
+damped pole and zero (:mod:`~servokit.models.frequency_grid`) and refined adaptively;
+every crossing is bracketed, shrunk and verified on the exact response
+(:mod:`~servokit.feedback.crossings`). A delay multiplies the response by ``e^{-jωτ}``
+exactly (no Padé).
 
-Definitions
------------
+Definitions (allmargin-style: every crossing is listed with its own margin)
+-----------------------------------------------------------------------------
 * Phase margin at a gain crossover ωc: ``180° + arg L(jωc)``, wrapped into (−180, 180].
   The headline :attr:`Margins.phase_margin_deg` is the one at the first (lowest) gain
   crossover, the book's convention for phase-stabilised loops, whose resonance peaks
   cross 0 dB again with any phase; every crossover is listed in ``phase_margins_deg``.
-* Gain margin at a phase crossover ω180: ``−20 log10 |L(jω180)|`` [dB]. The headline
-  :attr:`Margins.gain_margin_db` is the one closest to 0 dB (the nearest gain change
-  that reaches instability, upward (> 0 dB) or downward (< 0 dB) for conditionally
-  stable loops).
-* Delay margin (of a stable closed loop): the smallest τ with L(jωc)e^{-jωcτ} = −1 at
-  some crossover, ``min_k (PM_k mod 360°) / ωc,k``; PM / ωc for one crossover.
+* Gain margin at a phase crossover ω180: ``−20 log10 |L(jω180)|`` [dB]. The headline is
+  the one closest to 0 dB (the nearest gain change that reaches instability, upward or
+  downward for conditionally stable loops).
+* Delay margin at each gain crossover k: the smallest extra delay τ ≥ 0 that puts
+  ``L(jωk) e^{-jωk τ}`` on −1: ``τk = (PMk mod 360°) / ωk`` (the modulo matters: a
+  crossover with PM = −100° is reached after a 260° lag, not never). The headline
+  ``delay_margin_s`` is the minimum over all crossovers (not the crossover of smallest
+  PM, which is wrong when a resonance peak crosses 0 dB at high frequency); 0 when the
+  closed loop is already unstable. For a discrete loop the extra delay is the
+  frequency-response factor ``e^{-jωτ}`` (a whole number of samples is exactly ``z^-d``).
+* Modulus margin: ``min_ω |1 + L|`` (the inverse of the sensitivity peak), located
+  exactly (bounded Brent around the grid minimum).
+* Closed-loop stability: Nyquist winding count with the open-loop unstable poles,
+  boundary poles indented (:mod:`~servokit.feedback.nyquist`); None when a factor is a
+  black-box callable without ``poles``.
 * Second phase margin (phase-stabilised loops, §5.3.3.1, Table 5.4): the phase margin
-  at the second gain crossover (the resonance peak rising through 0 dB), reported in
-  [0°, 360°) so that a phase-stabilised peak reads e.g. 223.8°, as the book prints it.
+  at the second gain crossover, in [0°, 360°) (e.g. 223.8°, as the book prints it).
 """
 
 from __future__ import annotations
@@ -31,20 +41,23 @@ from collections.abc import Callable, Sequence
 from dataclasses import dataclass
 from typing import Any
 
-import control
 import numpy as np
-from scipy.optimize import brentq
 
-from servokit.errors import ServokitTypeError, ServokitValueError, check_count, check_finite
+from servokit.errors import ServokitValueError, check_count, check_finite
+from servokit.feedback.crossings import MAX_POINTS, MAX_STEP, TINY, adapt_grid, cut_intervals
+from servokit.feedback.crossings import find_crossings as _find
+from servokit.feedback.factor_response import Factor, loop_evaluator, make_factor
+from servokit.feedback.nyquist import BoundaryPoles, boundary_poles, winding_verdict
+from servokit.models.frequency_grid import factor_frequencies, pack_around
 
-__all__ = ["Margins", "stability_margins", "loop_response"]
+__all__ = ["Margins", "stability_margins", "loop_response", "loop_factors"]
 
 Response = Callable[[np.ndarray], np.ndarray]
 
 
 @dataclass(frozen=True)
 class Margins:
-    """Every crossing of a loop and the margins derived from them (frequencies in Hz)."""
+    """Every crossing of a loop, the margins derived from them (Hz) and a stability verdict."""
 
     gain_margin_db: float
     phase_margin_deg: float
@@ -56,6 +69,10 @@ class Margins:
     phase_crossovers_hz: tuple[float, ...]
     gain_margins_db: tuple[float, ...]
     second_phase_margin_deg: float
+    delay_margins_s: tuple[float, ...] = ()
+    modulus_margin: float = np.nan
+    modulus_margin_freq_hz: float = np.nan
+    closed_loop_stable: bool | None = None
 
     @property
     def gain_crossover_hz(self) -> float:
@@ -75,54 +92,56 @@ class Margins:
     def to_dict(self) -> dict[str, Any]:
         """JSON-ready dict (snake_case keys with unit suffixes; inf stays a float)."""
         return {
+            "closed_loop_stable": self.closed_loop_stable,
             "gain_margin_db": self.gain_margin_db,
             "phase_margin_deg": self.phase_margin_deg,
             "gm_freq_hz": self.gm_freq_hz,
             "pm_freq_hz": self.pm_freq_hz,
             "delay_margin_s": self.delay_margin_s,
+            "modulus_margin": self.modulus_margin,
+            "modulus_margin_freq_hz": self.modulus_margin_freq_hz,
             "second_phase_margin_deg": self.second_phase_margin_deg,
             "gain_crossovers_hz": list(self.gain_crossovers_hz),
             "phase_margins_deg": list(self.phase_margins_deg),
+            "delay_margins_s": list(self.delay_margins_s),
             "phase_crossovers_hz": list(self.phase_crossovers_hz),
             "gain_margins_db": list(self.gain_margins_db),
         }
 
 
-def _timebase(sys: Any) -> float | None:
-    dt = getattr(sys, "dt", None)
-    if dt is None or dt is False or dt == 0:
-        return None
-    if dt is True:
-        raise ServokitValueError("loop: a discrete loop needs a numeric sampling period dt")
-    return float(dt)
+def loop_factors(loop: Any) -> tuple[list[Factor], float | None]:
+    """The loop's factors (see :func:`loop_response`) and their common sampling period.
+
+    Parameters
+    ----------
+    loop : LTI, ModalPlant, callable or sequence of them
+        The loop factors.
+
+    Returns
+    -------
+    tuple of (list of Factor, float or None)
+    """
+    items: Sequence[Any] = loop if isinstance(loop, list | tuple) else [loop]
+    if not items:
+        raise ServokitValueError("loop must hold at least one factor")
+    factors = [make_factor(it) for it in items]
+    dts = {fa.dt for fa in factors if fa.dt is not None}
+    if len(dts) > 1:
+        raise ServokitValueError(f"loop factors have different sampling periods {sorted(dts)}")
+    dt = dts.pop() if dts else None
+    if dt is not None and any(fa.continuous_lti for fa in factors):
+        raise ServokitValueError(
+            "loop mixes continuous and discrete factors; discretise the continuous ones "
+            "(ModalPlant.discretize(dt), control.sample_system)"
+        )
+    return factors, dt
 
 
-def _lti_response(sys: control.LTI) -> tuple[Response, float | None]:
-    if not (sys.ninputs == 1 and sys.noutputs == 1):
-        raise ServokitValueError("loop must be single-input single-output")
-    dt = _timebase(sys)
-
-    def resp(f: np.ndarray) -> np.ndarray:
-        w = 2.0 * np.pi * np.asarray(f, dtype=float)
-        x = np.exp(1j * w * dt) if dt is not None else 1j * w
-        with np.errstate(all="ignore"):  # poles on the grid give inf, handled by callers
-            out = sys(x, warn_infinite=False)
-        return np.asarray(out, dtype=complex).reshape(np.shape(f))
-
-    return resp, dt
-
-
-def _factor(item: Any) -> tuple[Response, float | None]:
-    if isinstance(item, control.LTI):
-        return _lti_response(item)
-    if hasattr(item, "freqresp") and hasattr(item, "modes"):  # ModalPlant: exact, with delay
-        return (lambda f: np.asarray(item.freqresp(f), dtype=complex)), None
-    if callable(item):
-        return (lambda f: np.asarray(item(f), dtype=complex)), getattr(item, "dt", None)
-    raise ServokitTypeError(
-        f"loop factor of type {type(item).__name__} is not supported; pass a python-control "
-        "LTI system, a ModalPlant or a callable freq_hz -> complex response"
-    )
+def _delay(delay: float) -> float:
+    tau = float(check_finite("delay", delay))
+    if tau < 0:
+        raise ServokitValueError(f"delay must be >= 0 s (got {tau})")
+    return tau
 
 
 def loop_response(loop: Any, delay: float = 0.0) -> tuple[Response, float | None]:
@@ -147,58 +166,79 @@ def loop_response(loop: Any, delay: float = 0.0) -> tuple[Response, float | None
         The response ``L(freq_hz)`` (complex array) and the sampling period (None if
         continuous).
     """
-    items: Sequence[Any] = loop if isinstance(loop, list | tuple) else [loop]
-    if not items:
-        raise ServokitValueError("loop must hold at least one factor")
-    factors = [_factor(it) for it in items]
-    dts = {dt for _, dt in factors if dt is not None}
-    if len(dts) > 1:
-        raise ServokitValueError(f"loop factors have different sampling periods {sorted(dts)}")
-    dt = dts.pop() if dts else None
-    continuous = [it for it in items if not callable(it) or isinstance(it, control.LTI)]
-    if dt is not None and any(_timebase(it) is None for it in continuous):
-        raise ServokitValueError(
-            "loop mixes continuous and discrete factors; discretise the continuous ones "
-            "(ModalPlant.discretize(dt), control.sample_system)"
-        )
-    tau = float(check_finite("delay", delay))
-    if tau < 0:
-        raise ServokitValueError(f"delay must be >= 0 s (got {tau})")
-
-    def resp(f: np.ndarray) -> np.ndarray:
-        f = np.asarray(f, dtype=float)
-        out = np.exp(-2j * np.pi * f * tau) if tau else np.ones(f.shape, dtype=complex)
-        for r, _ in factors:
-            out = out * r(f)
-        return out
-
-    return resp, dt
-
-
-def _default_band(dt: float | None) -> tuple[float, float]:
-    if dt is not None:
-        return 1e-4 / dt, 0.5 / dt
-    return 1e-4, 1e6
-
-
-def _roots(
-    g: Callable[[float], float], f: np.ndarray, vals: np.ndarray, keep: np.ndarray
-) -> list[float]:
-    """Refine each sign change of ``vals`` on the grid ``f`` (where ``keep``) by brentq."""
-    out: list[float] = []
-    s = np.sign(vals)
-    idx = np.nonzero((s[:-1] * s[1:] <= 0) & keep[:-1] & np.isfinite(vals[:-1] + vals[1:]))[0]
-    for i in idx:
-        if vals[i] == 0:
-            out.append(float(f[i]))
-        elif vals[i + 1] != 0:
-            out.append(float(brentq(g, f[i], f[i + 1], xtol=1e-12 * f[i + 1], rtol=1e-12)))
-    return sorted(set(out))
+    factors, dt = loop_factors(loop)
+    return loop_evaluator(factors, _delay(delay), dt), dt
 
 
 def _wrap_deg(x: np.ndarray | float) -> np.ndarray:
     """Wrap degrees into (−180, 180]."""
     return 180.0 - np.mod(180.0 - np.asarray(x, dtype=float), 360.0)
+
+
+def _band(
+    factors: list[Factor], dt: float | None, tau: float, fmin: float | None, fmax: float | None
+) -> tuple[float, float, np.ndarray, np.ndarray]:
+    """Search band and the critical frequencies/dampings of all factors.
+
+    A continuous loop with a delay has phase crossovers every ``1/τ`` Hz for ever; the
+    default band then stops at ``max(10 f_max, 10/τ)`` (f_max the highest pole or zero),
+    not at 1 MHz.
+    """
+    crit = [factor_frequencies(fa.poles, fa.zeros, fa.dt) for fa in factors if fa.poles is not None]
+    f0 = np.concatenate([c[0] for c in crit]) if crit else np.zeros(0)
+    z = np.concatenate([c[1] for c in crit]) if crit else np.zeros(0)
+    if dt is not None:
+        lo, hi = 1e-4 / dt, 0.5 / dt
+    else:
+        lo, hi = 1e-4, 1e6
+        if f0.size:
+            lo, hi = min(lo, f0.min() / 10), max(hi, f0.max() * 10)
+        if tau > 0:
+            hi = min(hi, max(10.0 / tau, 10 * f0.max() if f0.size else 0.0))
+    lo = lo if fmin is None else float(fmin)
+    hi = hi if fmax is None else float(fmax)
+    if not (0 < lo < hi) or not np.isfinite(hi):
+        raise ServokitValueError(f"need 0 < fmin < fmax (got fmin={lo:g}, fmax={hi:g})")
+    if dt is not None and hi > 0.5 / dt * (1 + 1e-12):
+        raise ServokitValueError(f"fmax must not exceed the Nyquist frequency {0.5 / dt:g} Hz")
+    return lo, hi, f0, z
+
+
+def _contour_grid(
+    resp: Response,
+    lo: float,
+    hi: float,
+    n: int,
+    f0: np.ndarray,
+    z: np.ndarray,
+    bp: BoundaryPoles | None,
+    dt: float | None,
+) -> tuple[np.ndarray, float]:
+    """Starting grid over the whole positive half of the Nyquist contour, and its top."""
+    small = f0[f0 > 0]
+    start = min(lo, (small.min() if small.size else lo) * 1e-3)
+    # not closer to a boundary pole than its computed position is accurate (a Jordan
+    # block's eigenvalues split by ~sqrt(eps)): 1e-6 rad per sample, 1e-7 of the top
+    floor = 1e-6 / (2 * np.pi * dt) if dt is not None else 1e-7 * max(hi, f0.max(initial=0))
+    start = max(start, min(floor, lo))
+    if dt is not None:
+        top = 0.5 / dt * (1 - 1e-9 if bp is not None and bp.at_nyquist else 1.0)
+    else:
+        top = max(hi, (f0.max() if f0.size else hi) * 1e3)
+        for _ in range(12):  # continue until |L| < 1 for good
+            if abs(resp(np.array([top]))[0]) < 0.5:
+                break
+            top *= 10.0
+    f = np.geomspace(start, top, n)
+    packed = pack_around(f0, z)
+    parts = [f, packed[(packed > start) & (packed < top)], [lo, hi]]
+    if bp is not None and bp.freqs_hz.size:
+        b = bp.freqs_hz
+        parts.append(np.r_[b * (1 - 1e-8), b * (1 + 1e-8)])
+        f = np.unique(np.concatenate(parts))
+        f = f[np.abs(f[:, None] - b[None, :]).min(axis=1) > 1e-9 * f]
+        return f, top
+    return np.unique(np.concatenate(parts)), top
 
 
 def stability_margins(
@@ -207,9 +247,9 @@ def stability_margins(
     *,
     fmin: float | None = None,
     fmax: float | None = None,
-    n_freq: int = 20000,
+    n_freq: int = 500,
 ) -> Margins:
-    """Gain, phase, delay and second phase margins of a SISO loop L, exact delay included.
+    """All gain, phase, delay and modulus margins of a SISO loop L, and its stability verdict.
 
     Parameters
     ----------
@@ -218,54 +258,106 @@ def stability_margins(
     delay : float
         Extra pure delay τ [s] in the loop, applied exactly as e^{-jωτ}.
     fmin, fmax : float, optional
-        Search band [Hz]; defaults 1e-4/dt .. Nyquist for discrete loops and
-        1e-4 Hz .. 1 MHz for continuous ones.
+        Band [Hz] in which crossings are listed; defaults 1e-4/dt .. Nyquist for discrete
+        loops and 1e-4 Hz .. 1 MHz (widened to a decade beyond every pole and zero) for
+        continuous ones. The stability verdict always uses the whole contour.
     n_freq : int
-        Points of the logarithmic search grid before root refinement.
+        Points of the logarithmic background grid (the grid is also packed around every
+        pole and zero and refined adaptively, so the default is right for any damping).
 
     Returns
     -------
     Margins
-        Headline margins (infinite when there is no crossing) and every crossing.
+        Headline margins (infinite when there is no crossing), every crossing, the
+        modulus margin and ``closed_loop_stable``.
     """
-    resp, dt = loop_response(loop, delay)
+    factors, dt = loop_factors(loop)
+    tau = _delay(delay)
     n = check_count("n_freq", n_freq, lo=16, hi=10_000_000)
-    lo, hi = _default_band(dt)
-    lo = lo if fmin is None else float(fmin)
-    hi = hi if fmax is None else float(fmax)
-    if not (0 < lo < hi) or not np.isfinite(hi):
-        raise ServokitValueError(f"need 0 < fmin < fmax (got fmin={lo:g}, fmax={hi:g})")
-    if dt is not None and hi > 0.5 / dt * (1 + 1e-12):
-        raise ServokitValueError(f"fmax must not exceed the Nyquist frequency {0.5 / dt:g} Hz")
-    f = np.geomspace(lo, hi, n)
-    L = resp(f)
+    lo, hi, f0, z = _band(factors, dt, tau, fmin, fmax)
+    if 2 * np.pi * hi * tau / MAX_STEP > MAX_POINTS / 2:
+        raise ServokitValueError(
+            f"delay {tau:g} s turns the phase {hi * tau:.3g} times below {hi:g} Hz: "
+            "too large to resolve; give a delay below "
+            f"{MAX_POINTS * MAX_STEP / (4 * np.pi * hi):.3g} s (or a smaller fmax)"
+        )
+    resp = loop_evaluator(factors, tau, dt)
+    known = all(fa.poles is not None for fa in factors)
+    bp = boundary_poles(np.concatenate([fa.poles for fa in factors]), dt) if known else None
+    f, top = _contour_grid(resp, lo, hi, n, f0, z, bp, dt)
+    barriers = bp.freqs_hz if bp is not None else np.zeros(0)
+    f, L = adapt_grid(resp, f, barriers=barriers, quiet_above=hi)
+    stable = None if bp is None else winding_verdict(f, L, bp, dt is not None)
+    band = (f >= lo * (1 - 1e-12)) & (f <= hi * (1 + 1e-12))
+    cut = cut_intervals(f, barriers)
+    wc, w180 = _crossings(resp, f, L, band, cut)
+    mm, mm_f = _modulus_margin(resp, f, L, band, cut)
+    return _assemble(resp, wc, w180, stable, mm, mm_f)
+
+
+def _log_mag(L: np.ndarray) -> np.ndarray:
     with np.errstate(divide="ignore", invalid="ignore"):
-        logmag = np.log(np.abs(L))
-        unit = L / np.abs(L)
-
-    def g_mag(x: float) -> float:
-        return float(np.log(np.abs(resp(np.array([x]))[0])))
-
-    def g_phase(x: float) -> float:
-        v = resp(np.array([x]))[0]
-        return float(v.imag / abs(v))
-
-    wc = _roots(g_mag, f, logmag, np.ones(n, dtype=bool))
-    w180 = _roots(g_phase, f, unit.imag, unit.real < 0)
-    return _assemble(resp, wc, w180)
+        return np.log(np.abs(L))
 
 
-def _assemble(resp: Response, wc: list[float], w180: list[float]) -> Margins:
-    lc = resp(np.array(wc, dtype=float))
+def _sin_phase(L: np.ndarray) -> np.ndarray:
+    with np.errstate(divide="ignore", invalid="ignore"):
+        return L.imag / np.abs(L)
+
+
+def _crossings(
+    resp: Response, f: np.ndarray, L: np.ndarray, band: np.ndarray, cut: np.ndarray
+) -> tuple[list[float], list[float]]:
+    phase_ok = band & (np.abs(L) > TINY) & (L.real < 0)
+    wc, w180 = _find(resp, f, L, [(_log_mag, band), (_sin_phase, phase_ok)], cut)
+    # verify on the exact response: L real and negative at a phase crossover
+    if w180:
+        w180 = [x for x, v in zip(w180, resp(np.array(w180)), strict=True) if v.real < 0]
+    return wc, w180
+
+
+def _modulus_margin(
+    resp: Response, f: np.ndarray, L: np.ndarray, band: np.ndarray, cut: np.ndarray
+) -> tuple[float, float]:
+    """``min |1 + L|`` in the band: grid minimum, then 257-point zooming on its neighbours."""
+    d = np.where(band, np.abs(1.0 + L), np.inf)
+    k = int(np.argmin(d))
+    if not np.isfinite(d[k]):
+        return np.nan, np.nan
+    lo = f[k - 1] if k > 0 and not cut[k - 1] and band[k - 1] else f[k]
+    hi = f[k + 1] if k + 1 < f.size and not cut[k] and band[k + 1] else f[k]
+    a, b = lo, hi
+    best, val = float(f[k]), float(d[k])
+    for _ in range(2):
+        x = np.linspace(a, b, 257)
+        dx = np.abs(1.0 + resp(x))
+        j = int(np.argmin(dx))
+        if dx[j] < val:
+            best, val = float(x[j]), float(dx[j])
+        step = (b - a) / 256
+        a, b = max(lo, best - step), min(hi, best + step)
+    return val, best
+
+
+def _assemble(
+    resp: Response,
+    wc: list[float],
+    w180: list[float],
+    stable: bool | None,
+    mm: float,
+    mm_f: float,
+) -> Margins:
+    both = resp(np.array([*wc, *w180], dtype=float))  # one call for every crossing
+    lc, l180 = both[: len(wc)], both[len(wc) :]
     pms = _wrap_deg(180.0 + np.degrees(np.angle(lc)))
-    l180 = resp(np.array(w180, dtype=float))
     gms = -20.0 * np.log10(np.abs(l180))
+    # the delay that first turns crossover k onto -1: phase lost = PM_k mod 360
+    dms = np.radians(np.mod(pms, 360.0)) / (2 * np.pi * np.asarray(wc, dtype=float))
     if wc:
         pm, pm_f = float(pms[0]), wc[0]
-        # the delay that first turns some crossover onto -1: phase lost = PM mod 360
-        dm = float(np.min(np.radians(np.mod(pms, 360.0)) / (2 * np.pi * np.asarray(wc))))
+        dm = float(np.min(dms)) if stable is not False else 0.0
     else:
-        pm, pm_f, dm = np.inf, np.nan, np.inf
+        pm, pm_f, dm = np.inf, np.nan, (np.inf if stable is not False else 0.0)
     if w180:
         k = int(np.argmin(np.abs(gms)))
         gm, gm_f = float(gms[k]), w180[k]
@@ -283,4 +375,8 @@ def _assemble(resp: Response, wc: list[float], w180: list[float]) -> Margins:
         phase_crossovers_hz=tuple(float(x) for x in w180),
         gain_margins_db=tuple(float(x) for x in gms),
         second_phase_margin_deg=second,
+        delay_margins_s=tuple(float(x) for x in dms),
+        modulus_margin=mm,
+        modulus_margin_freq_hz=mm_f,
+        closed_loop_stable=stable,
     )

@@ -13,6 +13,21 @@ of ``L`` are zeros of ``T``, not of ``S``.  The sign cases follow: strictly prop
 ``Kz = 0`` gives 0 (Corollary 2, 6.19); ``Kz < -2`` or ``Kz > 0`` gives ``|1+Kz| > 1`` and a
 negative integral (Corollary 3, 6.21); ``-2 < Kz < 0`` a positive one (Corollary 4, 6.22).
 
+Unstable open-loop poles (the general form, which the book's (6.17)/(6.18) leave out): each
+open-loop pole ``p`` outside the stability region is a zero of ``S`` there, and Jensen's
+formula (discrete) / the Poisson integral of ``ln|S|`` over the right half-plane
+(continuous) add its contribution:
+
+* continuous ``int_0^inf ln|S(jw)| dw = pi sum Re p - pi/2 Ks`` (Freudenberg-Looze);
+* discrete ``int_{-pi}^{pi} ln|S| d phi = 2 pi sum ln|p| - 2 pi ln|1 + Kz|`` (i.e.
+  ``pi sum ln|p|`` per half circle ``[0, pi]``), ``|p| > 1``.
+
+Both added terms are positive: unstable poles raise the waterbed. By hand, ``L = k/(s - a)``
+with ``k > a > 0``: ``int_0^inf (1/2) ln((w^2 + a^2)/(w^2 + (k - a)^2)) dw = pi (a - (k - a))/2
+= pi a - pi k/2`` (``Ks = k``); ``L = k/(z - a)`` with ``|a| > 1 > |a - k|``: the circle mean
+of ``ln|z - a|`` is ``ln|a|`` and of ``ln|z - (a - k)|`` is 0, so the integral is
+``2 pi ln|a|``. Both are tests.
+
 Waterbed (6.20): if ``|S| <= alpha < 1`` on ``|phi| <= phi1`` and the integral is 0, then
 ``2 phi1 ln(alpha) + 2 (pi - phi1) ln||S||_inf >= 0``, i.e.
 ``||S||_inf >= (1/alpha)^(phi1/(pi - phi1))`` as printed.  The book's example (-40 dB
@@ -110,9 +125,15 @@ def high_frequency_gain(loop: control.TransferFunction | control.StateSpace) -> 
     return float(num[0] / den[0]) if rel == 1 else 0.0
 
 
+def _unstable_poles(loop: control.TransferFunction) -> np.ndarray:
+    """Open-loop poles strictly outside the stability region (boundary poles excluded)."""
+    ol = np.asarray(loop.poles())
+    tol = 1e-4  # repeated poles on the boundary (integrators) are found only to ~eps^(1/m)
+    return ol[np.abs(ol) > 1.0 + tol] if loop.isdtime() else ol[ol.real > tol]
+
+
 def _check_stable(loop: control.TransferFunction) -> None:
-    """(6.17)/(6.18) need a stable open loop (poles on the stability boundary allowed)
-    and a stable closed loop."""
+    """The theorem needs a stable closed loop; unstable open-loop poles enter the theory."""
     cl = control.feedback(loop, 1)
     poles = np.asarray(cl.poles())
     bad = np.abs(poles) >= 1.0 if loop.isdtime() else poles.real >= 0.0
@@ -120,13 +141,6 @@ def _check_stable(loop: control.TransferFunction) -> None:
         raise ServokitValueError(
             "the closed loop 1/(1+L) is unstable; the Bode integral theorem needs a stable "
             "closed loop"
-        )
-    ol = np.asarray(loop.poles())
-    tol = 1e-4  # repeated poles on the boundary (integrators) are found only to ~eps^(1/m)
-    bad_ol = np.abs(ol) > 1.0 + tol if loop.isdtime() else ol.real > tol
-    if np.any(bad_ol):
-        raise ServokitValueError(
-            "the open loop L has unstable poles; (6.17)/(6.18) as printed assume a stable L"
         )
 
 
@@ -152,7 +166,8 @@ def discrete_bode_integral(
     Parameters
     ----------
     loop : discrete SISO LTI
-        Open loop ``L(z) = C(z) P(z)``; stable, with a stable closed loop.
+        Open loop ``L(z) = C(z) P(z)`` with a stable closed loop; unstable open-loop poles
+        add ``2 pi sum ln|p|`` to the theory.
     n_freq : int
         Number of grid points on ``[-pi, pi)``.
 
@@ -184,8 +199,10 @@ def discrete_bode_integral(
         angle = 0.0 if abs(angle) < 1e-4 else angle  # a repeated integrator splits ~eps^(1/m)
         ln_s -= np.log(np.abs(z - np.exp(1j * angle)))
     integral = float(2.0 * np.pi * np.mean(ln_s))
-    theory = float(-2.0 * np.pi * np.log(abs(1.0 + kz)))
-    return BodeIntegral(integral, theory, kz, _corollary(kz, discrete=True))
+    unstable = _unstable_poles(tf)
+    theory = float(2.0 * np.pi * (np.sum(np.log(np.abs(unstable))) - np.log(abs(1.0 + kz))))
+    note = _corollary(kz, discrete=True) if unstable.size == 0 else _GENERAL
+    return BodeIntegral(integral, theory, kz, note)
 
 
 def continuous_bode_integral(
@@ -200,7 +217,8 @@ def continuous_bode_integral(
     Parameters
     ----------
     loop : continuous SISO LTI
-        Strictly proper, stable open loop with a stable closed loop.
+        Strictly proper open loop with a stable closed loop; unstable open-loop poles add
+        ``pi sum Re p`` to the theory.
     n_freq : int
         Grid points.
 
@@ -221,7 +239,14 @@ def continuous_bode_integral(
     w = np.geomspace(lo, hi, n)
     f = np.log(np.abs(1.0 / (1.0 + tf(1j * w))))
     integral = float(np.trapezoid(f, w) + lo * f[0] + hi * f[-1])
-    return BodeIntegral(integral, float(-np.pi / 2.0 * ks), ks, _corollary(ks, discrete=False))
+    unstable = _unstable_poles(tf)
+    theory = float(np.pi * np.sum(unstable.real) - np.pi / 2.0 * ks)
+    note = _corollary(ks, discrete=False) if unstable.size == 0 else _GENERAL
+    return BodeIntegral(integral, theory, ks, note)
+
+
+#: The corollary named when the open loop has unstable poles.
+_GENERAL = "general form with unstable open-loop poles (pi sum Re p / 2 pi sum ln|p| added)"
 
 
 def waterbed_phi1(bandwidth_hz: float, sampling_hz: float) -> float:

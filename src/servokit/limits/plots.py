@@ -38,8 +38,10 @@ def bode_integral_plot(
         s = 1.0 / (1.0 + loop(np.exp(2j * np.pi * f * loop.dt)))
         xlabel, xscale = "frequency [Hz] (up to Nyquist)", "linear"
     else:
+        from servokit.models.frequency_grid import frequency_grid
+
         top = 10 * max(1.0, float(np.max(np.abs(loop.poles())))) / (2 * np.pi)
-        f = np.geomspace(top * 1e-5, top * 10, n_freq)
+        f = frequency_grid(loop, top * 1e-5, top * 10, n_freq)  # no resonance clipped
         s = 1.0 / (1.0 + loop(2j * np.pi * f))
         xlabel, xscale = "frequency [Hz]", "log"
     ln_s = np.log(np.abs(s))
@@ -114,11 +116,14 @@ def variance_plot(
     """
     import matplotlib.pyplot as plt
 
+    from servokit.models.frequency_grid import frequency_grid
+
+    # pole-aware grids: every lightly damped peak of |S| and of the disturbance resolved
     if loop.isdtime():
-        f = np.geomspace(1e-4 / loop.dt, 0.5 / loop.dt, n_freq)
+        f = frequency_grid([loop, disturbance], 1e-4 / loop.dt, 0.5 / loop.dt, n_freq)
         x = np.exp(2j * np.pi * f * loop.dt)
     else:
-        f = np.geomspace(bandwidth_hz * 1e-3, bandwidth_hz * 1e3, n_freq)
+        f = frequency_grid([loop, disturbance], bandwidth_hz * 1e-3, bandwidth_hz * 1e3, n_freq)
         x = 2j * np.pi * f
     d2 = np.abs(np.asarray(disturbance(x)).ravel()) ** 2
     s2 = np.abs(1.0 / (1.0 + np.asarray(loop(x)).ravel())) ** 2

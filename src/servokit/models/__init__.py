@@ -1,7 +1,11 @@
 """Plants and controllers: modal plants with delay, exact discretisation, variation
 sets, the built-in catalogue, the book's controllers and TOML plant/controller files."""
 
-from servokit.models.benchmark_controller import BENCHMARK_NOTCHES, benchmark_controller
+from servokit.models.benchmark_controller import (
+    BENCHMARK_NOTCHES,
+    benchmark_controller,
+    ieej_example_controller,
+)
 from servokit.models.catalogue import (
     CATALOGUE,
     HDD_BENCHMARK_TS,
@@ -57,6 +61,7 @@ __all__ = [
     "band_powers",
     "disturbance_magnitude",
     "benchmark_controller",
+    "ieej_example_controller",
     "CATALOGUE",
     "CONTROLLERS",
     "get_discrete_controller",

@@ -47,7 +47,12 @@ def bode_plot(
     import matplotlib.pyplot as plt
 
     plist = [plants] if isinstance(plants, ModalPlant) else list(plants)
-    f = np.logspace(1, np.log10(5e4), 2000) if freq_hz is None else np.asarray(freq_hz)
+    if freq_hz is None:
+        from servokit.models.frequency_grid import frequency_grid
+
+        f = frequency_grid(plist, 10.0, 5e4, 2000)  # packed at every mode: no clipped peak
+    else:
+        f = np.asarray(freq_hz)
     fig, (ax_m, ax_p) = plt.subplots(2, 1, sharex=True, figsize=(7, 6))
     many = len(plist) > 3
     for i, p in enumerate(plist):

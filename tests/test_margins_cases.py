@@ -1,0 +1,254 @@
+"""Margins on named loops: the issue's resonant example, delay margins re-derived from
+closed-loop poles, the stability verdict on boundary/unstable poles, the worst plant."""
+
+from __future__ import annotations
+
+import control
+import numpy as np
+import pytest
+from _margin_loops import brute_crossings, build, packed_grid
+
+from servokit.feedback import frequency_grid, margins_over_set, stability_margins
+from servokit.feedback.factor_response import make_factor
+from servokit.models import Mode, benchmark_controller, hdd_benchmark_variants
+
+
+def _cl_unstable(loop: control.LTI, delay: float = 0.0, order: int = 10) -> bool:
+    """Closed-loop instability from poles; a continuous delay by a Padé approximant."""
+    if delay:
+        loop = loop * control.tf(*control.pade(delay, order))
+    p = np.asarray(control.feedback(loop, 1).poles())
+    return bool(np.any(np.abs(p) > 1)) if loop.isdtime() else bool(np.any(p.real > 0))
+
+
+def _phase_stabilised() -> control.TransferFunction:
+    w1 = 2 * np.pi * 5000.0
+    plant = control.tf([1.0], [1, 0, 0]) + control.tf([5.0], [1, 2 * 0.01 * w1, w1 * w1])
+    wc = 2 * np.pi * 500.0
+    ctrl = control.tf([1 / (wc / 3), 1], [1 / (3 * wc), 1])
+    return plant * ctrl * (1 / abs(complex((plant * ctrl)(1j * wc))))
+
+
+def test_resonant_loop_of_the_issue_finds_all_five_phase_crossovers():
+    # rigid body + modes at 3.0/7.1/11.3 kHz with zeta = 1e-5, 10 us delay, a lead
+    modes = [Mode(0, 0, 1), Mode(3000, 1e-5, 0.5), Mode(7100, 1e-5, 0.6), Mode(11300, 1e-5, 0.8)]
+    case = build(modes, 10e-6, 400.0, 1.0, None)
+    m = stability_margins(case.factors, fmax=20e3)
+    f = packed_grid(case, 1e-4, 20e3)
+    wc, w180 = brute_crossings(case.response, f)
+    assert len(m.phase_crossovers_hz) == 5
+    seen = [f for f, gm in zip(m.phase_crossovers_hz, m.gain_margins_db, strict=True) if gm < 80]
+    assert np.array(seen) == pytest.approx(w180, rel=1e-5)  # the reference sees |L| > 1e-4
+    # two of the five sit at the anti-resonances (|L| ~ 1e-5): verified on the exact response
+    l180 = case.response(np.array(m.phase_crossovers_hz))
+    assert np.all(l180.real < 0) and np.all(np.abs(np.angle(-l180)) < 1e-6)
+    assert np.array(m.gain_crossovers_hz) == pytest.approx(wc, rel=1e-5)
+    # the old search (20 000 log points, left point only) steps over the mode peaks
+    g = np.geomspace(1e-4, 20e3, 20000)
+    L = case.response(g)
+    naive = np.nonzero((np.sign(L.imag[:-1]) != np.sign(L.imag[1:])) & (L.real[:-1] < 0))[0]
+    assert naive.size < 5
+    # the peaks cross 0 dB with the wrong phase: unstable, as the closed-loop poles say
+    assert m.closed_loop_stable is False
+    assert case.unstable()[0]
+    assert m.delay_margin_s == 0.0
+
+
+def test_delay_margin_minimum_over_crossovers_uses_the_modulo_and_is_exact():
+    loop = _phase_stabilised()
+    m = stability_margins(loop)
+    assert m.closed_loop_stable is True
+    assert len(m.gain_crossovers_hz) == 3
+    # every crossover's delay margin puts L e^{-jw tau} on -1, and is >= 0 even where the
+    # wrapped phase margin is negative (-171.7 deg at 4.6 kHz: reached after 188.3 deg)
+    assert min(m.phase_margins_deg) < 0
+    for f, tau in zip(m.gain_crossovers_hz, m.delay_margins_s, strict=True):
+        assert tau >= 0
+        v = complex(loop(2j * np.pi * f)) * np.exp(-2j * np.pi * f * tau)
+        assert v == pytest.approx(-1.0, abs=1e-9)
+    # the headline is the minimum (the 5.4 kHz peak), not the crossover of smallest PM
+    assert m.delay_margin_s == pytest.approx(min(m.delay_margins_s))
+    k_small_pm = int(np.argmin(m.phase_margins_deg))
+    assert m.delay_margin_s < m.delay_margins_s[k_small_pm]
+    # closed-loop poles with the delay (Pade order 10): stable just below, unstable above
+    assert not _cl_unstable(loop, 0.999 * m.delay_margin_s)
+    assert _cl_unstable(loop, 1.001 * m.delay_margin_s)
+
+
+@pytest.mark.parametrize("fc", [150.0, 400.0])
+def test_delay_margin_of_a_rigid_body_loop_by_closed_loop_poles(fc):
+    case = build([Mode(0, 0, 1), Mode(6000, 0.02, -0.3)], 0.0, fc, 1.0, None)
+    m = stability_margins(case.factors)
+    assert m.closed_loop_stable is True
+    loop = case.plant.to_statespace() * control.ss(case.ctrl)
+    assert not _cl_unstable(loop, 0.999 * m.delay_margin_s)
+    assert _cl_unstable(loop, 1.001 * m.delay_margin_s)
+    # the verdict at the delayed loop agrees too
+    assert stability_margins(case.factors, 1.001 * m.delay_margin_s).closed_loop_stable is False
+
+
+def test_delay_margin_of_a_discrete_loop_in_whole_samples():
+    # a discrete loop whose delay margin is a whole number of samples is exact: z^-d
+    dt = 0.05
+    base = control.sample_system(control.tf([1.0], [1, 1, 0]), dt)
+    z = control.tf([1.0, 0.0], [1.0], dt)
+    w = 2 * np.pi * 0.1
+    k = 1 / abs(complex(base(np.exp(1j * w * dt))))
+    m0 = stability_margins(base * k)
+    d = int(np.floor(m0.delay_margin_s / dt))
+    assert d > 10
+    loop = base * k * (1 / z) ** d  # just inside
+    assert stability_margins(loop).closed_loop_stable is not _cl_unstable(loop)
+    over = loop * (1 / z)
+    assert stability_margins(over).closed_loop_stable is not _cl_unstable(over)
+    assert _cl_unstable(over) and not _cl_unstable(loop)
+
+
+@pytest.mark.parametrize(
+    "loop, stable",
+    [
+        (control.tf([2.0], [1, -1]), True),  # P = 1, cl pole -1
+        (control.tf([0.5], [1, -1]), False),  # cl pole +0.5
+        (control.tf([1.0], [1, -1.5], 0.1), True),  # P = 1, cl pole 0.5
+        (control.tf([0.3], [1, -1.5], 0.1), False),  # cl pole 1.2
+        (control.tf([1.0], [1, 1, 0]), True),  # integrator
+        (control.tf([10.0, 10.0], [1, 0, 0, 0]) * control.tf([1], [0.01, 1]), False),
+        (control.tf([100.0, 200.0, 100.0], [1, 0, 0, 0]) * control.tf([1], [0.01, 1]), True),
+    ],
+)
+def test_verdict_matches_closed_loop_poles(loop, stable):
+    assert _cl_unstable(loop) is not stable
+    assert stability_margins(loop).closed_loop_stable is stable
+
+
+def test_verdict_on_a_rigid_body_jordan_block_state_space():
+    # rigid body as the Jordan block [[0, 1], [0, 0]], PID-lead on it, continuous and ZOH
+    A = np.array([[0.0, 1.0], [0.0, 0.0]])
+    plant = control.ss(A, [[0.0], [1.0]], [[1.0, 0.0]], [[0.0]])
+    wc = 2 * np.pi * 100
+    ctrl = control.tf([1 / (wc / 3), 1], [1 / (3 * wc), 1]) * control.tf([1, wc / 8], [1, 0])
+    for gain in (wc**2 / 3, wc**2 * 300):
+        loop = plant * ctrl * gain
+        assert stability_margins(loop).closed_loop_stable is not _cl_unstable(loop)
+        dt = 1e-4
+        loop_d = control.sample_system(plant, dt) * control.sample_system(ctrl * gain, dt, "tustin")
+        assert stability_margins(loop_d).closed_loop_stable is not _cl_unstable(loop_d)
+
+
+def test_modulus_margin_is_the_minimum_distance_to_minus_one():
+    loop = _phase_stabilised()
+    m = stability_margins(loop)
+    f = np.geomspace(1.0, 1e5, 400_001)
+    d = np.abs(1 + np.asarray(loop(2j * np.pi * f)).ravel())
+    assert m.modulus_margin == pytest.approx(d.min(), rel=1e-6)
+    assert m.modulus_margin <= d.min()
+    assert m.modulus_margin_freq_hz == pytest.approx(f[np.argmin(d)], rel=1e-4)
+
+
+def test_reduced_forms_agree_with_python_control():
+    from servokit.models import HDD_BENCHMARK_TS, hdd_benchmark
+
+    pd = hdd_benchmark().discretize(HDD_BENCHMARK_TS)  # Jordan block at z = 1
+    f = np.geomspace(1.0, 0.5 / HDD_BENCHMARK_TS, 500)
+    ref = np.asarray(pd(np.exp(2j * np.pi * f * HDD_BENCHMARK_TS))).ravel()
+    fa = make_factor(pd)
+    assert fa.response(f) == pytest.approx(ref, rel=1e-8)
+    assert np.sum(np.abs(fa.poles - 1) < 1e-6) == 2
+    # continuous rigid body + modes as a state space, and a dense random one
+    sys = hdd_benchmark().to_statespace()
+    ref = np.asarray(sys(2j * np.pi * f)).ravel()
+    assert make_factor(sys).response(f) == pytest.approx(ref, rel=1e-8)
+    rnd = control.rss(12, 1, 1, strictly_proper=False)
+    ref = np.asarray(rnd(2j * np.pi * f)).ravel()
+    assert make_factor(rnd).response(f) == pytest.approx(ref, rel=1e-8)
+
+
+def test_frequency_grid_resolves_a_mode_with_damping_1e_6():
+    wn = 2 * np.pi * 5000.0
+    sys = control.tf([wn * wn], [1, 2e-6 * wn, wn * wn])
+    f = frequency_grid(sys, 10.0, 1e5, 500)
+    peak = np.abs(np.asarray(sys(2j * np.pi * f)).ravel()).max()
+    assert peak == pytest.approx(1 / (2e-6), rel=1e-3)  # the resonance peak 1/(2 zeta)
+    assert f[0] == 10.0 and f[-1] == 1e5
+
+
+def test_margins_over_a_plant_set_name_the_worst_plant():
+    plants = hdd_benchmark_variants()[:6]
+    ctrl = benchmark_controller()
+    res = margins_over_set(ctrl, plants)
+    direct = [stability_margins([p.discretize(ctrl.dt), ctrl]) for p in plants]
+    assert [m.phase_margin_deg for m in res.margins] == pytest.approx(
+        [m.phase_margin_deg for m in direct]
+    )
+    assert res.all_stable is True
+    mm = [m.modulus_margin for m in direct]
+    assert res.worst_index == int(np.argmin(mm))
+    assert res.min_phase_margin_deg == pytest.approx(min(m.phase_margin_deg for m in direct))
+    # a plant with ten times the gain destabilises the loop and becomes the worst
+    loud = plants[2].replace(gain=plants[2].gain * 10)
+    res2 = margins_over_set(ctrl, [*plants, loud])
+    assert res2.all_stable is False and res2.worst_index == len(plants)
+    assert res2.to_dict()["worst_index"] == len(plants)
+
+
+def test_ieej_benchmark_loop_margins_against_python_control_and_poles():
+    from servokit.models import HDD_BENCHMARK_TS, hdd_benchmark, ieej_example_controller
+
+    pd = hdd_benchmark().discretize(HDD_BENCHMARK_TS)
+    ctrl = ieej_example_controller()
+    m = stability_margins([pd, *ctrl])
+    full = control.ss(pd)
+    for c in ctrl:
+        full = full * control.ss(c)
+    assert full.nstates == 25
+    gm, pm, sm, w180, wc, wms = control.stability_margins(full)
+    assert m.phase_margin_deg == pytest.approx(pm, abs=1e-3)  # python-control's polynomials
+    assert m.pm_freq_hz == pytest.approx(wc / (2 * np.pi), rel=1e-5)
+    assert m.modulus_margin == pytest.approx(sm, rel=1e-6)
+    # python-control's headline GM is at its own (spurious-prone) choice; ours is listed
+    assert min(abs(np.array(m.phase_crossovers_hz) - w180 / (2 * np.pi))) < 1e-3 * w180
+    assert m.closed_loop_stable is True and not _cl_unstable(full)
+    # the values the docstring of ieej_example_controller states
+    assert m.phase_margin_deg == pytest.approx(33.45, abs=0.01)
+    assert m.gain_margin_db == pytest.approx(4.307, abs=0.001)
+    assert m.gm_freq_hz == pytest.approx(1634.2, abs=0.1)
+    assert m.delay_margin_s == pytest.approx(95.54e-6, abs=0.01e-6)
+    # an independent grid (python-control's dense evaluation) sees the same crossings
+    f = np.linspace(1.0, 0.5 / HDD_BENCHMARK_TS * (1 - 1e-9), 20_001)
+    L = np.asarray(full(np.exp(2j * np.pi * f * HDD_BENCHMARK_TS))).ravel()
+    wc_ref, w180_ref = brute_crossings(lambda x: L, f)
+    assert np.array(m.gain_crossovers_hz) == pytest.approx(wc_ref, rel=1e-4)
+    assert np.array(m.phase_crossovers_hz) == pytest.approx(w180_ref, rel=1e-4)
+
+
+def test_a_crossing_pair_beside_a_grid_point_exactly_on_0_db():
+    # found by the slow property test: |L(600 Hz)| = 1 exactly at a packed grid point, and
+    # the resonance rises above 0 dB just after it and falls back at 600.2157 Hz
+    from _margin_loops import LoopCase, lead
+
+    from servokit.models import ModalPlant
+
+    plant = ModalPlant(94713.47792893233, (Mode(5.0, 0.5, 1.0), Mode(600.0, 0.01, 1.0)))
+    case = LoopCase(plant, lead(600.0), None, lead(600.0))
+    m = stability_margins(case.factors, fmin=1, fmax=30e3)
+    assert len(m.gain_crossovers_hz) == 3
+    assert m.gain_crossovers_hz[2] == pytest.approx(600.2157, abs=1e-3)
+    assert abs(case.response(np.array([600.1]))[0]) > 1 > abs(case.response(np.array([600.3]))[0])
+
+
+def test_two_modes_at_one_frequency_discrete_split_form():
+    # found by the slow property test: two 1 kHz modes (zeta 1e-3 and 5.2e-4) give a pole
+    # cluster that the Sylvester split keeps in one triangular block; the crossings are
+    # exact on python-control's dense evaluation (a zpk product loses 2e-6 there)
+    from _margin_loops import LoopCase, lead
+
+    from servokit.models import ModalPlant
+
+    modes = (Mode(0, 0, 1), Mode(4907.5, 0.01, 0.5), Mode(1000, 1e-3, 1), Mode(1000, 5.233e-4, 1))
+    plant = ModalPlant(13433.318205545413, modes)
+    ctrl = control.sample_system(lead(100.0), 5e-5, method="tustin")
+    case = LoopCase(plant, lead(100.0), 5e-5, ctrl)
+    m = stability_margins(case.factors, fmin=1, fmax=1e4)
+    assert len(m.gain_crossovers_hz) == 3
+    assert np.abs(case.dense(np.array(m.gain_crossovers_hz))) == pytest.approx(1.0, rel=1e-9)
+    assert m.closed_loop_stable is not case.unstable()[0]
