@@ -163,6 +163,15 @@ def _applied(d: _Design, actuator: Any) -> tuple[_Design, int]:
     return (_Design(u, d.dt, f"{d.source}, limited") if n_clipped else d), n_clipped
 
 
+def _design_info(d: _Design, actuator: Any, n_clipped: int) -> dict[str, Any]:
+    """The JSON ``design`` object: the applied input and the limits that made it."""
+    slew = None if actuator is None else actuator.slew_max
+    u_max = None if actuator is None or np.isinf(actuator.u_max) else actuator.u_max
+    return {"source": d.source, "n_samples": int(d.u.size), "dt_s": d.dt,
+            "peak_input": float(np.abs(d.u).max()), "u_max": u_max, "slew_max": slew,
+            "n_clipped": n_clipped}  # fmt: skip
+
+
 @app.command(
     "sweep",
     epilog=example(
@@ -350,15 +359,7 @@ def sweep_cmd(
         "backend": res.backend,
         "chunk_size": res.chunk_size,
         "chunk_memory_mb": res.chunk_mb,
-        "design": {
-            "source": d.source,
-            "n_samples": int(d.u.size),
-            "dt_s": d.dt,
-            "peak_input": float(np.abs(d.u).max()),
-            "u_max": u_max,
-            "slew_max": slew_max,
-            "n_clipped": n_clipped,
-        },
+        "design": _design_info(d, actuator, n_clipped),
         "target": tracks,
         "settle_band": band,
         "mean_s": float(np.mean(res.seek_times)),
