@@ -400,7 +400,7 @@ CASES: list[tuple[list[str], str]] = [
     (["settle", "train", "--judge", "FIFO"], "--judge"),
     # ---- flags that do not apply to the chosen method are refused, not ignored
     (["seek", "--method", "fsc", "--margin", "0.3"], "--margin"),
-    (["seek", "--method", "ffsc", "--u-max", "3"], "--u-max"),
+    (["seek", "--method", "ffsc", "--n-samples", "10", "--u-max", "1e-6"], "--u-max"),
     (["seek", "--method", "fsc", "--objective", "energy"], "--objective"),
     (["sweep", "--method", "fsc", "--u-max", "3"], "--u-max"),
     (["sweep", "--design", "u.txt", "--method", "ffsc"], "--method"),
