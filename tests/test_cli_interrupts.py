@@ -114,10 +114,12 @@ def test_interrupt_swallowed_by_a_weakref_callback_still_exits_130(tmp_path) -> 
 def test_ctrl_c_with_dask_workers_exits_130_quietly(tmp_path) -> None:
     pytest.importorskip("distributed")
     proc = _start(
-        ["sweep", "--method", "ffsc", "--n-variants", "400000", "--workers", "2", "--json"],
+        ["sweep", "--method", "ffsc", "--n-variants", "4000000", "--workers", "2", "--json"],
         tmp_path,
     )
-    time.sleep(20)  # the cluster is up and the chunks are running
+    # the cluster is up and the chunks are running (4e6 variants take minutes: the array
+    # path sweeps 4e5 in ~16 s, so a smaller sweep could end before the interrupt)
+    time.sleep(20)
     assert proc.poll() is None, proc.communicate()
     code, seconds, err = _interrupt(proc)
     _assert_interrupted(code, seconds, err)
