@@ -656,6 +656,7 @@ CASES: list[tuple[list[str], str]] = [
     (["fit", "FRF.csv", "--out", "o", "--plot", "DIR"], "--plot"),
     # ---- loopshape
     (["loopshape", "missing.csv", "--dt", "1e-4", "--out", "o"], "FRF_FILE"),
+    (["loopshape", "FRF.csv", "--dt", "1e-4", "--out", "o", "--plant", "no-such"], "--plant"),
     (["loopshape", "DIR", "--dt", "1e-4", "--out", "o"], "FRF_FILE"),
     (["loopshape", "BADFRF.csv", "--dt", "1e-4", "--out", "o"], "FRF_FILE"),
     (["loopshape", "", "--dt", "1e-4", "--out", "o"], "FRF_FILE"),

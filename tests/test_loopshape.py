@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import json
+from pathlib import Path
 
 import control
 import numpy as np
@@ -176,3 +177,32 @@ def test_cli_loopshape_writes_a_readable_controller(tmp_path, monkeypatch, capsy
     ctrl = load_controller(tmp_path / "o" / "controller.toml")
     assert ctrl.dt == pytest.approx(DT)
     assert len(data["plants"]) == 3
+
+
+def test_cli_loopshape_checks_the_models_it_is_given(tmp_path, monkeypatch, capsys) -> None:
+    """--plant: the largest closed-loop pole of each model with the designed controller, as
+    python-control computes it from the written controller file and the exact ZOH model."""
+    import runpy
+    import shutil
+    import sys
+
+    import servokit.cli
+    from servokit.models import load_controller, save_plant
+
+    root = Path(__file__).resolve().parents[1]
+    stage = runpy.run_path(str(root / "examples" / "data" / "make_stage_frf.py"))["STAGE"]
+    shutil.copy(root / "examples" / "data" / "stage_frf.csv", tmp_path / "stage.csv")
+    save_plant(stage, tmp_path / "stage.toml")
+    monkeypatch.chdir(tmp_path)
+    args = ["servokit", "loopshape", "stage.csv", "--dt", "2.5e-5", "--order", "4", "--out",
+            "ctrl", "--time-limit", "3", "--plant", "stage.toml", "--json"]  # fmt: skip
+    monkeypatch.setattr(sys, "argv", args)
+    with pytest.raises(SystemExit) as exc:
+        servokit.cli.main()
+    out, err = capsys.readouterr()
+    assert exc.value.code == 0, err
+    radii = json.loads(out)["model_spectral_radii"]
+    K = load_controller(tmp_path / "ctrl" / "controller.toml")
+    loop = control.feedback(stage.discretize(float(K.dt)) * control.tf2ss(K), 1)
+    assert radii[0] == pytest.approx(np.max(np.abs(loop.poles())), rel=1e-9)
+    assert radii[0] < 1.0

@@ -17,7 +17,9 @@ from servokit.cli._app import (
     example,
     flag_names,
     load_controller,
+    load_plant,
     plot_target,
+    warn,
     wrote,
 )
 from servokit.errors import (
@@ -31,7 +33,8 @@ from servokit.errors import (
 CONTROLLER_FILE = "controller.toml"
 #: JSON keys of ``servokit loopshape --json`` (documented in its help)
 JSON_KEYS = (
-    "controller_file, structure, order, dt_s, s_max_db, design_time_s, notes, initial {summary}, "
+    "controller_file, structure, order, dt_s, s_max_db, design_time_s, notes, "
+    "model_spectral_radii (with --plant, else null), initial {summary}, "
     "summary {n_plants, min_crossover_hz, max_crossover_hz, worst_s_peak_db, "
     "worst_phase_margin_deg, worst_gain_margin_db, all_stable, n_unstable}, plants [{plant, "
     "crossover_hz, phase_margin_deg, gain_margin_db, delay_margin_s, s_peak_db, t_peak_db, "
@@ -191,6 +194,15 @@ def loopshape_cmd(
     t_max_db: Annotated[
         float | None, typer.Option("--t-max-db", help="bound on ||T||inf [dB]")
     ] = None,
+    models: Annotated[
+        list[str] | None,
+        typer.Option(
+            "--plant",
+            help="models of the plant set (e.g. from servokit fit; repeatable): the designed "
+            "controller's exact closed loops (ZOH + delay) are checked",
+            metavar="NAME_OR_TOML",
+        ),
+    ] = None,
     controller: Annotated[
         str | None,
         typer.Option(
@@ -225,6 +237,7 @@ def loopshape_cmd(
     notches = _notches(notch or [])
     lp = tuple(check_positive("--lowpass", v, "Hz") for v in (lowpass or []))
     init = None if controller is None else load_controller(controller, dt)
+    plants = [load_plant(m) for m in models or []]
     f, P = _read_set(frf_files)
     names = tuple(Path(n).stem for n in frf_files)
     with flag_names(_FLAGS):
@@ -239,10 +252,12 @@ def loopshape_cmd(
     wrote(path)
     if plot is not None:
         wrote(_plot(res, f, P, dt, s_max_db, plot))
+    radii = _certify(res.controller, plants)
     if json_out:
-        emit_json(_data(res, path, dt, s_max_db, plot))
+        emit_json(_data(res, path, dt, s_max_db, plot) | {"model_spectral_radii": radii})
         return
     _print(res)
+    _print_certificate(radii, models or [])
     for note in res.notes:
         console.print(f"note: {note}")
 
@@ -260,6 +275,25 @@ def _plot(res: Any, f: np.ndarray, P: np.ndarray, dt: float, s_max_db: float, pl
         path=plot,
         title=f"FRF-set loop shaping, {P.shape[0]} plants",
     )
+
+
+def _certify(controller: Any, plants: list) -> list[float] | None:
+    """Largest closed-loop pole modulus of each model with the designed controller."""
+    if not plants:
+        return None
+    from servokit.feedback import certify_models
+
+    return [float(r) for r in certify_models(controller, plants)[0]]
+
+
+def _print_certificate(radii: list[float] | None, names: list[str]) -> None:
+    if radii is None:
+        return
+    for name, r in zip(names, radii, strict=True):
+        verdict = "stable" if r < 1.0 else "UNSTABLE"
+        console.print(f"model {name}: largest closed-loop pole |z| = {r:.6f} ({verdict})")
+    if max(radii) >= 1.0:
+        warn("a model's exact closed loop is unstable: the FRF certificate does not hold on it")
 
 
 def _data(res: Any, path: Path, dt: float, s_max_db: float, plot: Path | None) -> dict:
