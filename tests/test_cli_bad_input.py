@@ -9,13 +9,10 @@ traceback, nothing on stdout, nothing written, and done within a few seconds.
 from __future__ import annotations
 
 import os
-import signal
-import time
 from pathlib import Path
 
 import pytest
-
-import servokit.cli
+from _cli_run import run_cli
 
 HANG_S = 30  # a case still running after this long is reported as a hang
 HUGE = "1000000000"  # a count that must be refused before anything is allocated
@@ -774,10 +771,6 @@ def _materialise(args: list[str], where: Path, monkeypatch: pytest.MonkeyPatch) 
     return args
 
 
-class _Hang(BaseException):
-    """Raised by the alarm: not an error the CLI could turn into exit 2."""
-
-
 def _snapshot(root: Path) -> set[Path]:
     return {p for p in root.rglob("*")}
 
@@ -787,23 +780,8 @@ def test_bad_input_is_one_line_exit_2(args, flag, tmp_path, monkeypatch, capsys)
     monkeypatch.chdir(tmp_path)
     _materialise(args, tmp_path, monkeypatch)
     before = _snapshot(tmp_path)
-    monkeypatch.setattr("sys.argv", ["servokit", *args])
-
-    def hang(*_: object) -> None:
-        raise _Hang(f"no refusal within {HANG_S} s")
-
-    previous = signal.signal(signal.SIGALRM, hang)
-    signal.alarm(HANG_S)
-    start = time.perf_counter()
-    try:
-        with pytest.raises(SystemExit) as exc:
-            servokit.cli.main()
-    finally:
-        signal.alarm(0)
-        signal.signal(signal.SIGALRM, previous)
-    elapsed = time.perf_counter() - start
-    out, err = capsys.readouterr()
-    assert exc.value.code == 2, (out, err)
+    code, out, err, elapsed = run_cli(args, HANG_S, monkeypatch, capsys)
+    assert code == 2, (out, err)
     lines = err.strip().splitlines()
     assert len(lines) == 1, err
     assert lines[0].startswith("servokit: error: ") or lines[0].startswith("Error")

@@ -14,13 +14,12 @@ from __future__ import annotations
 import random
 import shlex
 import shutil
-import signal
-import time
 import typing
 from pathlib import Path
 
 import click
 import pytest
+from _cli_run import run_cli
 
 import servokit.cli
 
@@ -114,30 +113,11 @@ _rng = random.Random(23)
 DEFAULT = _rng.sample(ALL, min(SAMPLE, len(ALL)))
 
 
-class _Hang(BaseException):
-    """Raised by the alarm: a case that neither answered nor refused in time."""
-
-
 def _run(args: list[str], tmp_path: Path, monkeypatch, capsys) -> tuple[int, str, str, float]:
     # the help examples name the shipped example files (fit, loopshape) from the repo root
     shutil.copytree(EXAMPLE_DATA, tmp_path / "examples" / "data", dirs_exist_ok=True)
     monkeypatch.chdir(tmp_path)
-    monkeypatch.setattr("sys.argv", ["servokit", *args])
-
-    def hang(*_: object) -> None:
-        raise _Hang(f"{shlex.join(args)}: no answer within {TIME_LIMIT_S} s")
-
-    previous = signal.signal(signal.SIGALRM, hang)
-    signal.alarm(TIME_LIMIT_S)
-    start = time.perf_counter()
-    try:
-        with pytest.raises(SystemExit) as exc:
-            servokit.cli.main()
-    finally:
-        signal.alarm(0)
-        signal.signal(signal.SIGALRM, previous)
-    out, err = capsys.readouterr()
-    return int(exc.value.code or 0), out, err, time.perf_counter() - start
+    return run_cli(args, TIME_LIMIT_S, monkeypatch, capsys)
 
 
 def _check(path: str, args: list[str], flag: str, tmp_path, monkeypatch, capsys) -> None:

@@ -10,7 +10,7 @@ import dataclasses
 import time
 from dataclasses import dataclass
 from pathlib import Path
-from typing import TYPE_CHECKING
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
@@ -133,7 +133,7 @@ def _design(req: RobustSeekRequest) -> RobustFeedforwardInput | ValidatedSeek:
 
 def robust_seek(req: RobustSeekRequest) -> None:
     """Design, verify by simulation, print or emit JSON, optionally plot."""
-    from servokit.seek import seek_plot, simulate_seek
+    from servokit.seek import simulate_seek
 
     plot = plot_target(req.plot)
     t0 = time.perf_counter()
@@ -148,28 +148,13 @@ def robust_seek(req: RobustSeekRequest) -> None:
     out = simulate_seek(req.plants, ff, req.target, band=req.settle_band, horizon=horizon)
     names = [p.name or str(i) for i, p in enumerate(req.plants)]
     if plot is not None:
-        nominal = req.plants[0]
-        seek_plot(
-            simulate_seek(req.plants, ff, req.target, band=req.settle_band),  # shorter record
-            req.target,
+        title = (
             f"Robust minimum-time seek of {req.target:g} on {req.plant_name}, N = {ff.N}, "
-            f"|u| <= {req.u_max:g} (beyond the book)",
-            plot,
-            resonances_hz=nominal.resonances_hz(),
-            band=req.settle_band,
+            f"|u| <= {req.u_max:g} (beyond the book)"
         )
-        wrote(plot)
+        _plot(req, req.plants, ff, title, plot)
     data = {
-        "plant": req.plant_name,
-        "method": "robust",
-        "target": req.target,
-        "n_samples": ff.N,
-        "dt_s": ff.dt,
-        "u_max": req.u_max,
-        "peak_input": float(np.abs(ff.u).max()),
-        "settle_band": req.settle_band,
-        "design_band": ff.band,
-        "margin": req.margin,
+        **_common_keys(req, ff),
         "seek_time_s": out.worst,
         "guaranteed_seek_time_s": ff.guaranteed_seek_time,
         "worst_plant": names[out.worst_plant],
@@ -198,38 +183,23 @@ def _report_box(
 ) -> None:
     """Print or emit the design validated over the ``--variations`` box."""
     from servokit.cli._app import warn
-    from servokit.seek import seek_plot, simulate_seek
 
     assert req.variations is not None
     ff = res.ff
     if plot is not None:
         plants = [req.variations.nominal, res.worst_plant.replace(name="validated worst")]
-        seek_plot(
-            simulate_seek(plants, ff, req.target, band=req.settle_band),
-            req.target,
+        title = (
             f"Robust seek of {req.target:g} validated over {req.variations.name or 'the box'}"
-            f", N = {ff.N}, |u| <= {req.u_max:g}",
-            plot,
-            resonances_hz=plants[0].resonances_hz(),
-            band=req.settle_band,
+            f", N = {ff.N}, |u| <= {req.u_max:g}"
         )
-        wrote(plot)
+        _plot(req, plants, ff, title, plot)
     if not res.converged:
         warn(
             f"the validated worst ({res.seek_time * 1e3:.6g} ms) still exceeds the design "
             f"guarantee ({res.design_seek_time * 1e3:.6g} ms) after {len(res.rounds)} rounds"
         )
     data = {
-        "plant": req.plant_name,
-        "method": "robust",
-        "target": req.target,
-        "n_samples": ff.N,
-        "dt_s": ff.dt,
-        "u_max": req.u_max,
-        "peak_input": float(np.abs(ff.u).max()),
-        "settle_band": req.settle_band,
-        "design_band": ff.band,
-        "margin": req.margin,
+        **_common_keys(req, ff),
         "seek_time_s": res.seek_time,
         "guaranteed_seek_time_s": res.design_seek_time,
         "n_validation": res.n_validation,
@@ -254,3 +224,31 @@ def _report_box(
         f"{res.design_seek_time * 1e3:.6g} ms on {res.n_design} plants, peak input "
         f"{data['peak_input']:.4g}, designed in {design_time:.2f} s"
     )
+
+
+def _plot(req: RobustSeekRequest, plants: list, ff: Any, title: str, plot: Path) -> None:
+    """The seek response of ``plants`` (the first one's resonances marked) into ``plot``."""
+    from servokit.seek import seek_plot, simulate_seek
+
+    out = simulate_seek(plants, ff, req.target, band=req.settle_band)  # shorter record
+    seek_plot(
+        out, req.target, title, plot,
+        resonances_hz=plants[0].resonances_hz(), band=req.settle_band,
+    )  # fmt: skip
+    wrote(plot)
+
+
+def _common_keys(req: RobustSeekRequest, ff: Any) -> dict:
+    """The JSON keys of both robust reports (design-set and validated over a box)."""
+    return {
+        "plant": req.plant_name,
+        "method": "robust",
+        "target": req.target,
+        "n_samples": ff.N,
+        "dt_s": ff.dt,
+        "u_max": req.u_max,
+        "peak_input": float(np.abs(ff.u).max()),
+        "settle_band": req.settle_band,
+        "design_band": ff.band,
+        "margin": req.margin,
+    }
