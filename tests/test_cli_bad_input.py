@@ -395,6 +395,31 @@ CASES: list[tuple[list[str], str]] = [
     (["settle", "judge", "--record", "FIFO.csv"], "--record"),
     (["settle", "evaluate", "--judge", "FIFO"], "--judge"),
     (["settle", "train", "--judge", "FIFO"], "--judge"),
+    # the own-actuator inputs: FRF files, variation files, seek designs
+    *[
+        (args, name)
+        for f, name in (("FIFO.csv", "FIFO.csv"), ("ZERO.json", "ZERO.json"))
+        for args in (
+            ["fit", f, "--out", "o"],
+            ["loopshape", f, "--dt", "1e-4", "--out", "o"],
+            ["report", "--plant", "hdd-benchmark", "--frf", f],
+        )
+    ],
+    *[
+        ([*cmd, "--variations", f], "--variations")
+        for cmd in (
+            ["seek", "--method", "fsc", "--n-samples", "10"],
+            ["simulate", "--plant", "hdd-sampled-data", "--dt", "1.535e-4", "--duration",
+             "0.01", "--step", "1", "--controller", "eq-4.69"],
+            ["margins", "--plant", "hdd-sampled-data", "--controller", "eq-4.69"],
+            ["sweep", "--method", "fsc", "--n-samples", "10"],
+        )  # fmt: skip
+        for f in ("FIFO.toml", "ZERO.toml", "DEEP.toml")
+    ],
+    *[
+        (["export", "feedforward", "--seek", f], "--seek")
+        for f in ("FIFO.json", "ZERO.json", "DEEP.json", "BINARY.json")
+    ],
     # ---- flags that do not apply to the chosen method are refused, not ignored
     (["seek", "--method", "fsc", "--margin", "0.3"], "--margin"),
     (["seek", "--method", "ffsc", "--n-samples", "10", "--u-max", "1e-6"], "--u-max"),

@@ -37,7 +37,7 @@ from importlib import resources
 from pathlib import Path
 from typing import Any
 
-from servokit._io import check_data_file
+from servokit._io import check_data_file, check_nesting, decode_text
 from servokit.errors import ServokitValueError
 from servokit.models.modal import ModalPlant
 from servokit.models.variations import Perturbation, VariationSet
@@ -224,8 +224,14 @@ def read_variations(
         error=VariationFileError,
     )
     try:
-        data = tomllib.loads(path.read_text(encoding="utf-8"))
-    except (tomllib.TOMLDecodeError, UnicodeDecodeError) as exc:
+        # the shared hardened decoding: encodings named, nesting capped before parsing
+        text = decode_text(path.read_bytes(), path, "")
+        check_nesting(text, path, "")
+    except ServokitValueError as exc:
+        raise VariationFileError(str(exc).strip()) from None
+    try:
+        data = tomllib.loads(text)
+    except tomllib.TOMLDecodeError as exc:
         raise VariationFileError(f"{path}: not valid TOML ({exc})") from None
     if data.get("kind") != "variations":
         raise VariationFileError(f"{path}: field 'kind' must be \"variations\" in a variation file")
