@@ -55,7 +55,7 @@ def test_issue_stage_meets_the_bar(sigma, seed):
     # the noise estimate recovers the noise put in (E|e|^2 = sigma^2)
     assert fit.noise_rel == pytest.approx(sigma, rel=0.1)
     # the reported standard deviations bound the actual errors (a few sigma)
-    for m, mq, s in zip(STAGE.modes[1:], fit.plant.modes[1:], fit.freq_hz_std[1:], strict=True):
+    for m, mq, s in zip(STAGE.modes[1:], fit.plant.modes[1:], fit.freq_std_hz[1:], strict=True):
         assert abs(mq.freq_hz - m.freq_hz) < 5 * s
     assert abs(fit.plant.delay - STAGE.delay) < 5 * fit.delay_std_s
     assert sum(b.n_points for b in fit.bands) == F.size
@@ -81,7 +81,7 @@ def test_uncertainty_matches_the_scatter_over_noise_draws():
     fits = [fit_modal(F, noisy(STAGE, 0.02, 100 + k), n_modes=3) for k in range(12)]
     freqs = np.array([[m.freq_hz for m in f.plant.modes[1:]] for f in fits])
     delays = np.array([f.plant.delay for f in fits])
-    reported = np.mean([f.freq_hz_std[1:] for f in fits], axis=0)
+    reported = np.mean([f.freq_std_hz[1:] for f in fits], axis=0)
     assert np.all(freqs.std(axis=0, ddof=1) / reported < 2.0)
     assert np.all(freqs.std(axis=0, ddof=1) / reported > 0.4)
     ratio = delays.std(ddof=1) / np.mean([f.delay_std_s for f in fits])

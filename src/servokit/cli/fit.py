@@ -42,12 +42,12 @@ def _summary(fit, plant_path: Path) -> dict:  # noqa: ANN001
             "damping": m.damping,
             "residue": m.residue,
             "gain_residue": p.gain * m.residue,
-            "freq_hz_std": fs,
+            "freq_std_hz": fs,
             "damping_std": zs,
             "gain_residue_std": bs,
         }
         for m, fs, zs, bs in zip(
-            p.modes, fit.freq_hz_std, fit.damping_std, fit.gain_residue_std, strict=True
+            p.modes, fit.freq_std_hz, fit.damping_std, fit.gain_residue_std, strict=True
         )
     ]
     return {
@@ -104,7 +104,7 @@ def _print(data: dict) -> None:
             f"{m['damping']:.4g}",
             f"{m['residue']:.4g}",
             f"{m['gain_residue']:.4g}",
-            f"{m['freq_hz_std']:.2g}",
+            f"{m['freq_std_hz']:.2g}",
             f"{m['damping_std']:.2g}",
             f"{m['gain_residue_std']:.2g}",
         )
@@ -119,7 +119,7 @@ def _print(data: dict) -> None:
     "fit",
     epilog=example("servokit fit examples/data/stage_frf.csv --out fitted --plot fit.png")
     + "  Writes OUT/plant.toml (read by every --plant).  JSON: plant_file, n_points, n_modes, "
-    "gain, delay_s, delay_std_s, modes [{freq_hz, damping, residue, gain_residue, freq_hz_std, "
+    "gain, delay_s, delay_std_s, modes [{freq_hz, damping, residue, gain_residue, freq_std_hz, "
     "damping_std, gain_residue_std}], median_error, max_error, noise_rel, bands [{f_low_hz, "
     "f_high_hz, n_points, median_error, rms_error, max_error}], bic {n_modes: value}, plot.",
 )

@@ -79,7 +79,7 @@ class ModalFit:
         Data at ``freq_hz``.
     model : numpy.ndarray
         ``plant.freqresp(freq_hz)``.
-    freq_hz_std, damping_std, gain_residue_std : numpy.ndarray
+    freq_std_hz, damping_std, gain_residue_std : numpy.ndarray
         One standard deviation of each mode's frequency [Hz], damping ratio and
         ``K A_i`` (linearised, from the Jacobian), in the order of ``plant.modes``;
         0 for the rigid body's (fixed) frequency and damping.
@@ -100,7 +100,7 @@ class ModalFit:
     freq_hz: np.ndarray
     response: np.ndarray
     model: np.ndarray
-    freq_hz_std: np.ndarray
+    freq_std_hz: np.ndarray
     damping_std: np.ndarray
     gain_residue_std: np.ndarray
     delay_std_s: float
@@ -460,7 +460,7 @@ def _result(f, H, t: _Trial, friction: bool, name: str, bic: dict[int, float]) -
         freq_hz=f,
         response=H,
         model=model,
-        freq_hz_std=np.array([x[3] for x in rows]),
+        freq_std_hz=np.array([x[3] for x in rows]),
         damping_std=np.array([x[4] for x in rows]),
         gain_residue_std=np.array([x[5] for x in rows]),
         delay_std_s=float(std[-1]) if t.layout.fit_delay else 0.0,
