@@ -10,7 +10,6 @@ from __future__ import annotations
 import codecs
 import os
 import re
-import stat
 import tempfile
 from collections.abc import Iterator
 from contextlib import contextmanager
@@ -295,20 +294,12 @@ def check_data_file(path: Path, *, max_bytes: int, what: str, error: type[Except
     int
         The file size [bytes].
     """
-
+    # the one regular-file check (errors.check_regular_file), in the caller's error class
     try:
-        st = os.stat(path)
-    except FileNotFoundError:
-        raise error(f"{path}: no such file; give the path of {what}") from None
-    except OSError as exc:
-        raise error(f"{path}: cannot be read ({exc.strerror})") from None
-    if not stat.S_ISREG(st.st_mode):
-        raise error(f"{path}: not a regular file; give {what}")
-    if st.st_size > max_bytes:
-        raise error(
-            f"{path}: {st.st_size} bytes, above the {max_bytes}-byte limit for {what}; "
-            "give a smaller file"
-        )
-    if st.st_size == 0:
+        p = check_regular_file(path, "", max_bytes)
+    except ServokitValueError as exc:
+        raise error(f"{str(exc).strip()}; expected {what}") from None
+    size = p.stat().st_size
+    if size == 0:
         raise error(f"{path}: the file is empty; give {what}")
-    return int(st.st_size)
+    return int(size)

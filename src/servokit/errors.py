@@ -339,7 +339,7 @@ def check_regular_file(path: str | Path, flag: str, max_bytes: int = MAX_INPUT_B
     except OSError as exc:
         raise ServokitValueError(f"{flag} {path}: {exc.strerror or exc}") from None
     if stat.S_ISDIR(st.st_mode):
-        raise ServokitValueError(f"{flag} {path} is a directory; give a file")
+        raise ServokitValueError(f"{flag} {path} is a directory, not a regular file; give a file")
     if not stat.S_ISREG(st.st_mode):
         raise ServokitValueError(
             f"{flag} {path} is not a regular file (a pipe, socket or device); give a file"
