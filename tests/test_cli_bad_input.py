@@ -315,6 +315,17 @@ CASES: list[tuple[list[str], str]] = [
     ([*COST, "--dt", "nan"], "--dt"),
     ([*COST, "--freq", "-1"], "--freq"),
     ([*COST, "--controller", "no-such"], "--controller"),
+    # ---- sizes estimated before allocating (issue 23): a 20 000-mode plant, a tiny --dt
+    ([*IVC, "--plant", "BIG.toml"], "--max-memory-mb"),
+    ([*IVC, "--max-memory-mb", "0.5"], "--max-memory-mb"),
+    ([*IVC, "--max-memory-mb", "inf"], "--max-memory-mb"),
+    ([*ADM, "--plant", "BIG.toml"], "--max-memory-mb"),
+    ([*ADM, "--dt", "1e-12"], "--dt"),
+    ([*COST, "--plant", "BIG.toml"], "--max-memory-mb"),
+    ([*COST, "--position", "1e300"], "--position"),
+    ([*NOTCH, "--dt", "1e-300"], "--dt"),
+    ([*NOTCH, "--dt", "2e-4"], "--freq"),  # 4449 Hz above the 2500 Hz Nyquist frequency
+    ([*NOTCH, "--dt", "nan"], "--dt"),
     # ---- identify
     (["identify", "--plant", "no-such", "--controller", "table-5.2"], "--plant"),
     (["identify", "--plant", "DIR", "--controller", "table-5.2"], "--plant"),
@@ -780,6 +791,13 @@ def _materialise(args: list[str], where: Path, monkeypatch: pytest.MonkeyPatch) 
     (where / "LATIN.toml").write_bytes('name = "caf\u00e9"\n'.encode("latin-1"))
     (where / "UTF16.toml").write_bytes("[plant]\n".encode("utf-16"))
     (where / "BINARY.json").write_bytes(bytes(range(256)))
+    # a 20 000-mode plant: its dense discrete model would take ~12 GiB (issue 23)
+    if not (where / "BIG.toml").exists():
+        modes = "".join(
+            f"[[modes]]\nfreq_hz = {100.0 + k}\ndamping = 0.01\nresidue = 1.0\n"
+            for k in range(20_000)
+        )
+        (where / "BIG.toml").write_text('name = "big"\ngain = 1.0\n' + modes)
     ro = where / "RO"
     ro.mkdir(exist_ok=True)
     ro.chmod(0o500)

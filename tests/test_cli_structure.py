@@ -19,8 +19,6 @@ OVER: dict[str, int] = {
     # --n-validation, --anti-windup): still to be split into options/request/render
     "seek.seek_cmd": 122,
     "sweep.sweep_cmd": 105,
-    "resonance.identify_cmd": 76,
-    "switching.admissible_cmd": 64,
     "simulate.simulate_cmd": 71,
     "reproduce.reproduce": 59,
     "unobservable.sampling_cmd": 58,
@@ -29,9 +27,7 @@ OVER: dict[str, int] = {
     "unobservable.time_cmd": 52,
     "limits.variance_cmd": 51,
     "pes.pes_cmd": 51,
-    "switching.ivc_cmd": 50,
     "sensitivity.sensitivity_cmd": 47,
-    "switching.cost_map_cmd": 45,
     "unobservable.magnitude_cmd": 43,
     "settle.train_cmd": 41,
 }

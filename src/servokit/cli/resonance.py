@@ -85,7 +85,7 @@ def _describe(tf: control.TransferFunction, freq: float, dt: float | None) -> di
     if dt is not None:
         from servokit.feedback import discretize_filter
 
-        with _flags(freq_hz=f"--freq (with --dt {dt:g} s)"):
+        with _flags(freq_hz=f"--freq (with --dt {dt:g} s)", dt="--dt"):
             fd = discretize_filter(tf, check_positive("--dt", dt, "s"), freq)
         out.update(dt_s=dt, num_z=np.asarray(fd.num[0][0]), den_z=np.asarray(fd.den[0][0]))
     return out
@@ -490,14 +490,29 @@ def identify_cmd(
     plot: PlotOpt = None,
     json_out: JsonOpt = False,
 ) -> None:
-    from servokit.models import get_discrete_controller
-    from servokit.sampled.identification import identification_plot, identify_above_nyquist
-
     target = plot_target(plot)
+    fs, typed = _identify_rate(dt, fs_old)
+    freq = _excitation_grid(fmin, fmax, step)
+    p = load_plant(plant)
+    lp = None if loop_plant is None else load_plant(loop_plant, "--loop-plant")
+    ctrl = _identify_controller(controller, fs, typed)
+    res = _identify(p, ctrl, freq, substeps, max_memory_mb, lp)
+    _identify_render(res, p, controller, fs, (fmin, fmax), target, json_out)
+
+
+def _identify_rate(dt: float | None, fs_old: float | None) -> tuple[float, str]:
+    """The PES sampling rate [Hz] from --dt (or the deprecated --fs) and how it was typed."""
     if fs_old is not None:
         check_positive("--fs", fs_old, "Hz")
         dt = renamed(dt, 1.0 / fs_old, new_flag="--dt", old_flag="--fs")
     fs = 1.0 / check_positive("--dt", 1.0 / 30e3 if dt is None else dt, "s")
+    return fs, (f"--fs {fs:g} Hz" if fs_old is not None else f"--dt {1 / fs:g} s")
+
+
+def _excitation_grid(fmin: float, fmax: float, step: float) -> np.ndarray:
+    """The excitation frequencies [Hz], refused before any work when there are too many."""
+    from servokit.sampled.identification import excitation_frequencies
+
     check_finite("--fmin/--fmax/--freq-step", [fmin, fmax, step])
     if not 0 < fmin <= fmax or step <= 0:
         raise ServokitValueError(
@@ -511,58 +526,64 @@ def identify_cmd(
         limit=_IDENTIFY_MAX_FREQ,
         about="about an hour",
     )
-    p = load_plant(plant)
-    lp = None if loop_plant is None else load_plant(loop_plant, "--loop-plant")
+    return excitation_frequencies(fmin, fmax, step)
+
+
+def _identify_controller(controller: str, fs: float, typed: str) -> Any:
+    """The controller at the PES period 1/fs; a period it cannot take names the flag typed."""
+    from servokit.models import get_discrete_controller
+
     load_controller(controller)  # an unknown name or a bad file names --controller
     try:
-        ctrl = get_discrete_controller(controller, dt=1.0 / fs)
+        return get_discrete_controller(controller, dt=1.0 / fs)
     except ServokitValueError as exc:
-        typed = f"--fs {fs:g} Hz" if fs_old is not None else f"--dt {1 / fs:g} s"
         raise ServokitValueError(f"{typed}: {exc}") from None
-    freq = fmin + step * np.arange(int(np.floor((fmax - fmin) / step + 1e-9)) + 1)
+
+
+def _identify(p: Any, ctrl: Any, freq: np.ndarray, substeps: int, max_mb: float, lp: Any) -> Any:
+    """:func:`~servokit.sampled.identification.identify_above_nyquist` with a progress bar."""
+    from servokit.sampled.identification import identify_above_nyquist
+
     chunk = 150
-    with progress(
-        int(np.ceil(freq.size / chunk)), "identifying", enabled=freq.size > chunk
-    ) as tick:
+    n_chunks = int(np.ceil(freq.size / chunk))
+    with progress(n_chunks, "identifying", enabled=freq.size > chunk) as tick:
         with _flags(substeps="--substeps", freq_hz="--fmin/--fmax"):
-            res = identify_above_nyquist(
-                p,
-                ctrl,
-                freq,
-                substeps=substeps,
-                chunk=chunk,
-                max_memory_mb=max_memory_mb,
-                loop_plant=lp,
-                progress=lambda n: tick(1),
-            )
-    db, deg = res.errors(p.freqresp(res.freq_hz))
+            return identify_above_nyquist(
+                p, ctrl, freq, substeps=substeps, chunk=chunk, max_memory_mb=max_mb,
+                loop_plant=lp, progress=lambda n: tick(1),
+            )  # fmt: skip
+
+
+def _identify_render(
+    res: Any, p: Any, controller: str, fs: float, span: tuple[float, float],
+    target: Path | None, json_out: bool,
+) -> None:  # fmt: skip
+    """Figure, JSON or the per-band error table of an identification."""
+    from servokit.sampled.identification import identification_plot
+
+    true = p.freqresp(res.freq_hz)
+    db, deg = res.errors(true)
     if target is not None:
-        wrote(
-            identification_plot(
-                res,
-                p.freqresp(res.freq_hz),
-                path=str(target),
-                title=f"{p.name} identified from PES sampled at {fs:g} Hz",
-            )
-        )
-    summary = {
-        "plant": p.name,
-        "controller": controller,
-        "fs_hz": fs,
-        "max_error_db": float(np.max(np.abs(db))),
-        "max_error_deg": float(np.max(np.abs(deg))),
-    }
+        title = f"{p.name} identified from PES sampled at {fs:g} Hz"
+        wrote(identification_plot(res, true, path=str(target), title=title))
     if json_out:
-        emit_json({**summary, **res.to_dict()})
+        emit_json({
+            "plant": p.name, "controller": controller, "fs_hz": fs,
+            "max_error_db": float(np.max(np.abs(db))),
+            "max_error_deg": float(np.max(np.abs(deg))), **res.to_dict(),
+        })  # fmt: skip
         return
+    f, (fmin, fmax) = res.freq_hz, span
+    excluded = ", ".join(f"{x:g}" for x in res.excluded_hz) or "none"
     console.print(
-        f"{p.name}: {res.freq_hz.size} frequencies {fmin:g}-{fmax:g} Hz identified at "
-        f"fs = {fs:g} Hz; excluded {', '.join(f'{x:g}' for x in res.excluded_hz) or 'none'} Hz"
+        f"{p.name}: {f.size} frequencies {fmin:g}-{fmax:g} Hz identified at "
+        f"fs = {fs:g} Hz; excluded {excluded} Hz"
     )
     for lo, hi in ((0, fs / 2), (fs / 2, fs), (fs, 1.5 * fs), (1.5 * fs, np.inf)):
-        band = (res.freq_hz > lo) & (res.freq_hz <= hi)
+        band = (f > lo) & (f <= hi)
         if band.any():
             console.print(
-                f"  {lo:8.0f}-{min(hi, fmax):8.0f} Hz: max error {np.max(np.abs(db[band])):.3g} dB,"
-                f" {np.max(np.abs(deg[band])):.3g} deg against the model"
+                f"  {lo:8.0f}-{min(hi, fmax):8.0f} Hz: max error "
+                f"{np.max(np.abs(db[band])):.3g} dB, {np.max(np.abs(deg[band])):.3g} deg"
+                " against the model"
             )
