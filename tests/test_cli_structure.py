@@ -21,14 +21,11 @@ OVER: dict[str, int] = {
     "sweep.sweep_cmd": 105,
     "simulate.simulate_cmd": 71,
     "reproduce.reproduce": 59,
-    "unobservable.sampling_cmd": 58,
     "dual_stage.dual_stage_cmd": 57,
     "srs.srs_cmd": 54,
-    "unobservable.time_cmd": 52,
     "limits.variance_cmd": 51,
     "pes.pes_cmd": 51,
     "sensitivity.sensitivity_cmd": 47,
-    "unobservable.magnitude_cmd": 43,
     "settle.train_cmd": 41,
 }
 
