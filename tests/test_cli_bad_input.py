@@ -210,6 +210,10 @@ CASES: list[tuple[list[str], str]] = [
     (["srs", "--kind", "peak"], "--kind"),
     (["srs", "--damping", "1"], "--damping"),
     (["srs", "--plot", "DIR"], "--plot"),
+    (["srs", "--freq", "1e300"], "--freq"),
+    (["srs", "--freq", "1e9", "--kind", "initial"], "--freq"),  # 3.2e7 integration panels
+    (["srs", "--kind", "initial", "--fmax", "1e8"], "--fmax"),
+    (["srs", "--max-memory-mb", "inf"], "--max-memory-mb"),
     # ---- reproduce
     (["reproduce", "--out", "u.txt"], "--out"),
     (["reproduce", "--out", "u.txt/sub"], "--out"),

@@ -22,7 +22,6 @@ OVER: dict[str, int] = {
     "simulate.simulate_cmd": 71,
     "reproduce.reproduce": 59,
     "dual_stage.dual_stage_cmd": 57,
-    "srs.srs_cmd": 54,
     "limits.variance_cmd": 51,
     "pes.pes_cmd": 51,
     "sensitivity.sensitivity_cmd": 47,
