@@ -3,8 +3,7 @@ and stability margins on the exact loop frequency response."""
 
 from __future__ import annotations
 
-from collections.abc import Iterator
-from contextlib import contextmanager
+from contextlib import AbstractContextManager
 from pathlib import Path
 from typing import TYPE_CHECKING, Annotated, Any
 
@@ -19,6 +18,7 @@ from servokit.cli._app import (
     console,
     emit_json,
     example,
+    flag_names,
     load_controller,
     load_plant,
     plot_target,
@@ -52,17 +52,9 @@ _JSON_HELP = (
 )
 
 
-@contextmanager
-def _flags(**names: str) -> Iterator[None]:
-    """Re-raise a library error naming the flag the user typed instead of the parameter."""
-    try:
-        yield
-    except ServokitValueError as exc:
-        msg = str(exc)
-        for param, flag in names.items():
-            if msg.startswith(param + " "):
-                msg = flag + msg[len(param) :]
-        raise ServokitValueError(msg) from None
+def _flags(**names: str) -> AbstractContextManager[None]:
+    """Re-raise a library error naming the flags the user typed (:func:`flag_names`)."""
+    return flag_names(names)
 
 
 def _natural(roots: np.ndarray) -> tuple[list[float], list[float]]:
