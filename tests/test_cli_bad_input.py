@@ -570,6 +570,8 @@ CASES: list[tuple[list[str], str]] = [
     (["settle", "judge", "--judge", "GARBAGE.toml", "--level", "inf"], "--level"),
     # ---- pes
     (["pes", "--plant", "no-such"], "--plant"),
+    (["pes", "--plant", "BIG.toml"], "--max-memory-mb"),
+    (["pes", "--max-memory-mb", "inf"], "--max-memory-mb"),
     (["pes", "--plant", "DIR"], "--plant"),
     (["pes", "--controller", "no-such"], "--controller"),
     (["pes", "--controller", "DIR"], "--controller"),
