@@ -166,6 +166,8 @@ CASES: list[tuple[list[str], str]] = [
     (["sensitivity", "--controller", "no-such"], "--controller"),
     (["sensitivity", "--plant", "no-such"], "--plant"),
     (["sensitivity", "--plot", "DIR"], "--plot"),
+    (["sensitivity", "--plant", "BIG.toml"], "--max-memory-mb"),
+    (["sensitivity", "--max-memory-mb", "inf"], "--max-memory-mb"),
     # ---- unobservable
     (["unobservable", "magnitude", "--freq", "0", "--dt", "25e-6"], "--freq"),
     (["unobservable", "magnitude", "--freq", "nan", "--dt", "25e-6"], "--freq"),

@@ -21,7 +21,6 @@ OVER: dict[str, int] = {
     "sweep.sweep_cmd": 105,
     "simulate.simulate_cmd": 71,
     "reproduce.reproduce": 59,
-    "sensitivity.sensitivity_cmd": 47,
     "settle.train_cmd": 41,
 }
 
