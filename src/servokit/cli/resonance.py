@@ -26,11 +26,19 @@ from servokit.cli._app import (
     sub_app,
     wrote,
 )
-from servokit.cli._options import old_name, renamed
+from servokit.cli._options import (
+    check_state_size,
+    controller_states,
+    discrete_states,
+    old_name,
+    renamed,
+)
 from servokit.errors import (
+    DEFAULT_MAX_MEMORY_MB,
     ServokitValueError,
     check_count,
     check_finite,
+    check_memory,
     check_positive,
     check_work,
 )
@@ -319,25 +327,21 @@ def margins_cmd(
             "--variations", help="variation file (.toml): margins over its corners", metavar="FILE"
         ),
     ] = None,
+    max_memory_mb: MaxMemoryOpt = DEFAULT_MAX_MEMORY_MB,
     plot: PlotOpt = None,
     json_out: JsonOpt = False,
 ) -> None:
-    from servokit.feedback import discretize_filter, stability_margins
+    from servokit.feedback import stability_margins
 
     target = plot_target(plot)
-    delay_flag = "--loop-delay" if delay_old is None else "--delay"
-    delay = renamed(delay, delay_old, new_flag="--loop-delay", old_flag="--delay", default=0.0)
-    if not float(check_finite(delay_flag, delay)) >= 0:
-        raise ServokitValueError(f"{delay_flag} must be >= 0 s (got {delay:g})")
+    delay, delay_flag = _loop_delay(delay, delay_old)
     check_count("--n-freq", n_freq, lo=16, hi=_MARGINS_MAX_FREQ)
     p = load_plant(plant)
     ctrl = load_controller(controller)
     dt = float(ctrl.dt)
     _check_delay(delay, dt, delay_flag)
-    chain: list[Any] = [ctrl]
-    for spec in filters or []:
-        tf, f0 = parse_filter(spec)
-        chain.append(discretize_filter(tf, dt, f0))
+    chain = [ctrl, *_filter_chain(filters, dt)]
+    _check_margins_size(p, plant, dt, chain, n_freq, max_memory_mb)
     if variations is not None:
         _margins_over_file(p, chain, variations, delay, n_freq, json_out, controller, dt)
         return
@@ -346,11 +350,54 @@ def margins_cmd(
     if target is not None:
         _margins_plot(loop, m, dt, target)
     _warn_unstable(m.closed_loop_stable, p.name)
+    _margins_render(m, p.name, controller, dt, json_out)
+
+
+def _loop_delay(delay: float, delay_old: float | None) -> tuple[float, str]:
+    """--loop-delay (or the deprecated --delay) [s], finite and >= 0, and the flag typed."""
+    delay_flag = "--loop-delay" if delay_old is None else "--delay"
+    delay = renamed(delay, delay_old, new_flag="--loop-delay", old_flag="--delay", default=0.0)
+    if not float(check_finite(delay_flag, delay)) >= 0:
+        raise ServokitValueError(f"{delay_flag} must be >= 0 s (got {delay:g})")
+    return delay, delay_flag
+
+
+def _filter_chain(filters: list[str] | None, dt: float) -> list[Any]:
+    """The --filter specs as discrete filters at ``dt`` (prewarped Tustin)."""
+    from servokit.feedback import discretize_filter
+
+    chain = []
+    for spec in filters or []:
+        tf, f0 = parse_filter(spec)
+        chain.append(discretize_filter(tf, dt, f0))
+    return chain
+
+
+#: Complex values held per background grid point and loop factor (responses, packed and
+#: refined grids, crossing searches): ~550 bytes per point measured for two factors.
+_MARGINS_VALUES_PER_POINT = 12
+
+
+def _check_margins_size(
+    p: Any, plant: str, dt: float, chain: list[Any], n_freq: int, max_memory_mb: float
+) -> None:
+    """The plant's discrete model and the frequency grids, estimated before building."""
+    n_states = discrete_states(p, dt, sum(controller_states(c) for c in chain))
+    check_state_size(n_states, what=f"--plant {plant}", max_memory_mb=max_memory_mb)
+    check_memory(
+        16.0 * _MARGINS_VALUES_PER_POINT * n_freq * (len(chain) + 2),
+        what=f"--n-freq {n_freq}",
+        max_memory_mb=max_memory_mb,
+    )
+
+
+def _margins_render(m: Any, name: str, controller: str, dt: float, json_out: bool) -> None:
+    """JSON or the margins and every crossover of one loop."""
     if json_out:
-        emit_json({"plant": p.name, "controller": controller, "dt_s": dt, **m.to_dict()})
+        emit_json({"plant": name, "controller": controller, "dt_s": dt, **m.to_dict()})
         return
     console.print(
-        f"{p.name} with {controller} (dt = {dt:g} s): GM {m.gain_margin_db:.4g} dB at "
+        f"{name} with {controller} (dt = {dt:g} s): GM {m.gain_margin_db:.4g} dB at "
         f"{m.gm_freq_hz:.5g} Hz, PM {m.phase_margin_deg:.4g} deg at {m.pm_freq_hz:.5g} Hz, "
         f"delay margin {m.delay_margin_s * 1e6:.4g} us, modulus margin "
         f"{m.modulus_margin:.4g} at {m.modulus_margin_freq_hz:.5g} Hz"
@@ -488,6 +535,10 @@ def identify_cmd(
     p = load_plant(plant)
     lp = None if loop_plant is None else load_plant(loop_plant, "--loop-plant")
     ctrl = _identify_controller(controller, fs, typed)
+    for flag, name, q in (("--plant", plant, p), ("--loop-plant", loop_plant, lp)):
+        if q is not None:  # simulated at T/--substeps: the plant's model at that step
+            n_states = discrete_states(q, 1.0 / (fs * substeps), controller_states(ctrl))
+            check_state_size(n_states, what=f"{flag} {name}", max_memory_mb=max_memory_mb)
     res = _identify(p, ctrl, freq, substeps, max_memory_mb, lp)
     _identify_render(res, p, controller, fs, (fmin, fmax), target, json_out)
 
