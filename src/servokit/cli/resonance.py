@@ -11,6 +11,7 @@ import numpy as np
 import typer
 
 from servokit.cli._app import (
+    DampingOpt,
     JsonOpt,
     MaxMemoryOpt,
     PlotOpt,
@@ -49,7 +50,6 @@ if TYPE_CHECKING:
 filter_app = sub_app("filter", "Resonance-compensation filters of book §5.3 (continuous/Tustin).")
 
 FreqOpt = Annotated[float, typer.Option("--freq", help="filter / mode frequency [Hz]")]
-DampingOpt = Annotated[float, typer.Option("--damping", help="damping ratio [1]")]
 DtOpt = Annotated[
     float | None,
     typer.Option("--dt", help="also give the Tustin discretisation prewarped at --freq [s]"),

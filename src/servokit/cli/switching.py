@@ -10,6 +10,7 @@ import typer
 from servokit.cli._app import (
     JsonOpt,
     MaxMemoryOpt,
+    PlantOpt,
     PlotOpt,
     console,
     emit_json,
@@ -37,9 +38,6 @@ switching_app = sub_app(
     "switching", "Mode switching: initial value compensation and admissible sets (book ch. 3)."
 )
 
-PlantOpt = Annotated[
-    str, typer.Option("--plant", help="catalogue name or .toml plant file", metavar="NAME_OR_TOML")
-]
 ControllerOpt = Annotated[
     str,
     typer.Option(
