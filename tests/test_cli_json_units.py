@@ -7,7 +7,10 @@ from __future__ import annotations
 import json
 
 import pytest
-from test_cli_vocabulary import _UNIT, _dimensionless, _keys
+from test_cli_vocabulary import _keys
+from test_cli_vocabulary import (
+    test_json_keys_carry_a_unit_or_are_listed_dimensionless as check_keys,
+)
 
 import servokit.cli
 
@@ -50,14 +53,7 @@ def _param(args: list[str]) -> object:
 
 @pytest.mark.parametrize("args", [_param(a) for a in RUNS])
 def test_json_keys_carry_a_unit_or_are_listed(args, capsys, monkeypatch) -> None:
-    monkeypatch.setattr("sys.argv", ["servokit", *args, "--json"])
-    with pytest.raises(SystemExit) as exc:
-        servokit.cli.main()
-    out, err = capsys.readouterr()
-    assert exc.value.code == 0, err
-    keys = _keys(json.loads(out), set())
-    bad = sorted(k for k in keys if not _UNIT.search(k) and k not in _dimensionless())
-    assert not bad, f"{' '.join(args[:2])}: keys without a unit suffix: {bad}"
+    check_keys(args, capsys, monkeypatch)  # the vocabulary test's own check
 
 
 def test_one_name_per_concept_across_these_commands(capsys, monkeypatch) -> None:
