@@ -539,6 +539,11 @@ CASES: list[tuple[list[str], str]] = [
     ([*VAR, "--dist-den", "0.01,1", "--dt", "-1"], "--dt"),
     ([*VAR, "--dist-den", "0.01,1", "--rolloff-order", "0"], "--rolloff-order"),
     ([*VAR, "--dist-den", "0.01,1", "--rolloff-order", "51"], "--rolloff-order"),
+    # an unstable closed loop: (6.13) stays finite on the boundary but is no variance
+    (["limits", "variance", "--num", "1", "--den", "1,-3,1", "--dist-num", "1",
+      "--dist-den", "0.01,1"], "--num/--den"),
+    (["limits", "variance", "--num", "3", "--den", "1,-0.5", "--dist-num", "1",
+      "--dist-den", "1,0.5", "--dt", "1e-4"], "--num/--den"),
     ([*BODE, "--dt", "1e-4", "--n-freq", "16777216", "--max-memory-mb", "100"], "--max-memory-mb"),
     ([*BODE, "--dt", "1e-4", "--max-memory-mb", "inf"], "--max-memory-mb"),
     ([*BODE, "--dt", "1e-4", "--max-memory-mb", "0"], "--max-memory-mb"),

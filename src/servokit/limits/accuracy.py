@@ -281,6 +281,15 @@ def variance_against_bound(
         closed loop makes the integral (6.13) diverge.
     """
     dt = float(loop.dt) if loop.isdtime() else None
+    poles = control.feedback(loop, 1).poles()
+    worst = poles[np.argmax(np.abs(poles) if dt else poles.real)] if poles.size else 0.0
+    if poles.size and (abs(worst) >= 1 if dt else worst.real >= 0):
+        # (6.13) integrates |S D|^2 on the boundary, which stays finite for an unstable
+        # loop: the number would look like a variance of an output that diverges
+        raise ServokitValueError(
+            f"disturbance and loop give no output variance: the closed-loop system is "
+            f"unstable (pole at {complex(worst):.4g})"
+        )
     omega_hz = rolloff_bandwidth(loop, delta=delta, k=k)
     try:
         vb = variance_lower_bound(disturbance, omega_hz, delta=delta, k=k, dt=dt)
