@@ -17,7 +17,6 @@ LIMIT = 40
 OVER: dict[str, int] = {
     # seek/sweep/simulate grew with the own-actuator flags (--variations, --u-max,
     # --n-validation, --anti-windup): still to be split into options/request/render
-    "sweep.sweep_cmd": 105,
     "resonance.identify_cmd": 76,
     "switching.admissible_cmd": 64,
     "simulate.simulate_cmd": 71,

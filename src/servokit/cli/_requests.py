@@ -10,6 +10,7 @@ HDD benchmark) share the builder, so a seek request is built and translated in o
 
 from __future__ import annotations
 
+from collections.abc import Mapping
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
@@ -179,12 +180,12 @@ def check_target(target: float) -> float:
     return target
 
 
-def _check_flags(f: SeekFlags) -> int:
+def _check_flags(f: SeekFlags, inapplicable: Mapping[str, tuple[str, tuple[str, ...]]]) -> int:
     """Every flag checkable before a plant is read; returns the largest N designed."""
     check_method(f.method)
     if f.model not in ("rigid-body", "plant"):
         raise ServokitValueError(f"--model must be 'rigid-body' or 'plant', got {f.model!r}")
-    refuse_inapplicable("--method", f.method, _ROBUST_ONLY)
+    refuse_inapplicable("--method", f.method, inapplicable)
     check_target(f.target)
     check_positive("--settle-band", f.settle_band)
     auto = f.n_samples == "auto"
@@ -313,13 +314,18 @@ def input_limit(request: Any, u_max: float, n_flag: str) -> tuple:
     return limit
 
 
-def seek_job(f: SeekFlags) -> SeekJob:
+def seek_job(
+    f: SeekFlags, inapplicable: Mapping[str, tuple[str, tuple[str, ...]]] = _ROBUST_ONLY
+) -> SeekJob:
     """``servokit seek``'s flags -> the checked :class:`~servokit.seek.SeekRequest`.
 
     Parameters
     ----------
     f : SeekFlags
         The flags as typed.
+    inapplicable : mapping
+        Flags refused when typed with another method (default: the robust-only flags of
+        ``seek``; ``sweep`` has its own).
 
     Returns
     -------
@@ -330,7 +336,7 @@ def seek_job(f: SeekFlags) -> SeekJob:
 
     from servokit.seek import SeekRequest
 
-    n_top = _check_flags(f)
+    n_top = _check_flags(f, inapplicable)
     output = Output.checked(f.plot, f.json_out)
     nominal, plants, box, is_hdd = _plant_set(f)
     if f.u_max is not None:
