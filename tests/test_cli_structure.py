@@ -19,7 +19,6 @@ OVER: dict[str, int] = {
     # --n-validation, --anti-windup): still to be split into options/request/render
     "resonance.identify_cmd": 76,
     "switching.admissible_cmd": 64,
-    "reproduce.reproduce": 59,
     "unobservable.sampling_cmd": 58,
     "dual_stage.dual_stage_cmd": 57,
     "srs.srs_cmd": 54,
