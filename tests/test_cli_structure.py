@@ -15,8 +15,6 @@ CLI = Path(__file__).resolve().parents[1] / "src" / "servokit" / "cli"
 LIMIT = 40
 #: command function -> body lines today (to be split into options/request/render)
 OVER: dict[str, int] = {
-    # seek/sweep/simulate grew with the own-actuator flags (--variations, --u-max,
-    # --n-validation, --anti-windup): still to be split into options/request/render
     "resonance.identify_cmd": 76,
     "switching.admissible_cmd": 64,
     "unobservable.sampling_cmd": 58,
@@ -29,7 +27,6 @@ OVER: dict[str, int] = {
     "sensitivity.sensitivity_cmd": 47,
     "switching.cost_map_cmd": 45,
     "unobservable.magnitude_cmd": 43,
-    "settle.train_cmd": 41,
 }
 
 

@@ -127,11 +127,30 @@ def train_cmd(
 ) -> None:
     """Train the judge on FSC seeks of plant (6.7).  JSON: n_states, n_class1, n_class2, c,
     coef0, cv_scores, judge."""
-    from servokit.learn import SettlingJudge, training_seeks, training_set
+    from servokit.learn import training_set
 
     # every flag and the output path are checked before the seeks are simulated
     given = renamed(out, out_old, new_flag="--judge", old_flag="--out", default=Path("judge.skops"))
     out = _check_out_file(given, "--out" if out_old is not None else "--judge")
+    c = renamed(c, c_old, new_flag="--svm-c", old_flag="--c", default=10.0)
+    judge, seeks = _train_request(
+        n_distances, n_lengths, settle_band, c, "--c" if c_old is not None else "--svm-c",
+        coef0, class1_weight,
+    )  # fmt: skip
+    data = training_set(_simulate(seeks, "simulating seeks"), bound=judge.bound)
+    judge = judge.tune(data.X, data.labels) if cv else judge.fit(data.X, data.labels)
+    judge.save(out)
+    wrote(out)
+    _render_train(judge, data, len(seeks), out, json_out)
+
+
+def _train_request(
+    n_distances: int, n_lengths: int, settle_band: float, c: float, c_flag: str,
+    coef0: float, class1_weight: float,
+) -> tuple[Any, list]:  # fmt: skip
+    """The checked training flags: an unfitted judge and the training seeks (6.7)."""
+    from servokit.learn import SettlingJudge, training_seeks
+
     n_distances = check_count("--n-distances", n_distances, lo=2, hi=1000)
     n_lengths = check_count("--n-lengths", n_lengths, lo=2, hi=107)
     settle_band = check_positive("--settle-band", settle_band, "track")
@@ -139,16 +158,15 @@ def train_cmd(
         raise ServokitValueError(
             f"--settle-band must be 0.001..10 track (got {settle_band:g}); the book uses 0.1"
         )
-    c = renamed(c, c_old, new_flag="--svm-c", old_flag="--c", default=10.0)
-    c = check_positive("--c" if c_old is not None else "--svm-c", c)
+    c = check_positive(c_flag, c)
     coef0 = float(check_finite("--coef0", coef0))
     class1_weight = check_positive("--class1-weight", class1_weight)
     judge = SettlingJudge(bound=settle_band, C=c, coef0=coef0, class1_weight=class1_weight)
-    seeks = training_seeks(n_distances, n_lengths)
-    data = training_set(_simulate(seeks, "simulating seeks"), bound=settle_band)
-    judge = judge.tune(data.X, data.labels) if cv else judge.fit(data.X, data.labels)
-    judge.save(out)
-    wrote(out)
+    return judge, training_seeks(n_distances, n_lengths)
+
+
+def _render_train(judge: Any, data: Any, n_seeks: int, out: Path, json_out: bool) -> None:
+    """Print or emit the trained judge's summary."""
     n1, n2 = data.counts
     res = {
         "n_states": len(data.X),
@@ -165,7 +183,7 @@ def train_cmd(
         emit_json(res)
         return
     console.print(
-        f"{len(seeks)} seeks, {len(data.X)} states (class 1: {n1}, class 2: {n2}); "
+        f"{n_seeks} seeks, {len(data.X)} states (class 1: {n1}, class 2: {n2}); "
         f"C = {judge.C:g}, offset = {judge.coef0:g}"
     )
 
