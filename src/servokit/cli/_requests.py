@@ -46,6 +46,7 @@ SEEK_FLAGS: dict[str, str] = {
     "slew_max": "--slew-max",
     "margin": "--margin",
     "objective": "--objective",
+    "max_memory_mb": "--max-memory-mb",
 }
 #: fewest steps the automatic N search starts from (servokit.seek.request.SMALLEST_N)
 SMALLEST_N = 3
@@ -354,7 +355,7 @@ def seek_job(
             "auto" if auto else n_top, N_max=n_top, band_weights=bands, model=f.model,
             u_max=f.u_max if robust else None, slew_max=f.slew_max if robust else None,
             margin=f.margin, objective=f.objective, simulate_delay=f.delay,
-            design_plant=nominal,
+            design_plant=nominal, max_memory_mb=f.max_memory_mb,
         )  # fmt: skip
         if f.u_max is not None and not robust:  # |u| <= u_max as a QP constraint
             request = dataclasses.replace(request, limits=input_limit(request, f.u_max, n_flag))

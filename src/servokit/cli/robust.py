@@ -77,6 +77,7 @@ def _box_design(job: SeekJob) -> ValidatedSeek:
         N_max=req.N_max,
         slew_max=req.slew_max,
         objective=req.objective,
+        max_memory_mb=req.max_memory_mb,
         progress=None if job.output.json_out else console.print,
         **kw,
     )

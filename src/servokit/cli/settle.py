@@ -91,6 +91,17 @@ def _check_seed(seed: int) -> int:
     return seed
 
 
+#: Samples kept per simulated seek: the longest input (135 samples) and the default record
+#: of :func:`servokit.learn.simulate_seeks` after it (3000 samples + 1), six states and the
+#: output each (8 bytes)
+_BYTES_PER_SEEK = (135 + 3001) * 7 * 8
+
+
+def _check_seek_memory(n_seeks: int, what: str, max_memory_mb: float) -> None:
+    """Refuse a set of simulated seeks estimated above ``--max-memory-mb`` (all are kept)."""
+    check_memory(n_seeks * _BYTES_PER_SEEK, what=what, max_memory_mb=max_memory_mb)
+
+
 def _simulate(seeks: list[tuple[float, int]], what: str):
     from servokit.learn import simulate_seeks
 
@@ -123,6 +134,7 @@ def train_cmd(
         1.0, "--class1-weight", help="weight of class-1 errors (> 1: judge later, safer)"
     ),
     cv: bool = typer.Option(False, "--cv", help="choose C and the offset by 3-fold CV (slower)"),
+    max_memory_mb: MaxMemoryOpt = DEFAULT_MAX_MEMORY_MB,
     json_out: JsonOpt = False,
 ) -> None:
     """Train the judge on FSC seeks of plant (6.7).  JSON: n_states, n_class1, n_class2, c,
@@ -137,6 +149,9 @@ def train_cmd(
         n_distances, n_lengths, settle_band, c, "--c" if c_old is not None else "--svm-c",
         coef0, class1_weight,
     )  # fmt: skip
+    _check_seek_memory(
+        len(seeks), f"--n-distances {n_distances} x --n-lengths {n_lengths}", max_memory_mb
+    )
     data = training_set(_simulate(seeks, "simulating seeks"), bound=judge.bound)
     judge = judge.tune(data.X, data.labels) if cv else judge.fit(data.X, data.labels)
     judge.save(out)
@@ -197,6 +212,7 @@ def evaluate_cmd(
     n_seeks: int = typer.Option(100, "--n-seeks", help="validation seeks", min=1, max=100_000),
     seed: SeedOpt = 1,
     level: float = typer.Option(-0.8, "--level", help="safety decision level (book: -0.8)"),
+    max_memory_mb: MaxMemoryOpt = DEFAULT_MAX_MEMORY_MB,
     plot: PlotOpt = None,
     json_out: JsonOpt = False,
 ) -> None:
@@ -210,6 +226,7 @@ def evaluate_cmd(
     n_seeks = check_count("--n-seeks", n_seeks, lo=1, hi=100_000)
     seed = _check_seed(seed)
     level = float(check_finite("--level", level))
+    _check_seek_memory(n_seeks, f"--n-seeks {n_seeks}", max_memory_mb)
     judge = _load(judge_path)
     responses = _simulate(validation_seeks(n_seeks, seed), "simulating seeks")
     stats = evaluate_judgements(responses, judge, levels=(0.0, level))

@@ -82,6 +82,8 @@ class SeekRequest:
         it, the book's §2.4 convention.
     design_plant : ModalPlant, optional
         FSC/FFSC design model's plant; default the first of ``plants``.
+    max_memory_mb : float, optional
+        Robust: memory limit of the LP (its estimate is checked before it is built).
     """
 
     plants: Sequence[ModalPlant]
@@ -101,6 +103,7 @@ class SeekRequest:
     objective: str = "peak"
     simulate_delay: bool = True
     design_plant: ModalPlant | None = field(default=None, repr=False)
+    max_memory_mb: float | None = None
 
     def __post_init__(self) -> None:
         if self.method not in METHODS:
@@ -256,6 +259,7 @@ def _robust(request: SeekRequest) -> RobustFeedforwardInput:
         slew_max=request.slew_max,
         limits=tuple(request.limits) or None,
         objective=request.objective,  # type: ignore[arg-type]
+        max_memory_mb=request.max_memory_mb,
     )
 
 
