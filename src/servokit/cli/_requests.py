@@ -46,6 +46,7 @@ SEEK_FLAGS: dict[str, str] = {
     "slew_max": "--slew-max",
     "margin": "--margin",
     "objective": "--objective",
+    "method": "--method",
     "max_memory_mb": "--max-memory-mb",
 }
 #: fewest steps the automatic N search starts from (servokit.seek.request.SMALLEST_N)
@@ -266,20 +267,6 @@ def check_seek_size(
     check_memory(design + sim, what=f"{flag} {n_max}", max_memory_mb=max_mb)
 
 
-def _robust_checks(f: SeekFlags) -> None:
-    """The robust design's flags, named as typed (before any LP is built)."""
-    if f.u_max is None:
-        raise ServokitValueError("--method robust needs --u-max (input limit [plant input unit])")
-    if f.slew_max is not None:
-        check_positive("--slew-max", f.slew_max)
-    if not 0.0 <= f.margin < 1.0:
-        raise ServokitValueError(
-            f"--margin must be in [0, 1) (fraction of the band), got {f.margin}"
-        )
-    if f.objective not in ("peak", "energy"):
-        raise ServokitValueError(f"--objective must be 'peak' or 'energy', got {f.objective!r}")
-
-
 def input_limit(request: Any, u_max: float, n_flag: str) -> tuple:
     """``|u| <= u_max`` as the QP constraint of an FSC/FFSC request, refused naming the limit
     when the largest N tried cannot meet it (more samples only make the limit easier).
@@ -347,9 +334,7 @@ def seek_job(
     n_flag = "--n-samples-max" if auto else "--n-samples"
     check_seek_size(n_top, len(plants), nominal.order + 4, dt, bands, f.max_memory_mb, n_flag)
     robust = f.method == "robust"
-    if robust:
-        _robust_checks(f)
-    with flag_names(SEEK_FLAGS):
+    with flag_names(SEEK_FLAGS):  # the robust flags are checked by the request itself
         request = SeekRequest(
             plants, dt, f.target, f.settle_band, f.method,  # type: ignore[arg-type]
             "auto" if auto else n_top, N_max=n_top, band_weights=bands, model=f.model,
