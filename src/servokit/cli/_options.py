@@ -144,7 +144,9 @@ DelayOpt = Annotated[
 SlewMaxOpt = Annotated[
     float | None,
     typer.Option(
-        "--slew-max", help="actuator slew limit |u[k]-u[k-1]| [plant input unit per sample]"
+        "--slew-max",
+        help="slew limit |u[k]-u[k-1]| [plant input unit per sample] (seek: of the robust "
+        "design; simulate, sweep: the actuator's)",
     ),
 ]
 NSamplesMaxOpt = Annotated[
