@@ -120,11 +120,6 @@ class SeekJob:
     box: Any = field(default=None, repr=False)
     n_validation: int = 2000
 
-    @property
-    def search_flag(self) -> str:
-        """The flag that bounds N: ``--n-samples-max`` (searched) or ``--n-samples``."""
-        return "--n-samples-max" if self.request.N == "auto" else "--n-samples"
-
 
 def parse_band_weight(spec: str) -> tuple[float, float, float, int]:
     """One ``--band-weight F_LOW:F_HIGH:WEIGHT:N_POINTS`` [Hz:Hz:1:count].
