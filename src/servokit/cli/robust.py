@@ -59,12 +59,13 @@ def robust_seek(job: SeekJob) -> None:
 
 def _box_design(job: SeekJob) -> ValidatedSeek:
     """The design validated over the ``--variations`` box (issue 22 item 4)."""
+    from servokit.models import without_delay
     from servokit.seek import robust_seek_over_box
 
     req = job.request
     box = job.box
     if not req.simulate_delay:  # --no-delay: the box's nominal without its input delay
-        box = dataclasses.replace(box, nominal=box.nominal.replace(delay=0.0))
+        box = dataclasses.replace(box, nominal=without_delay([box.nominal])[0])
     kw = {} if req.N == "auto" else {"N": req.N}
     return robust_seek_over_box(
         box,
