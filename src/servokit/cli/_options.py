@@ -489,7 +489,7 @@ def load_variations(value: Path | str, fallback: Any = None, flag: str = "--vari
         return read_variations(path, fallback=fallback)
 
 
-# ---- size of a plant's discrete state-space model (clithin2) ----
+# ---- size of a plant's discrete state-space model, estimated before it is built ----
 #: N x N work arrays a dense state-space step holds at once (the ZOH exponential, the
 #: closed-loop matrices, a Lyapunov or Schur solve).
 DENSE_COPIES = 16
