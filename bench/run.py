@@ -85,7 +85,7 @@ def main() -> None:
         "sensitivity": lambda: sensitivity.sensitivity(2000 if q else 10_000),
         "sweep": lambda: sweep.sweeps((10_000,) if q else (100_000, 1_000_000)),
         "demo": lambda: demo.demo(1 if q else 2),
-        "margins": lambda: margins.margins(3 if q else 7),
+        "margins": lambda: margins.margins(7 if q else 25),
     }
     wanted = args.only or list(sections)
     results: dict = {
