@@ -221,6 +221,55 @@ def test_ieej_benchmark_loop_margins_against_python_control_and_poles():
     assert np.array(m.phase_crossovers_hz) == pytest.approx(w180_ref, rel=1e-4)
 
 
+def test_delay_margin_of_the_sampled_data_benchmark_loop_by_exact_rediscretisation():
+    # discrete controller + continuous plant: the extra delay (2.52 samples, fractional)
+    # is put into the continuous plant and the loop discretised again exactly (delayed ZOH,
+    # extra delay states); the closed-loop poles decide
+    from scipy.optimize import brentq
+
+    from servokit.models import HDD_BENCHMARK_TS, hdd_benchmark, ieej_example_controller
+
+    plant, ctrl = hdd_benchmark(), ieej_example_controller()
+    m = stability_margins([plant.discretize(HDD_BENCHMARK_TS), *ctrl])
+    tau = m.delay_margin_s
+    assert 0.05 < tau / HDD_BENCHMARK_TS % 1 < 0.95  # a fractional number of samples
+    c_ss = control.ss(ctrl[0])
+    for c in ctrl[1:]:
+        c_ss = c_ss * control.ss(c)
+
+    def radius(extra: float) -> float:
+        pd = plant.replace(delay=plant.delay + extra).discretize(HDD_BENCHMARK_TS)
+        return float(np.max(np.abs(control.feedback(control.ss(pd) * c_ss, 1).poles())))
+
+    assert radius(0.999 * tau) < 1.0 < radius(1.001 * tau)
+    # the e^{-j w tau} model of the extra delay ignores how the aliased images of the plant
+    # turn with it: the exact critical delay is 0.04 % shorter
+    exact = brentq(lambda x: radius(x) - 1.0, 0.99 * tau, 1.01 * tau, xtol=1e-13)
+    assert exact / tau == pytest.approx(1.0, abs=1e-3)
+    assert exact < tau
+
+
+def test_ieej_controller_options_crossover_and_matched_sections():
+    from servokit.models import HDD_BENCHMARK_TS, hdd_benchmark, ieej_example_controller
+
+    pd = hdd_benchmark().discretize(HDD_BENCHMARK_TS)
+    for method in ("tustin", "matched"):
+        ctrl = ieej_example_controller(crossover_hz=1000.0, method=method)
+        z = np.exp(2j * np.pi * 1000.0 * HDD_BENCHMARK_TS)
+        loop = complex(pd(z)) * np.prod([complex(c(z)) for c in ctrl])
+        assert abs(loop) == pytest.approx(1.0, rel=1e-12)
+        m = stability_margins([pd, *ctrl])
+        assert m.gain_crossovers_hz[0] == pytest.approx(1000.0, rel=1e-6)
+        for c in ctrl[1:]:  # notches and low-pass: unit DC gain, poles inside |z| < 1
+            assert complex(c(1.0)) == pytest.approx(1.0, rel=1e-12)
+            assert np.all(np.abs(c.poles()) < 1)
+    # matched low-pass: its two zeros at infinity go to z = -1 (zero gain at Nyquist)
+    low = ieej_example_controller(method="matched")[-1]
+    assert abs(complex(low(-1.0))) < 1e-12
+    with pytest.raises(ValueError, match="method"):
+        ieej_example_controller(method="zoh")
+
+
 def test_a_crossing_pair_beside_a_grid_point_exactly_on_0_db():
     # found by the slow property test: |L(600 Hz)| = 1 exactly at a packed grid point, and
     # the resonance rises above 0 dB just after it and falls back at 600.2157 Hz
