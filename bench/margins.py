@@ -1,5 +1,6 @@
-"""Margins of the IEEJ benchmark tracking loop (25 states: exact ZOH plant with its 10 us
-delay, PID, three notches, low-pass): servokit's full ``stability_margins`` (every
+"""Margins of the IEEJ benchmark tracking loop of issue 20 (``ieej_benchmark_loop``: 25
+states, the benchmark file's plant discretised exactly with its 10 us delay, PID, three
+notches, low-pass): servokit's full ``stability_margins`` (every
 crossing, delay and modulus margins, Nyquist verdict) against python-control's
 ``stability_margins`` on the same loop, in the same process.
 
@@ -15,15 +16,13 @@ from _timing import interleaved_best
 
 from servokit.feedback import stability_margins
 from servokit.feedback.factor_response import clear_factor_cache
-from servokit.models import HDD_BENCHMARK_TS, hdd_benchmark, ieej_example_controller
+from servokit.models import ieej_benchmark_loop
 
 
 def margins(rounds: int = 7) -> dict:
-    pd = hdd_benchmark().discretize(HDD_BENCHMARK_TS)
-    ctrl = ieej_example_controller()
-    factors = [pd, *ctrl]
-    full = control.ss(pd)
-    for c in ctrl:
+    factors = ieej_benchmark_loop()
+    full = control.ss(factors[0])
+    for c in factors[1:]:
         full = full * control.ss(c)
 
     def ours():
