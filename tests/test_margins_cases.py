@@ -342,6 +342,10 @@ def test_ieej_controller_options_crossover_and_matched_sections():
     assert abs(complex(low(-1.0))) < 1e-12
     with pytest.raises(ValueError, match="method"):
         ieej_example_controller(method="zoh")
+    with pytest.raises(ValueError, match="lowpass_damping"):
+        ieej_example_controller(lowpass_damping=0.0)
+    with pytest.raises(ValueError, match="notch_pole_damping"):
+        ieej_example_controller(notch_pole_damping=(0.5, -1.0, 0.5))
 
 
 def test_a_crossing_pair_beside_a_grid_point_exactly_on_0_db():

@@ -12,6 +12,11 @@ the classic benchmark kind (PID + notch filters, as in the benchmark's own examp
 
 Measured on the 18 plants of Table 2.3 (see ``tests/test_pes.py``): all closed loops
 stable, worst gain margin 4.7 dB and phase margin 27 deg.
+
+The IEEJ benchmark's own example loop (its ``followdemo.m`` PID, notches at 4.1/5/7 kHz
+and an 8 kHz low-pass) is :func:`ieej_example_controller`, and issue 20's version of it,
+on the benchmark file's plant, :func:`ieej_benchmark_loop` (sources, assumed and fitted
+parameters in their docstrings and in docs/guide/margins.md).
 """
 
 from __future__ import annotations
@@ -98,7 +103,9 @@ IEEJ_G_ADJUST = 1.665e3
 IEEJ_NOTCHES: tuple[tuple[float, float], ...] = ((4100.0, 0.03), (5000.0, 0.01), (7000.0, 0.01))
 
 
-def _section(num: list[float], den: list[float], h: float, f: float, method: str):
+def _section(
+    num: list[float], den: list[float], h: float, f: float, method: str
+) -> control.TransferFunction:
     """One continuous section sampled at ``h``: prewarped Tustin, or matched pole-zero
     with unit DC gain (how ``followdemo.m``'s notches are built)."""
     if method == "tustin":
@@ -175,6 +182,9 @@ def ieej_example_controller(
     if method not in ("tustin", "matched"):
         raise ServokitValueError(f"method must be 'tustin' or 'matched' (got {method!r})")
     zp = np.broadcast_to(np.asarray(notch_pole_damping, dtype=float), (3,))
+    for name, value in (("notch_pole_damping", z) for z in zp):
+        check_positive(name, float(value))
+    check_positive("lowpass_damping", lowpass_damping)
     out = [control.tf(list(IEEJ_PID_NUM), [1.0, -1.0, 0.0], h)]
     for (f, zeta), zd in zip(IEEJ_NOTCHES, zp, strict=True):
         w = 2 * np.pi * f  # notch (5.14) with fD = fR (models sit below feedback)
