@@ -209,8 +209,9 @@ def test_worker_chunk_tunes_the_heap_and_gives_the_same_numbers():
     held = sweep_mod._Held(np.asarray(FF.u, dtype=float), FF.dt)
     args = (held, 1.0, 0.1, None, None)
     ref = sweep_mod._chunk_seek_times(VSET, draws, gains, *args)
-    for _ in range(2):  # idempotent
-        np.testing.assert_array_equal(sweep_mod._chunk_on_worker(VSET, draws, gains, *args), ref)
+    for chunk in (7, 3, 1):  # a task in chunks; the heap set up once (idempotent)
+        task = sweep_mod._chunk_on_worker(VSET, draws, gains, args, chunk)
+        np.testing.assert_array_equal(task, ref)
     assert sweep_mod._MALLOC_TUNED
 
 
