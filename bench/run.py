@@ -94,7 +94,7 @@ def main() -> None:
         "qp": lambda: qp.constrained_fsc((100, 300) if q else qp.STEPS),
         "sensitivity": lambda: sensitivity.sensitivity(2000 if q else 10_000),
         "sweep": lambda: sweep.sweeps((10_000,) if q else (100_000, 1_000_000)),
-        "dask": lambda: sweep.dask_scaling(20_000 if q else 100_000, 1 if q else 2),
+        "dask": lambda: sweep.dask_scaling(20_000 if q else 100_000, 1 if q else 3),
         "demo": lambda: demo.demo(1 if q else 2),
         "margins": lambda: margins.margins(3 if q else 7),
         "admissible": admissible.admissible,
