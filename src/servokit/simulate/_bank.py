@@ -214,7 +214,7 @@ class PlantBank:
         return A, B, C
 
 
-@lru_cache(maxsize=32)
+@lru_cache(maxsize=8)
 def _reused_bank(plants: tuple[ModalPlant, ...], h: float) -> PlantBank:
     bank = PlantBank.build(plants, h)
     for arr in (bank.w, bank.zeta, bank.r, bank.real, bank.Phi, bank.Gnew, bank.Gold):
@@ -226,7 +226,8 @@ def bank_for(plants: Sequence[ModalPlant], h: float) -> PlantBank:
     """:meth:`PlantBank.build`, reused for a few plants seen before at the same step.
 
     ModalPlant is frozen, so equal plants have equal exact discretisations; the bank of
-    at most ``_REUSE_MAX_PLANTS`` plants is kept (32 most recent, read-only arrays).
+    at most ``_REUSE_MAX_PLANTS`` plants is kept (8 most recent, read-only arrays; with
+    their transition rows and block maps, a few MB at most).
 
     Parameters
     ----------
