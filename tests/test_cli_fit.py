@@ -53,8 +53,9 @@ def test_fit_example_writes_a_plant_every_command_reads(tmp_path, monkeypatch, c
     for m, mq, row in zip(truth.modes, plant.modes, data["modes"], strict=True):
         assert mq.freq_hz == pytest.approx(m.freq_hz, rel=0.005, abs=1e-12)
         assert mq.damping == pytest.approx(m.damping, rel=0.15, abs=1e-12)
-        assert row["gain_residue"] == pytest.approx(truth.gain * m.residue, rel=0.10)
-        assert row["gain_residue"] == pytest.approx(plant.gain * mq.residue, rel=1e-12)
+        b = row["gain_residue_out_per_in_s2"]
+        assert b == pytest.approx(truth.gain * m.residue, rel=0.10)
+        assert b == pytest.approx(plant.gain * mq.residue, rel=1e-12)
     assert plant.delay == pytest.approx(truth.delay, abs=1e-6) == data["delay_s"]
     assert data["median_error"] < 0.02 and data["plot"] == str(tmp_path / "fit.png")
     f, H = read_frf(DATA / "stage_frf.csv")

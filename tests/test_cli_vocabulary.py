@@ -114,7 +114,7 @@ def test_dash_h_is_help(capsys, monkeypatch) -> None:
 # ---- JSON keys ------------------------------------------------------------------------
 _UNIT = re.compile(
     r"_(s|ms|us|hz|track|db|deg|rad|a|v|w|m|j|f|ohm|mb|percent|out|out_per_s|out_per_s2"
-    r"|per_s|s2|samples)$"
+    r"|out2|in|out_per_in_s2|per_s|s2|samples)$"
 )
 #: Quick arguments of every command with ``--json`` (its keys are checked, not its values;
 #: ``--json`` is appended).  A command with ``--json`` missing here fails
@@ -190,28 +190,9 @@ JSON_RUNS: dict[str, list[str]] = {
 }  # fmt: skip
 #: runs over ~5 s (the book's cases): in the slow suite
 _SLOW_JSON = {"reproduce"}
-#: Keys still without a unit suffix in commands not renamed on this branch (the branch
-#: clithin2 thins dual_stage, resonance, sensitivity, srs, limits, pes, switching,
-#: unobservable; export and fit are untouched): listed so the lead can close them.  The
-#: test fails when a listed key is gone (shrink the list) or a new one appears.
-KNOWN_UNSUFFIXED: dict[str, set[str]] = {
-    # ---- not thinned on this branch: export, fit
-    # the fixed-point error budget and ranges, in the controller's input/output units
-    "export controller": {"coefficient", "signal", "output_rounding", "integrator_per_sample",
-                          "input_lsb", "output_lsb", "input_max", "node_peak"},
-    # gain x residue of each fitted mode: in the plant's gain unit
-    "fit": {"gain_residue", "gain_residue_std"},
-    # ---- clithin2's commands: dimensional keys still without a unit suffix (the
-    # dimensionless ones -- ratios, counts, z-plane values -- are listed in CONVENTIONS)
-    # the plant's magnitude |Pd| (plant output unit per input unit)
-    "sensitivity": {"pd_mag"},
-    # variance bounds in (output unit)^2
-    "limits variance": {"bound_high", "bound_low", "printed_bound"},
-    # the adaptive bridge's start/end values (V, and the gain k0)
-    "ssa adaptive": {"k0_end", "v_end", "v_start", "ys_end"},
-    # the optimal switching state (output unit and its rates)
-    "switching cost-map": {"optimal_state"},
-}  # fmt: skip
+#: Keys still without a unit suffix, with a comment saying why (the test fails when a
+#: listed key is gone, so the list only shrinks); empty: every dimensional key has one.
+KNOWN_UNSUFFIXED: dict[str, set[str]] = {}
 
 
 def _dimensionless() -> set[str]:

@@ -69,7 +69,8 @@ def test_variance_and_dynamic_range(tmp_path):
     )
     assert out.exit_code == 0, out.output
     data = json.loads(out.stdout)
-    assert data["bound"] <= data["variance"] <= data["printed_bound"]
+    assert data["bound_out2"] <= data["variance_out2"] <= data["printed_bound_out2"]
+    assert data["bound_out2"] == pytest.approx(data["bound_low_out2"] + data["bound_high_out2"])
     assert png.stat().st_size > 5000
     out = runner.invoke(
         app, ["limits", "dynamic-range", "--stroke-m", "0.03", "--accuracy-m", "3e-9", "--json"]

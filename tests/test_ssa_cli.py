@@ -41,7 +41,7 @@ def test_amd_and_adaptive() -> None:
     d = run_json("amd", "--mode", "9103:2:10")
     assert d["stable"] and d["attenuation_db"][0] > 5
     a = run_json("adaptive", "--duration", "1e-3", "--n-modes", "2")
-    assert a["max_relative_increase"] < 1e-9 and a["v_end"] < a["v_start"]
+    assert a["max_relative_increase"] < 1e-9 and a["lyapunov_end"] < a["lyapunov_start"]
 
 
 @pytest.mark.parametrize(

@@ -238,8 +238,8 @@ def controller_cmd(
 
     JSON keys: files, precision, tables (table, shape, scale, error_bound, max_error);
     fixed point: files, precision, realization, input_format, output_format, word_bits,
-    accumulator_bits, rounding, overflow, input_max, u_max, input_lsb, output_lsb,
-    n_nodes, node_peak, integrator, error_bound, error_bound_n_samples, error_bound_terms.
+    accumulator_bits, rounding, overflow, input_max_out, u_max, input_lsb_out, output_lsb_in,
+    n_nodes, node_peak, integrator, error_bound, error_bound_n_samples, error_bound_terms_in.
     """
     from servokit.errors import ServokitValueError
     from servokit.export import sos_tables, statespace_tables
@@ -345,7 +345,7 @@ def _finish_fixed(ctrl: object, realization: str, req: dict, out: Path, name: st
         f"input {info['input_format']} (1.0 = {design.input_max:g}), output "
         f"{info['output_format']} (1.0 = u_max = {design.u_max:.6g}), saturated at u_max"
     )
-    parts = info["error_bound_terms"].items()
+    parts = info["error_bound_terms_in"].items()
     terms = ", ".join(f"{k.replace('_', ' ')} {v:.3g}" for k, v in parts)
     typer.echo(f"error bound vs the float design: {info['error_bound']:.3g} over {n} samples")
     typer.echo(f"  terms [output unit]: {terms}")

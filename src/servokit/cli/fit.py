@@ -41,10 +41,10 @@ def _summary(fit, plant_path: Path) -> dict:  # noqa: ANN001
             "freq_hz": m.freq_hz,
             "damping": m.damping,
             "residue": m.residue,
-            "gain_residue": p.gain * m.residue,
+            "gain_residue_out_per_in_s2": p.gain * m.residue,
             "freq_std_hz": fs,
             "damping_std": zs,
-            "gain_residue_std": bs,
+            "gain_residue_std_out_per_in_s2": bs,
         }
         for m, fs, zs, bs in zip(
             p.modes, fit.freq_std_hz, fit.damping_std, fit.gain_residue_std, strict=True
@@ -103,10 +103,10 @@ def _print(data: dict) -> None:
             f"{m['freq_hz']:.6g}",
             f"{m['damping']:.4g}",
             f"{m['residue']:.4g}",
-            f"{m['gain_residue']:.4g}",
+            f"{m['gain_residue_out_per_in_s2']:.4g}",
             f"{m['freq_std_hz']:.2g}",
             f"{m['damping_std']:.2g}",
-            f"{m['gain_residue_std']:.2g}",
+            f"{m['gain_residue_std_out_per_in_s2']:.2g}",
         )
     console.print(table)
     console.print(
@@ -119,8 +119,10 @@ def _print(data: dict) -> None:
     "fit",
     epilog=example("servokit fit examples/data/stage_frf.csv --out fitted --plot fit.png")
     + "  Writes OUT/plant.toml (read by every --plant).  JSON: plant_file, n_points, n_modes, "
-    "gain, delay_s, delay_std_s, modes [{freq_hz, damping, residue, gain_residue, freq_std_hz, "
-    "damping_std, gain_residue_std}], median_error, max_error, noise_rel, bands [{f_low_hz, "
+    "gain, delay_s, delay_std_s, modes [{freq_hz, damping, residue, "
+    "gain_residue_out_per_in_s2 (output unit per input unit per s^2), freq_std_hz, "
+    "damping_std, gain_residue_std_out_per_in_s2}], median_error, max_error, noise_rel, "
+    "bands [{f_low_hz, "
     "f_high_hz, n_points, median_error, rms_error, max_error}], bic {n_modes: value}, plot.",
 )
 def fit_cmd(

@@ -167,7 +167,9 @@ def variance_cmd(
 ) -> None:
     """Output variance (6.13) against its lower bound (6.16, corrected).
 
-    JSON: bandwidth_hz, variance, bound, bound_low, bound_high, beta, gamma, printed_bound.
+    JSON: bandwidth_hz, variance_out2, bound_out2, bound_low_out2, bound_high_out2, beta,
+    gamma, printed_bound_out2 (variances in the output unit squared, for unit white noise
+    into the disturbance filter).
     """
     from servokit.limits import variance_against_bound
 
@@ -216,9 +218,9 @@ def _variance_render(res, json_out: bool) -> None:  # noqa: ANN001
     vb, var, omega_hz = res.bound, res.variance, res.bandwidth_hz
     if json_out:
         emit_json({
-            "bandwidth_hz": omega_hz, "variance": var, "bound": vb.bound,
-            "bound_low": vb.low, "bound_high": vb.high, "beta": vb.beta, "gamma": vb.gamma,
-            "printed_bound": vb.printed,
+            "bandwidth_hz": omega_hz, "variance_out2": var, "bound_out2": vb.bound,
+            "bound_low_out2": vb.low, "bound_high_out2": vb.high, "beta": vb.beta,
+            "gamma": vb.gamma, "printed_bound_out2": vb.printed,
         })  # fmt: skip
         return
     console.print(

@@ -50,7 +50,7 @@ _ALIAS_BLOCK_BYTES = 2_000_000 * 16 * 4
 _JSON_KEYS = (
     "plant, controller, dt_s, m, peak_ssd, peak_ssd_freq_hz, peak_tsd, peak_tsd_freq_hz, "
     "peak_sd, alias_terms, tail_estimate, freq_hz, ssd, tsd, sd_mag, td_mag, s_delta, t_delta, "
-    "gamma_sum, pd_mag, pd_phase_deg, plot"
+    "gamma_sum, pd_magnitude_db, pd_phase_deg, plot"
 )
 
 
@@ -203,7 +203,7 @@ def _curves(res) -> dict:  # noqa: ANN001
         "s_delta": res.S_delta,
         "t_delta": res.T_delta,
         "gamma_sum": res.gamma_sum,
-        "pd_mag": np.abs(res.Pd),
+        "pd_magnitude_db": 20 * np.log10(np.abs(res.Pd)),
         "pd_phase_deg": np.degrees(np.angle(res.Pd)),
     }
 

@@ -141,8 +141,9 @@ def adaptive_cmd(
 ) -> None:
     """Adaptive strain feedback (5.73)-(5.75) on a cantilever: V of (5.76) along the run.
 
-    JSON keys: duration_s, v_start, v_end, max_relative_increase, amplitude_ratio,
-    ys_end, k0_end.
+    JSON keys: duration_s, lyapunov_start, lyapunov_end (V of (5.76)),
+    max_relative_increase, amplitude_ratio, ys_end, k0_end (the adaptive gains); V, Ys and
+    k0 are in the beam model's normalised units (unit modal mass and tip weights).
     """
     from servokit.feedback.adaptive import AdaptiveGains, cantilever_beam, simulate_adaptive
 
@@ -159,8 +160,8 @@ def adaptive_cmd(
     _report(
         {
             "duration_s": duration,
-            "v_start": float(run.V[0]),
-            "v_end": float(run.V[-1]),
+            "lyapunov_start": float(run.V[0]),
+            "lyapunov_end": float(run.V[-1]),
             "max_relative_increase": run.max_increase(),
             "amplitude_ratio": run.amplitude_ratio(),
             "ys_end": float(run.Ys[-1]),

@@ -405,7 +405,9 @@ def cost_map_cmd(
     (book §3.3.3, (3.65)-(3.81), Fig. 3.13) and the best free states for --position (3.81).
 
     JSON keys: velocity_out_per_s, acceleration_out_per_s2 (grid), ju, jy (maps, rows over
-    acceleration), optimal_state (plant states minimising Ju with state 1 fixed).
+    acceleration), optimal_state (the plant states minimising Ju with state 1 fixed:
+    position_out, velocity_out_per_s, acceleration_out_per_s2 when the plant has a third
+    state; any further states are held at 0).
     """
     from servokit.switching import ivc_jmin, switching_cost_grid
 
@@ -422,13 +424,20 @@ def cost_map_cmd(
     if json_out:
         emit_json({
             "velocity_out_per_s": grid.velocity, "acceleration_out_per_s2": grid.acceleration,
-            "ju": grid.cost.ju, "jy": grid.cost.jy, "optimal_state": grid.optimal_state,
+            "ju": grid.cost.ju, "jy": grid.cost.jy,
+            "optimal_state": _state_keys(grid.optimal_state),
         })  # fmt: skip
         return
     console.print(
         f"min Ju on the grid {np.min(grid.cost.ju):.4g}; best free states for "
         f"position {position:g}: {np.array2string(grid.optimal_state[grid.free], precision=5)}"
     )
+
+
+def _state_keys(x) -> dict[str, float]:  # noqa: ANN001
+    """Plant states 1-3 of a switching state under their unit-suffixed names."""
+    names = ("position_out", "velocity_out_per_s", "acceleration_out_per_s2")
+    return {k: float(v) for k, v in zip(names, x, strict=False)}
 
 
 _COST_FLAGS = {"position": "--position", "vel_range": "--vel-range", "acc_range": "--acc-range"}

@@ -423,10 +423,12 @@ def design_summary(design: FixedPointDesign, n_samples: int) -> dict[str, object
     -------
     dict
         ``realization, input_format, output_format, word_bits, accumulator_bits,
-        rounding, overflow, input_max, u_max, input_lsb, output_lsb, n_nodes,
-        node_peak, integrator, error_bound, error_bound_n_samples, error_bound_terms``
-        (``error_bound`` in output units; terms in output units, the integrator's per
-        sample).
+        rounding, overflow, input_max_out, u_max, input_lsb_out, output_lsb_in, n_nodes,
+        node_peak, integrator, error_bound, error_bound_n_samples, error_bound_terms_in``
+        (the controller's input is in the plant's output unit, ``_out``; its output in
+        the plant's input unit, ``_in``, as ``u_max`` and ``error_bound``; the terms in
+        that unit, the integrator's per sample; ``node_peak`` in word values, 1.0 = the
+        word's one).
     """
     f = design.fmt
     return {
@@ -437,14 +439,14 @@ def design_summary(design: FixedPointDesign, n_samples: int) -> dict[str, object
         "accumulator_bits": f.acc_bits,
         "rounding": design.rounding,
         "overflow": design.overflow,
-        "input_max": design.input_max,
+        "input_max_out": design.input_max,
         "u_max": design.u_max,
-        "input_lsb": design.input_lsb,
-        "output_lsb": design.output_lsb,
+        "input_lsb_out": design.input_lsb,
+        "output_lsb_in": design.output_lsb,
         "n_nodes": len(design.rows),
         "node_peak": [float(p) for p in design.node_peak],
         "integrator": design.integrator is not None,
         "error_bound": design.error_bound(n_samples),
         "error_bound_n_samples": n_samples,
-        "error_bound_terms": {k: v * design.u_max for k, v in design.bound_terms.items()},
+        "error_bound_terms_in": {k: v * design.u_max for k, v in design.bound_terms.items()},
     }
