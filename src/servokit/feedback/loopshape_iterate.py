@@ -43,9 +43,9 @@ from collections.abc import Callable
 from dataclasses import dataclass, field
 from typing import Any
 
-import control
 import numpy as np
 
+from servokit._lazy import control
 from servokit.errors import ServokitValueError, check_count, check_finite, check_positive
 from servokit.feedback.loopshape_eval import LoopTable, evaluate_set
 from servokit.feedback.loopshape_init import initial_parameters, plant_integrators

@@ -20,10 +20,9 @@ from __future__ import annotations
 
 from dataclasses import dataclass
 
-import control
 import numpy as np
-from scipy.optimize import linear_sum_assignment
 
+from servokit._lazy import control
 from servokit.errors import ServokitValueError
 from servokit.feedback.margins import stability_margins
 
@@ -120,6 +119,8 @@ def root_locus(g: control.TransferFunction, gains: np.ndarray) -> RootLocus:
     k = np.unique(np.concatenate([[0.0], np.asarray(gains, dtype=float)]))
     if k[0] < 0:
         raise ServokitValueError("root-locus gains must be >= 0")
+    from scipy.optimize import linear_sum_assignment
+
     pad = np.concatenate([np.zeros(nd.size - nn.size), nn])
     rows = [np.roots(nd)]
     for kk in k[1:]:

@@ -16,9 +16,9 @@ stable, worst gain margin 4.7 dB and phase margin 27 deg.
 
 from __future__ import annotations
 
-import control
 import numpy as np
 
+from servokit._lazy import control
 from servokit.errors import check_positive
 from servokit.models.catalogue import HDD_BENCHMARK_TS, hdd_benchmark
 

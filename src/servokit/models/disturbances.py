@@ -28,10 +28,10 @@ from __future__ import annotations
 import warnings
 from dataclasses import dataclass, field
 
-import control
 import numpy as np
-from scipy import signal
 
+from servokit._lazy import control
+from servokit._lazy import scipy_signal as signal
 from servokit.errors import ServokitValueError, check_count, check_positive
 
 __all__ = ["BenchmarkDisturbances", "DisturbanceRecord", "band_powers", "disturbance_magnitude"]

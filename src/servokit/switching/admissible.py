@@ -21,8 +21,6 @@ from __future__ import annotations
 from dataclasses import dataclass
 
 import numpy as np
-from scipy.optimize import linprog
-from scipy.spatial import HalfspaceIntersection
 
 from servokit.errors import ServokitValueError, check_count, check_finite
 
@@ -33,6 +31,8 @@ _TOL = 1e-9
 
 def _lp_max(c: np.ndarray, H: np.ndarray, h: np.ndarray) -> float:
     """max c x subject to H x <= h (inf if unbounded)."""
+    from scipy.optimize import linprog
+
     free = [(None, None)] * len(c)
     res = linprog(-c, A_ub=H, b_ub=h, bounds=free, method="highs")
     if res.status == 2:  # HiGHS presolve may report an unbounded LP as infeasible
@@ -127,6 +127,8 @@ class AdmissibleSet:
         """Vertices (counter-clockwise, shape (v, 2)) of a bounded 2-D set."""
         if self.dim != 2:
             raise ServokitValueError(f"polygon() needs a 2-D set (this one has {self.dim} dims)")
+        from scipy.spatial import HalfspaceIntersection
+
         centre = self.chebyshev_centre()
         hs = HalfspaceIntersection(np.hstack([self.H, -self.h[:, None]]), centre)
         v = hs.intersections
@@ -135,6 +137,8 @@ class AdmissibleSet:
 
     def chebyshev_centre(self) -> np.ndarray:
         """Centre of the largest ball inside the set (LP); refuses an empty/flat set."""
+        from scipy.optimize import linprog
+
         N = self.dim
         c = np.zeros(N + 1)
         c[-1] = -1.0
