@@ -17,7 +17,7 @@ import importlib
 import types
 from typing import Any
 
-__all__ = ["LazyModule", "control", "scipy_integrate", "scipy_signal"]
+__all__ = ["LazyModule", "control", "scipy_integrate", "scipy_signal", "scipy_sparse"]
 
 
 class LazyModule(types.ModuleType):
@@ -45,3 +45,4 @@ class LazyModule(types.ModuleType):
 control = LazyModule("control")
 scipy_signal = LazyModule("scipy.signal")
 scipy_integrate = LazyModule("scipy.integrate")
+scipy_sparse = LazyModule("scipy.sparse")
