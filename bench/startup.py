@@ -8,8 +8,9 @@ matters here); the best run is reported, beside the baseline of a bare ``python 
 of the same interpreter measured in between (the ratio is what carries across machines
 and loads). Target (issue 23): first output within 0.5 s.
 
-Run: ``MPLBACKEND=Agg python bench/startup.py [--runs N] [--only WORD] [--out FILE]``;
-writes ``bench/out/startup.json`` by default.
+Run: ``MPLBACKEND=Agg python bench/startup.py [--runs N] [--only WORD] [--out FILE]
+[--baseline OTHER/src]``; writes ``bench/out/startup.json`` by default. ``--baseline``
+times another source tree (e.g. main's) interleaved with this one, run by run.
 """
 
 from __future__ import annotations
@@ -104,11 +105,16 @@ def leaf_commands() -> list[str]:
     return out.stdout.split("\n")[:-1]
 
 
-def first_output_s(argv: list[str], cwd: str, finish: bool) -> tuple[float, int | None]:
+def first_output_s(
+    argv: list[str], cwd: str, finish: bool, src: str | None = None
+) -> tuple[float, int | None]:
     """Seconds from spawning ``servokit argv`` to its first byte (stdout or stderr), and
     its exit status; unless ``finish``, a process still running shortly after its first
-    byte is stopped (status ``None``): only its start counts."""
+    byte is stopped (status ``None``): only its start counts. ``src``: the servokit source
+    tree to run (``PYTHONPATH``), by default the one this interpreter finds."""
     env = dict(os.environ, MPLBACKEND="Agg")
+    if src is not None:
+        env["PYTHONPATH"] = src
     start = time.perf_counter()
     proc = subprocess.Popen(
         [sys.executable, "-c", _ENTRY, *argv],
@@ -137,14 +143,19 @@ def bare_python_s() -> float:
     return time.perf_counter() - start
 
 
-def _measure(argv: list[str], runs: int, cwd: str) -> dict[str, object]:
-    times, codes = [], []
+def _measure(argv: list[str], runs: int, cwd: str, baseline: str | None) -> dict[str, object]:
+    times, codes, base = [], [], []
     for run in range(runs):  # the first run completes: its files and exit status count
         t, code = first_output_s(argv, cwd, finish=run == 0)
         times.append(t)
         codes.append(code)
+        if baseline is not None:  # interleaved, so that both see the same machine load
+            base.append(first_output_s(argv, cwd, finish=run == 0, src=baseline)[0])
     bare = min(bare_python_s() for _ in range(runs))
-    return {"first_output_s": min(times), "bare_python_s": bare, "exit_codes": codes}
+    row: dict[str, object] = {"first_output_s": min(times), "bare_python_s": bare}
+    if baseline is not None:
+        row["baseline_first_output_s"] = min(base)
+    return {**row, "exit_codes": codes}
 
 
 def main() -> None:
@@ -152,6 +163,9 @@ def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--runs", type=int, default=3)
     parser.add_argument("--only", default="", help="only commands containing this word")
+    parser.add_argument(
+        "--baseline", help="another servokit src/ tree (e.g. main's) timed interleaved"
+    )
     parser.add_argument("--out", type=Path, default=Path(__file__).parent / "out" / "startup.json")
     args = parser.parse_args()
     leaves = leaf_commands()
@@ -166,12 +180,18 @@ def main() -> None:
         for argv, kind in jobs:
             if args.only and args.only not in " ".join(argv):
                 continue
-            row = {"command": " ".join(argv), "kind": kind, **_measure(argv, args.runs, scratch)}
+            row = {
+                "command": " ".join(argv),
+                "kind": kind,
+                **_measure(argv, args.runs, scratch, args.baseline),
+            }
             rows.append(row)
             ok = "" if all(c in (0, None) for c in row["exit_codes"]) else " (exit != 0!)"
+            was = row.get("baseline_first_output_s")
+            was_text = "" if was is None else f"  (baseline {was:.3f} s)"
             print(
-                f"{row['first_output_s']:7.3f} s  (bare python {row['bare_python_s']:.3f} s)"
-                f"  servokit {row['command']}{ok}",
+                f"{row['first_output_s']:7.3f} s{was_text}  (bare python "
+                f"{row['bare_python_s']:.3f} s)  servokit {row['command']}{ok}",
                 flush=True,
             )
     args.out.parent.mkdir(parents=True, exist_ok=True)
