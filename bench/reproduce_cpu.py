@@ -6,7 +6,12 @@ processes), reports user + system CPU of the whole process tree
 each case from its ``results.json`` (``runtime_s``).  Target (issue 24): at most 20 s of
 CPU on the 2-core machine class.  Writes ``bench/out/reproduce.json``.
 
-Run: ``MPLBACKEND=Agg python bench/reproduce_cpu.py [--case NAME ...]``.
+With ``--per-case`` it also runs the cases one after another in this process
+(``servokit.cases.runner.iter_cases(workers=1)``, as a one-core machine would) and
+reports each case's CPU seconds (``RUSAGE_SELF`` before and after; the first case also
+pays the imports).
+
+Run: ``MPLBACKEND=Agg python bench/reproduce_cpu.py [--case NAME ...] [--per-case]``.
 """
 
 from __future__ import annotations
@@ -49,15 +54,36 @@ def run_reproduce(cases: list[str], out: Path) -> dict:
     }
 
 
+def per_case_cpu(cases: list[str], out: Path) -> dict[str, float]:
+    """CPU seconds of each case run in turn in this process (one BLAS thread, as reproduce)."""
+    from servokit.cases.runner import iter_cases, select_cases
+
+    def cpu() -> float:
+        r = resource.getrusage(resource.RUSAGE_SELF)
+        return r.ru_utime + r.ru_stime
+
+    result: dict[str, float] = {}
+    last = cpu()
+    for name, _, _ in iter_cases(out, select_cases(cases, None), workers=1):
+        now = cpu()
+        result[name], last = now - last, now
+    return result
+
+
 def main() -> None:
     """Measure one run; print the per-case table and write ``bench/out/reproduce.json``."""
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--case", action="append", default=[], help="only these cases")
+    parser.add_argument("--per-case", action="store_true", help="also CPU s per case, serially")
     args = parser.parse_args()
     with tempfile.TemporaryDirectory(prefix="servokit-reproduce-") as tmp:
         res = run_reproduce(args.case, Path(tmp) / "out")
+        if args.per_case:
+            res["per_case_cpu_s"] = per_case_cpu(args.case, Path(tmp) / "serial")
+    cpu_of = res.get("per_case_cpu_s", {})
+    print("  wall [s]  CPU [s]  case (wall in the reproduce run; CPU run serially)")
     for name, seconds in sorted(res["runtime_s"].items(), key=lambda kv: -kv[1]):
-        print(f"{seconds:8.1f} s  {name}")
+        print(f"{seconds:10.1f} {cpu_of.get(name, float('nan')):8.2f}  {name}")
     print(
         f"reproduce: {res['cpu_s']:.1f} s CPU (user {res['user_s']:.1f} + sys "
         f"{res['sys_s']:.1f}), {res['wall_s']:.1f} s wall on {res['cores']} cores "
