@@ -264,6 +264,12 @@ CASES: list[tuple[list[str], str]] = [
     (["sweep", "--plot", "RO/fig.png"], "--plot"),
     (["sweep", "--max-memory-mb", "0"], "--max-memory-mb"),
     (["sweep", "--n-variants", "100000000", "--max-memory-mb", "1"], "--max-memory-mb"),
+    (["sweep", "--max-memory-mb", "inf"], "--max-memory-mb"),
+    (["seek", "--max-memory-mb", "inf"], "--max-memory-mb"),
+    (["seek", "--max-memory-mb", "1"], "--max-memory-mb"),
+    (["seek", "--method", "robust", "--u-max", "1", "--max-memory-mb", "1"], "--max-memory-mb"),
+    ([*SIM, "--step", "1", "--max-memory-mb", "inf"], "--max-memory-mb"),
+    ([*SIM, "--step", "1", "--duration", "100", "--dt", "1e-6"], "--max-memory-mb"),
     # ---- switching ivc / admissible-set / cost-map
     ([*IVC, "--plant", "no-such"], "--plant"),
     ([*IVC, "--plant", "DIR"], "--plant"),
@@ -534,6 +540,12 @@ CASES: list[tuple[list[str], str]] = [
     (["settle", "train", "--svm-c", "nan"], "--svm-c"),
     (["settle", "train", "--c", "nan"], "--c"),  # the deprecated old name still works
     (["settle", "train", "--coef0", "inf"], "--coef0"),
+    # every simulated seek is kept: the grid's memory is estimated before simulating
+    (["settle", "train", "--n-distances", "1000", "--n-lengths", "107"], "--max-memory-mb"),
+    (["settle", "train", "--max-memory-mb", "1"], "--max-memory-mb"),
+    (["settle", "train", "--max-memory-mb", "inf"], "--max-memory-mb"),
+    (["settle", "evaluate", "--n-seeks", "100000"], "--max-memory-mb"),
+    (["settle", "evaluate", "--max-memory-mb", "nan"], "--max-memory-mb"),
     (["settle", "evaluate", "--judge", "missing.skops"], "--judge"),
     (["settle", "evaluate", "--judge", "DIR"], "--judge"),
     (["settle", "evaluate", "--judge", "GARBAGE.toml"], "--judge"),

@@ -52,7 +52,7 @@ def test_json_and_plot(plant_file: Path, tmp_path: Path) -> None:
     data = json.loads(res.stdout)
     assert data["method"] == "robust" and data["n_plants"] == 1
     assert data["seek_time_s"] <= data["guaranteed_seek_time_s"] + 1e-12
-    assert data["design_band"] == pytest.approx(0.8 * 0.05)  # default margin 0.2
+    assert data["design_band_out"] == pytest.approx(0.8 * 0.05)  # default margin 0.2
     u = np.array(data["input"])
     assert u.shape == (data["n_samples"],) and np.abs(u).max() <= 4.0 * (1 + 1e-9)
     assert abs(u.sum()) < 1e-8

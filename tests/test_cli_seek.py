@@ -49,7 +49,7 @@ def test_book_convention_without_delay_reproduces_design_1() -> None:
     data = _json("--target", "1", "--method", "fsc", "--n-samples", "12", "--no-delay")
     assert data["n_samples"] == 12 and not data["delay_simulated"]
     assert data["seek_time_s"] * 1e3 == pytest.approx(0.333, rel=0.005)
-    assert data["peak"] == pytest.approx(1.045537, abs=1e-4)
+    assert data["peak_out"] == pytest.approx(1.045537, abs=1e-4)
     assert data["n_search"] is None
 
 

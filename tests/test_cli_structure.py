@@ -15,14 +15,8 @@ CLI = Path(__file__).resolve().parents[1] / "src" / "servokit" / "cli"
 LIMIT = 40
 #: command function -> body lines today (to be split into options/request/render)
 OVER: dict[str, int] = {
-    # seek/sweep/simulate grew with the own-actuator flags (--variations, --u-max,
-    # --n-validation, --anti-windup): still to be split into options/request/render
-    "seek.seek_cmd": 122,
-    "sweep.sweep_cmd": 105,
     "resonance.identify_cmd": 76,
     "switching.admissible_cmd": 64,
-    "simulate.simulate_cmd": 71,
-    "reproduce.reproduce": 59,
     "unobservable.sampling_cmd": 58,
     "dual_stage.dual_stage_cmd": 57,
     "srs.srs_cmd": 54,
@@ -33,7 +27,6 @@ OVER: dict[str, int] = {
     "sensitivity.sensitivity_cmd": 47,
     "switching.cost_map_cmd": 45,
     "unobservable.magnitude_cmd": 43,
-    "settle.train_cmd": 41,
 }
 
 

@@ -27,7 +27,8 @@ def test_sweep_with_the_shipped_file_equals_the_builtin_box(monkeypatch, capsys)
     filed = _run(
         monkeypatch, capsys, *common, "--variations", str(HDD_BENCHMARK_VARIATIONS), "--seed", "4"
     )
-    for key in ("percentiles_s", "worst_index", "worst_plant", "n_unsettled", "mean_s"):
+    keys = ("percentiles_s", "worst_index", "worst_plant", "worst_plant_detail", "n_unsettled")
+    for key in (*keys, "mean_s"):
         assert filed[key] == builtin[key]
     assert filed["variations"] == "hdd-benchmark Table 2.3"
 

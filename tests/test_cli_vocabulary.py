@@ -114,46 +114,199 @@ def test_dash_h_is_help(capsys, monkeypatch) -> None:
 # ---- JSON keys ------------------------------------------------------------------------
 _UNIT = re.compile(
     r"_(s|ms|us|hz|track|db|deg|rad|a|v|w|m|j|f|ohm|mb|percent|out|out_per_s|out_per_s2"
-    r"|per_s|s2)$"
+    r"|per_s|s2|samples)$"
 )
-_FAST_JSON = [
-    ["limits", "waterbed", "--alpha-db", "-40", "--freq", "1000", "--dt", "4e-5"],
-    ["limits", "dynamic-range", "--stroke-m", "0.03", "--accuracy-m", "3e-9"],
-    ["filter", "notch", "--freq", "4449", "--damping", "0.09", "--dt", "1e-4"],
-    ["plant", "bode", "hdd-benchmark", "--n-freq", "50"],
-    ["feedforward", "polynomial", "--order", "3", "--n-samples", "20", "--dt", "1e-4"],
-    ["feedforward", "minimum-jerk", "--move-time", "1e-3", "--dt", "1e-4"],
-    ["simulate", "--plant", "hdd-sampled-data", "--dt", "153.5e-6", "--duration", "0.005",
-     "--step", "1", "--controller", "eq-4.69"],
-]  # fmt: skip
+#: Quick arguments of every command with ``--json`` (its keys are checked, not its values;
+#: ``--json`` is appended).  A command with ``--json`` missing here fails
+#: :func:`test_every_json_command_is_checked`: a new command is covered the day it is born.
+JSON_RUNS: dict[str, list[str]] = {
+    "dual-stage": ["dual-stage", "--method", "inverse"],
+    "fit": ["fit", "examples/data/stage_frf.csv", "--out", "fitted"],
+    "loopshape": ["loopshape", "examples/data/stage_frf.csv", "--dt", "2.5e-5", "--order", "4",
+                  "--out", "ctrl", "--time-limit", "2"],
+    "pes": ["pes", "--peak-filter", "960:0.08:12"],
+    "reproduce": ["reproduce", "--case", "limits", "--out", "rep"],
+    "margins": ["margins", "--plant", "hdd-sampled-data", "--controller", "eq-4.69"],
+    "identify": ["identify", "--plant", "vcm-dual-stage", "--controller", "table-5.2",
+                 "--fmin", "20000", "--fmax", "21000", "--freq-step", "500"],
+    "seek": ["seek", "--target", "1", "--method", "fsc", "--n-samples", "12"],
+    "seek --method robust": ["seek", "--method", "robust", "--u-max", "1.5", "--n-samples", "12"],
+    "sensitivity": ["sensitivity", "--plant", "hdd-sampled-data", "--controller", "eq-4.69",
+                    "--multirate"],
+    "simulate": ["simulate", "--plant", "hdd-sampled-data", "--dt", "153.5e-6", "--duration",
+                 "0.005", "--step", "1", "--controller", "eq-4.69"],
+    "srs": ["srs", "--input", "half-sine", "--duration", "0.5e-3", "--dt", "25e-6"],
+    "sweep": ["sweep", "--method", "fsc", "--n-samples", "12", "--n-variants", "50"],
+    "export feedforward": ["export", "feedforward", "--method", "ffsc", "--target", "10",
+                           "--format", "c", "--out", "fw"],
+    "export controller": ["export", "controller", "--controller", "eq-4.69", "--precision",
+                          "q15", "--u-max", "2", "--input-max", "1"],
+    "export ivc": ["export", "ivc", "--method", "pole-zero", "--precision", "q15"],
+    "export table": ["export", "table", "--input", "gains.json", "--precision", "q15"],
+    "feedforward polynomial": ["feedforward", "polynomial", "--order", "3", "--n-samples",
+                               "20", "--dt", "1e-4"],
+    "feedforward minimum-jerk": ["feedforward", "minimum-jerk", "--move-time", "1e-3", "--dt",
+                                 "1e-4"],
+    "limits waterbed": ["limits", "waterbed", "--alpha-db", "-40", "--freq", "1000", "--dt",
+                        "4e-5"],
+    "limits bode-integral": ["limits", "bode-integral", "--num", "0.5,0.1", "--den",
+                             "1,-0.5,0.1", "--dt", "1e-4"],
+    "limits variance": ["limits", "variance", "--num", "40000", "--den", "1,300,0",
+                        "--dist-num", "1", "--dist-den", "0.01,1"],
+    "limits dynamic-range": ["limits", "dynamic-range", "--stroke-m", "0.03", "--accuracy-m",
+                             "3e-9"],
+    "plant list": ["plant", "list"],
+    "plant show": ["plant", "show", "hdd-benchmark"],
+    "plant bode": ["plant", "bode", "hdd-benchmark", "--n-freq", "50"],
+    "filter notch": ["filter", "notch", "--freq", "4449", "--damping", "0.09",
+                     "--filter-damping", "0.7"],
+    "filter peak": ["filter", "peak", "--freq", "4449", "--damping", "0.015", "--gain",
+                    "0.1778", "--phi", "2.5414"],
+    "filter lag": ["filter", "lag", "--freq", "6900", "--damping", "0.1", "--phase", "1.1519"],
+    "filter inverse": ["filter", "inverse", "--zero-freq", "4449", "--pole-freq", "4775"],
+    "settle train": ["settle", "train", "--judge", "new.skops", "--n-distances", "2",
+                     "--n-lengths", "2"],
+    "settle evaluate": ["settle", "evaluate", "--judge", "judge.skops", "--n-seeks", "3"],
+    "settle judge": ["settle", "judge", "--judge", "judge.skops", "--target", "300",
+                     "--n-samples", "50"],
+    "ssa ddssa": ["ssa", "ddssa", "--c-pzt", "2e-9", "--c1", "2e-9", "--c2", "2e-9", "--c3",
+                  "2e-9", "--freq", "1000"],
+    "ssa idssa": ["ssa", "idssa", "--c", "1e-9", "--r", "10e3", "--k", "2"],
+    "ssa amd": ["ssa", "amd", "--mode", "5461:2:10", "--mode", "9103:2:10"],
+    "ssa adaptive": ["ssa", "adaptive", "--duration", "2e-3"],
+    "switching ivc": ["switching", "ivc", "--plant", "hdd-sampled-data", "--controller",
+                      "eq-4.69", "--method", "jmin"],
+    "switching admissible-set": ["switching", "admissible-set", "--plant", "hdd-benchmark",
+                                 "--controller", "lead-lag", "--freq", "500", "--dt",
+                                 "3.7879e-5", "--u-max", "0.02", "--condition", "-16:3.9e4"],
+    "switching cost-map": ["switching", "cost-map", "--plant", "hdd-benchmark", "--controller",
+                           "lead-lag", "--freq", "500", "--dt", "3.7879e-5", "--position",
+                           "-60", "--vel-range", "-1e5:1e5", "--acc-range", "-1e9:1e9"],
+    "unobservable magnitude": ["unobservable", "magnitude", "--freq", "4000", "--dt", "25e-6"],
+    "unobservable sampling": ["unobservable", "sampling", "--freq", "4000", "--damping",
+                              "0.01", "--n-samples", "10"],
+    "unobservable time": ["unobservable", "time", "--freq", "4000", "--dt", "25e-6",
+                          "--damping", "0.01"],
+}  # fmt: skip
+#: runs over ~5 s (the book's cases): in the slow suite
+_SLOW_JSON = {"reproduce"}
+#: Keys still without a unit suffix in commands not renamed on this branch (the branch
+#: clithin2 thins dual_stage, resonance, sensitivity, srs, limits, pes, switching,
+#: unobservable; export and fit are untouched): listed so the lead can close them.  The
+#: test fails when a listed key is gone (shrink the list) or a new one appears.
+KNOWN_UNSUFFIXED: dict[str, set[str]] = {
+    # ---- not thinned on this branch: export, fit
+    # the fixed-point error budget and ranges, in the controller's input/output units
+    "export controller": {"coefficient", "signal", "output_rounding", "integrator_per_sample",
+                          "input_lsb", "output_lsb", "input_max", "node_peak"},
+    # gain x residue of each fitted mode: in the plant's gain unit
+    "fit": {"gain_residue", "gain_residue_std"},
+    # ---- clithin2's commands
+    # magnitudes of Sd/Ssd/Tsd (ratios: one concept, `magnitude_ratio` or `_db`), the
+    # plant's magnitude pd_mag (plant unit), the alias-sum bounds and Gamma sum
+    "sensitivity": {"gamma_sum", "pd_mag", "peak_sd", "peak_ssd", "peak_tsd", "s_delta",
+                    "sd_mag", "ssd", "t_delta", "tail_estimate", "td_mag", "tsd"},
+    # variance bounds in (output unit)^2
+    "limits variance": {"bound_high", "bound_low", "printed_bound"},
+    # bridge gains and the leak at the corner frequency (V/V or V)
+    "ssa ddssa": {"um_gain", "vm_gain"},
+    "ssa idssa": {"um_leak_at_fc"},
+    # the adaptive bridge's start/end values (V, and the gain k0)
+    "ssa adaptive": {"k0_end", "v_end", "v_start", "ys_end"},
+    # the needed input (plant input unit) and t* (samples)
+    "switching admissible-set": {"needed_u_ivc", "needed_u_zero_reset", "t_star"},
+    # the optimal switching state (output unit and its rates)
+    "switching cost-map": {"optimal_state"},
+    # RMS of y_ui and its histogram (output unit), sampling phases [s]
+    "unobservable magnitude": {"histogram_edges", "minimum", "minimum_sampling_phase", "rms",
+                               "worst", "worst_sampling_phase"},
+    "unobservable sampling": {"level", "peak_rms"},
+    "unobservable time": {"level", "rms"},
+}  # fmt: skip
 
 
 def _dimensionless() -> set[str]:
     text = CONVENTIONS.read_text(encoding="utf-8")
     block = text.split("<!-- dimensionless-keys -->")[1].split("<!-- /dimensionless-keys -->")[0]
-    return set(re.findall(r"`([a-z0-9_]+)`", block))
+    return set(re.findall(r"`([$a-z0-9_]+)`", block))
 
 
-def _keys(data, found: set[str]) -> set[str]:
-    if isinstance(data, dict):
-        for k, v in data.items():
-            found.add(k)
-            _keys(v, found)
-    elif isinstance(data, list):
+def _is_container(value) -> bool:
+    return isinstance(value, dict) or (
+        isinstance(value, list) and any(isinstance(v, dict | list) for v in value[:3])
+    )
+
+
+def leaf_keys(data, found: set[str] | None = None) -> set[str]:
+    """The keys the unit rules judge (docs/CONVENTIONS.md, "JSON keys").
+
+    A container (an object, or a list of objects or lists) is judged by its leaves; the
+    children of a unit-suffixed key carry its unit (``percentiles_s: {p50: ...}``); an
+    object with a ``unit`` key (a reproduce row) states its unit there; ``n_*`` keys are
+    counts and numeric keys are indices.
+    """
+    found = set() if found is None else found
+    if isinstance(data, list):
         for v in data[:3]:
-            _keys(v, found)
+            leaf_keys(v, found)
+    if not isinstance(data, dict) or "unit" in data:
+        return found
+    for k, v in data.items():
+        if _UNIT.search(k):
+            continue  # its unit holds for everything under it
+        if _is_container(v):
+            leaf_keys(v, found)
+        elif not (k.startswith("n_") or k.isdigit()):
+            found.add(k)
     return found
 
 
-@pytest.mark.parametrize("args", _FAST_JSON, ids=[" ".join(a[:2]) for a in _FAST_JSON])
-def test_json_keys_carry_a_unit_or_are_listed_dimensionless(args, capsys, monkeypatch) -> None:
+def test_every_json_command_is_checked() -> None:
+    with_json = {
+        path for path, cmd in _commands() if any(q.opts == ["--json"] for q in cmd.params)
+    }
+    assert with_json == {name.split(" --")[0] for name in JSON_RUNS}
+
+
+@pytest.fixture(scope="module")
+def json_dir(tmp_path_factory):
+    """A directory with the example data, a gain table and a small trained judge."""
+    import shutil
+
+    root = tmp_path_factory.mktemp("json_keys")
+    shutil.copytree(CONVENTIONS.parents[1] / "examples" / "data", root / "examples" / "data")
+    (root / "gains.json").write_text('{"K": [[1.0, 0.5], [0.25, 2.0]]}', encoding="utf-8")
+    train = ["settle", "train", "--judge", "judge.skops", "--n-distances", "2", "--n-lengths", "2"]
+    with pytest.MonkeyPatch.context() as m:
+        m.chdir(root)
+        m.setattr("sys.argv", ["servokit", *train])
+        with pytest.raises(SystemExit) as exc:
+            servokit.cli.main()
+    assert exc.value.code == 0
+    return root
+
+
+def _json_cases():
+    for name, args in JSON_RUNS.items():
+        marks = [pytest.mark.slow] if name in _SLOW_JSON else []
+        yield pytest.param(name, args, marks=marks, id=name)
+
+
+@pytest.mark.parametrize(("name", "args"), list(_json_cases()))
+def test_json_keys_carry_a_unit_or_are_listed_dimensionless(
+    name, args, json_dir, capsys, monkeypatch
+) -> None:
     import json
 
-    monkeypatch.setattr("sys.argv", ["servokit", *args, "--json"])
-    with pytest.raises(SystemExit) as exc:
-        servokit.cli.main()
-    out, err = capsys.readouterr()
-    assert exc.value.code == 0, err
-    keys = _keys(json.loads(out), set())
-    bad = sorted(k for k in keys if not _UNIT.search(k) and k not in _dimensionless())
-    assert not bad, f"{' '.join(args[:2])}: keys without a unit suffix: {bad}"
+    from _cli_run import run_cli
+
+    monkeypatch.chdir(json_dir)
+    code, out, err, _ = run_cli([*args, "--json"], 300, monkeypatch, capsys)
+    assert code == 0, err
+    keys = leaf_keys(json.loads(out))
+    known = KNOWN_UNSUFFIXED.get(name, set())
+    bad = sorted(k for k in keys if not _UNIT.search(k) and k not in _dimensionless() | known)
+    gone = sorted(known - keys)
+    assert not bad and not gone, (
+        f"{name}: keys without a unit suffix: {bad}; fixed (remove from KNOWN_UNSUFFIXED): {gone}"
+    )

@@ -15,6 +15,7 @@ import re
 import typing
 from collections.abc import Iterator, Mapping
 from contextlib import contextmanager
+from dataclasses import dataclass
 from pathlib import Path
 from typing import Annotated, Any
 
@@ -128,6 +129,75 @@ ControllerOpt = Annotated[
     ),
 ]
 OutDirOpt = Annotated[str, typer.Option("--out", help="output directory", metavar="DIR")]
+# the seek family (seek, sweep): one definition of each flag they share
+TargetOpt = Annotated[
+    float,
+    typer.Option("--target", "--tracks", help="seek distance [output unit; track for HDDs]"),
+]
+DelayOpt = Annotated[
+    bool,
+    typer.Option(
+        "--delay/--no-delay",
+        help="simulate the plant's input delay (--no-delay: the book's §2.4 convention)",
+    ),
+]
+SlewMaxOpt = Annotated[
+    float | None,
+    typer.Option(
+        "--slew-max",
+        help="slew limit |u[k]-u[k-1]| [plant input unit per sample] (seek: of the robust "
+        "design; simulate, sweep: the actuator's)",
+    ),
+]
+NSamplesMaxOpt = Annotated[
+    int, typer.Option("--n-samples-max", help="largest N tried by --n-samples auto [count]")
+]
+
+
+def u_max_option(use: str) -> Any:
+    """The ``--u-max`` option (input limit |u| [plant input unit]); ``use`` says what the
+    command does with it (a design constraint, a clip of the applied input).
+
+    Parameters
+    ----------
+    use : str
+        The command's use of the limit, appended to the help text.
+
+    Returns
+    -------
+    typing.Annotated
+        The annotated option type, default ``None`` (no limit).
+    """
+    return Annotated[
+        float | None,
+        typer.Option("--u-max", help=f"input limit |u| [plant input unit, A for hdd-benchmark]"
+                     f"; {use}"),
+    ]  # fmt: skip
+
+
+@dataclass(frozen=True)
+class Output:
+    """The output flags every computing command shares: ``--plot FILE`` and ``--json``."""
+
+    plot: Path | None
+    json_out: bool
+
+    @classmethod
+    def checked(cls, plot: Path | None, json_out: bool) -> Output:
+        """The flags with ``--plot`` checked before any work (directory/extension refused).
+
+        Parameters
+        ----------
+        plot : Path or None
+            ``--plot``.
+        json_out : bool
+            ``--json``.
+
+        Returns
+        -------
+        Output
+        """
+        return cls(plot_target(plot), json_out)
 
 
 

@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import json
 from pathlib import Path
+from typing import Any
 
 import typer
 from rich.markup import escape
@@ -48,15 +49,30 @@ def reproduce(
     figures, notes), rows (case, chapter, source, quantity, unit, book, book_text, servokit,
     ratio, tolerance, within_tolerance, kind, note, bound) and summary (counts per chapter).
     """
-    from servokit._io import staged_output
-    from servokit.cases.runner import iter_cases, select_cases
-    from servokit.report.files import write_report
+    from servokit.cases.runner import select_cases
 
     out_dir = check_out_dir(out)  # "" refused (typer would have made it ".")
     names = select_cases(_unique(case), _unique(chapter))  # before any file is written
+    results, doc = _run_cases(out_dir, names, svg)
+    wrote(out_dir / "results.json")
+    wrote(out_dir / "report.html")
+    if json_out:
+        emit_json(doc)
+        return
+    render_reproduce(results, doc, out_dir)
+
+
+def _run_cases(out_dir: Path, names: list[str], svg: bool) -> tuple[list, dict]:
+    """Run the cases into a staging directory swapped in at the end; (results, results.json).
+
+    One run's files, swapped in under a lock: an interrupted or failed run leaves the
+    previous report intact; a concurrent run on the same ``--out`` is refused.
+    """
+    from servokit._io import staged_output
+    from servokit.cases.runner import iter_cases
+    from servokit.report.files import write_report
+
     results, runtimes = [], {}
-    # one run's files, swapped in at the end under a lock: an interrupted or failed run
-    # leaves the previous report intact; a concurrent run on the same --out is refused
     with staged_output(out_dir) as stage:
         with progress(len(names), "reproducing") as advance:
             # cases in parallel processes when there are cores; one line per case as it is
@@ -68,30 +84,41 @@ def reproduce(
                 runtimes[name] = seconds
                 advance()
         doc = json.loads(write_report(results, stage, runtimes)[0].read_text(encoding="utf-8"))
-    json_path, html_path = out_dir / "results.json", out_dir / "report.html"
-    wrote(json_path)
-    wrote(html_path)
-    if json_out:
-        emit_json(doc)
-        return
-    n_ok = n_all = 0
+    return results, doc
+
+
+def _case_table(r: Any) -> Table:
+    """Book value vs servokit value of one case's comparisons."""
+    table = Table(title=escape(f"{r.title}  [{r.name}]"), title_justify="left")
+    for col in ("quantity", "book", "servokit", "ratio", "tol", "ok"):
+        table.add_column(col, justify="left" if col == "quantity" else "right")
+    for c in r.comparisons:
+        table.add_row(
+            escape(f"{c.quantity} [{c.unit}]" if c.unit else c.quantity),
+            f"{c.book:.7g}",
+            f"{c.servokit:.7g}",
+            f"{c.ratio:.4f}",
+            f"{c.rel_tol * 100:.3g}%",
+            "[green]yes[/green]" if c.ok else "[red]no[/red]",
+        )
+    return table
+
+
+def render_reproduce(results: list, doc: dict, out_dir: Path) -> None:
+    """Print each case's table and figures, then the summary of results.json.
+
+    Parameters
+    ----------
+    results : list of CaseResult
+        The cases run.
+    doc : dict
+        results.json as written.
+    out_dir : Path
+        ``--out``.
+    """
     for r in results:
-        table = Table(title=escape(f"{r.title}  [{r.name}]"), title_justify="left")
-        for col in ("quantity", "book", "servokit", "ratio", "tol", "ok"):
-            table.add_column(col, justify="left" if col == "quantity" else "right")
-        for c in r.comparisons:
-            n_all += 1
-            n_ok += c.ok
-            table.add_row(
-                escape(f"{c.quantity} [{c.unit}]" if c.unit else c.quantity),
-                f"{c.book:.7g}",
-                f"{c.servokit:.7g}",
-                f"{c.ratio:.4f}",
-                f"{c.rel_tol * 100:.3g}%",
-                "[green]yes[/green]" if c.ok else "[red]no[/red]",
-            )
         if r.comparisons:
-            console.print(table)
+            console.print(_case_table(r))
         else:
             console.print(
                 f"{escape(r.title)}  \\[{r.name}]: the book prints no number this model can "
@@ -99,6 +126,8 @@ def reproduce(
             )
         for f in r.figures:
             console.print(f"  figure: {out_dir / Path(f).name}")
+    n_all = sum(len(r.comparisons) for r in results)
+    n_ok = sum(c.ok for r in results for c in r.comparisons)
     console.print(f"{n_ok}/{n_all} book numbers within tolerance; figures in {out_dir}/")
     total = doc["summary"]["total"]
     console.print(
@@ -106,4 +135,4 @@ def reproduce(
         f"{total['missed']}; fitted {total['fitted']}, assumed {total['assumed']}, "
         f"spec {total['spec']}, consistency checks {total['consistency']} (see report.html)"
     )
-    console.print(f"report: {html_path.resolve()}")
+    console.print(f"report: {(out_dir / 'report.html').resolve()}")

@@ -91,6 +91,17 @@ def _check_seed(seed: int) -> int:
     return seed
 
 
+#: Samples kept per simulated seek: the longest input (135 samples) and the default record
+#: of :func:`servokit.learn.simulate_seeks` after it (3000 samples + 1), six states and the
+#: output each (8 bytes)
+_BYTES_PER_SEEK = (135 + 3001) * 7 * 8
+
+
+def _check_seek_memory(n_seeks: int, what: str, max_memory_mb: float) -> None:
+    """Refuse a set of simulated seeks estimated above ``--max-memory-mb`` (all are kept)."""
+    check_memory(n_seeks * _BYTES_PER_SEEK, what=what, max_memory_mb=max_memory_mb)
+
+
 def _simulate(seeks: list[tuple[float, int]], what: str):
     from servokit.learn import simulate_seeks
 
@@ -123,15 +134,38 @@ def train_cmd(
         1.0, "--class1-weight", help="weight of class-1 errors (> 1: judge later, safer)"
     ),
     cv: bool = typer.Option(False, "--cv", help="choose C and the offset by 3-fold CV (slower)"),
+    max_memory_mb: MaxMemoryOpt = DEFAULT_MAX_MEMORY_MB,
     json_out: JsonOpt = False,
 ) -> None:
     """Train the judge on FSC seeks of plant (6.7).  JSON: n_states, n_class1, n_class2, c,
     coef0, cv_scores, judge."""
-    from servokit.learn import SettlingJudge, training_seeks, training_set
+    from servokit.learn import training_set
 
     # every flag and the output path are checked before the seeks are simulated
     given = renamed(out, out_old, new_flag="--judge", old_flag="--out", default=Path("judge.skops"))
     out = _check_out_file(given, "--out" if out_old is not None else "--judge")
+    c = renamed(c, c_old, new_flag="--svm-c", old_flag="--c", default=10.0)
+    judge, seeks = _train_request(
+        n_distances, n_lengths, settle_band, c, "--c" if c_old is not None else "--svm-c",
+        coef0, class1_weight,
+    )  # fmt: skip
+    _check_seek_memory(
+        len(seeks), f"--n-distances {n_distances} x --n-lengths {n_lengths}", max_memory_mb
+    )
+    data = training_set(_simulate(seeks, "simulating seeks"), bound=judge.bound)
+    judge = judge.tune(data.X, data.labels) if cv else judge.fit(data.X, data.labels)
+    judge.save(out)
+    wrote(out)
+    _render_train(judge, data, len(seeks), out, json_out)
+
+
+def _train_request(
+    n_distances: int, n_lengths: int, settle_band: float, c: float, c_flag: str,
+    coef0: float, class1_weight: float,
+) -> tuple[Any, list]:  # fmt: skip
+    """The checked training flags: an unfitted judge and the training seeks (6.7)."""
+    from servokit.learn import SettlingJudge, training_seeks
+
     n_distances = check_count("--n-distances", n_distances, lo=2, hi=1000)
     n_lengths = check_count("--n-lengths", n_lengths, lo=2, hi=107)
     settle_band = check_positive("--settle-band", settle_band, "track")
@@ -139,16 +173,15 @@ def train_cmd(
         raise ServokitValueError(
             f"--settle-band must be 0.001..10 track (got {settle_band:g}); the book uses 0.1"
         )
-    c = renamed(c, c_old, new_flag="--svm-c", old_flag="--c", default=10.0)
-    c = check_positive("--c" if c_old is not None else "--svm-c", c)
+    c = check_positive(c_flag, c)
     coef0 = float(check_finite("--coef0", coef0))
     class1_weight = check_positive("--class1-weight", class1_weight)
     judge = SettlingJudge(bound=settle_band, C=c, coef0=coef0, class1_weight=class1_weight)
-    seeks = training_seeks(n_distances, n_lengths)
-    data = training_set(_simulate(seeks, "simulating seeks"), bound=settle_band)
-    judge = judge.tune(data.X, data.labels) if cv else judge.fit(data.X, data.labels)
-    judge.save(out)
-    wrote(out)
+    return judge, training_seeks(n_distances, n_lengths)
+
+
+def _render_train(judge: Any, data: Any, n_seeks: int, out: Path, json_out: bool) -> None:
+    """Print or emit the trained judge's summary."""
     n1, n2 = data.counts
     res = {
         "n_states": len(data.X),
@@ -165,7 +198,7 @@ def train_cmd(
         emit_json(res)
         return
     console.print(
-        f"{len(seeks)} seeks, {len(data.X)} states (class 1: {n1}, class 2: {n2}); "
+        f"{n_seeks} seeks, {len(data.X)} states (class 1: {n1}, class 2: {n2}); "
         f"C = {judge.C:g}, offset = {judge.coef0:g}"
     )
 
@@ -179,6 +212,7 @@ def evaluate_cmd(
     n_seeks: int = typer.Option(100, "--n-seeks", help="validation seeks", min=1, max=100_000),
     seed: SeedOpt = 1,
     level: float = typer.Option(-0.8, "--level", help="safety decision level (book: -0.8)"),
+    max_memory_mb: MaxMemoryOpt = DEFAULT_MAX_MEMORY_MB,
     plot: PlotOpt = None,
     json_out: JsonOpt = False,
 ) -> None:
@@ -192,6 +226,7 @@ def evaluate_cmd(
     n_seeks = check_count("--n-seeks", n_seeks, lo=1, hi=100_000)
     seed = _check_seed(seed)
     level = float(check_finite("--level", level))
+    _check_seek_memory(n_seeks, f"--n-seeks {n_seeks}", max_memory_mb)
     judge = _load(judge_path)
     responses = _simulate(validation_seeks(n_seeks, seed), "simulating seeks")
     stats = evaluate_judgements(responses, judge, levels=(0.0, level))

@@ -1,7 +1,13 @@
-"""``servokit simulate``: step or held-input response of a plant (set), optional feedback."""
+"""``servokit simulate``: step or held-input response of a plant (set), optional feedback.
+
+Flags -> :func:`simulate_job` (checked plants, inputs, actuator, memory) -> the simulator
+(:func:`servokit.simulate.simulate`, or :func:`~servokit.simulate.simulate_saturated` with
+a limited actuator) -> :func:`render_simulate`.
+"""
 
 from __future__ import annotations
 
+from dataclasses import dataclass
 from pathlib import Path
 from typing import Annotated, Any
 
@@ -25,10 +31,10 @@ from servokit.cli._app import (
     load_controller,
     load_plant,
     load_variations,
-    plot_target,
     variation_corners,
     wrote,
 )
+from servokit.cli._options import Output, SlewMaxOpt, u_max_option
 from servokit.errors import (
     DEFAULT_MAX_MEMORY_MB,
     ServokitValueError,
@@ -50,6 +56,131 @@ _FLAGS = {
 _ARRAYS_PER_FINE_STEP = 3
 
 
+VariantsOpt = Annotated[
+    bool, typer.Option("--variants", help="run the 18 HDD benchmark variants (hdd-benchmark only)")
+]
+SubstepsOpt = Annotated[
+    int, typer.Option("--substeps", help="fine steps per period for the continuous output [count]")
+]
+StepOpt = Annotated[
+    float | None,
+    typer.Option(
+        "--step",
+        help="step amplitude [output unit with a controller, input unit without]: reference "
+        "step with a controller, held input step without",
+    ),
+]
+InputOpt = Annotated[
+    Path | None,
+    typer.Option("--input", help="text file of held input samples, one per line", metavar="FILE"),
+]
+SimControllerOpt = Annotated[
+    str | None,
+    typer.Option(
+        "--controller", help="'eq-4.69' or a controller .toml file", metavar="NAME_OR_TOML"
+    ),
+]
+UMaxOpt = u_max_option("the actuator's clamp (the output is then sampled)")
+AntiWindupOpt = Annotated[
+    bool,
+    typer.Option(
+        "--anti-windup/--no-anti-windup",
+        help="with --u-max/--slew-max and a controller: observer anti-windup",
+    ),
+]
+
+
+@dataclass(frozen=True)
+class SimulateFlags:
+    """The flags of ``servokit simulate`` as typed."""
+
+    dt: float
+    duration: float
+    plant: str
+    variants: bool
+    variations: Path | None
+    substeps: int
+    step: float | None
+    input_file: Path | None
+    controller: str | None
+    settle_band: float
+    u_max: float | None
+    slew_max: float | None
+    anti_windup: bool
+    max_memory_mb: float
+    plot: Path | None
+    json_out: bool
+
+
+@dataclass(frozen=True)
+class SimulateJob:
+    """A checked simulation: plants, held samples, inputs, actuator and output flags."""
+
+    plants: list
+    dt: float
+    n_samples: int
+    substeps: int
+    controller: Any
+    inputs: dict
+    target: float
+    settle_band: float
+    actuator: Any
+    output: Output
+
+
+def _check_flags(f: SimulateFlags) -> int:
+    """The flags checkable before a file is read; returns ``--substeps``."""
+    if (f.step is None) == (f.input_file is None):
+        raise ServokitValueError("give exactly one of --step AMP or --input FILE")
+    check_positive("--dt", f.dt, "s")
+    check_positive("--duration", f.duration, "s")
+    check_positive("--settle-band", f.settle_band)
+    substeps = check_count("--substeps", f.substeps)
+    if f.duration < f.dt:
+        raise ServokitValueError(
+            f"--duration {f.duration:g} s is shorter than one --dt {f.dt:g} s; simulate at "
+            "least one sampling period"
+        )
+    if f.variants and f.plant != "hdd-benchmark":
+        raise ServokitValueError("--variants is only defined for --plant hdd-benchmark")
+    if f.variants and f.variations is not None:
+        raise ServokitValueError("give --variants or --variations FILE, not both")
+    if f.input_file is not None:
+        check_input_file(f.input_file, "--input")
+    return substeps
+
+
+def simulate_job(f: SimulateFlags) -> SimulateJob:
+    """``servokit simulate``'s flags -> the checked simulation (memory estimated first).
+
+    Parameters
+    ----------
+    f : SimulateFlags
+        The flags as typed.
+
+    Returns
+    -------
+    SimulateJob
+    """
+    substeps = _check_flags(f)
+    output = Output.checked(f.plot, f.json_out)
+    n_periods = f.duration / f.dt
+    plants = _plants(f.plant, f.variants, f.variations)
+    n_states = max(p.order for p in plants) + 4
+    check_memory(
+        n_periods * substeps * len(plants) * (n_states + _ARRAYS_PER_FINE_STEP) * 8,
+        what=f"--duration {f.duration:g} / --dt {f.dt:g} x --substeps {substeps} "
+        f"x {len(plants)} plant(s)",
+        max_memory_mb=f.max_memory_mb,
+    )
+    K = int(np.ceil(n_periods))
+    ctrl = None if f.controller is None else load_controller(f.controller, f.dt)
+    kw, target = _inputs(f.step, f.input_file, ctrl, K)
+    actuator = _actuator(f.u_max, f.slew_max, f.anti_windup and ctrl is not None)
+    return SimulateJob(plants, f.dt, K, substeps, ctrl, kw, target, f.settle_band, actuator,
+                       output)  # fmt: skip
+
+
 @app.command(
     "simulate",
     epilog=example(
@@ -66,103 +197,57 @@ def simulate_cmd(
     dt: DtOpt,
     duration: DurationOpt,
     plant: PlantOpt = "hdd-benchmark",
-    variants: Annotated[
-        bool,
-        typer.Option("--variants", help="run the 18 HDD benchmark variants (hdd-benchmark only)"),
-    ] = False,
+    variants: VariantsOpt = False,
     variations: VariationsOpt = None,
-    substeps: Annotated[
-        int,
-        typer.Option("--substeps", help="fine steps per period for the continuous output [count]"),
-    ] = 10,
-    step: Annotated[
-        float | None,
-        typer.Option(
-            "--step",
-            help="step amplitude [output unit with a controller, input unit without]: "
-            "reference step with a controller, held input step without",
-        ),
-    ] = None,
-    input_file: Annotated[
-        Path | None,
-        typer.Option(
-            "--input", help="text file of held input samples, one per line", metavar="FILE"
-        ),
-    ] = None,
-    controller: Annotated[
-        str | None,
-        typer.Option(
-            "--controller", help="'eq-4.69' or a controller .toml file", metavar="NAME_OR_TOML"
-        ),
-    ] = None,
+    substeps: SubstepsOpt = 10,
+    step: StepOpt = None,
+    input_file: InputOpt = None,
+    controller: SimControllerOpt = None,
     settle_band: SettleBandOpt = 0.1,
-    u_max: Annotated[
-        float | None,
-        typer.Option("--u-max", help="actuator limit |u| [plant input unit] (output at samples)"),
-    ] = None,
-    slew_max: Annotated[
-        float | None,
-        typer.Option("--slew-max", help="actuator slew limit |u[k]-u[k-1]| [input unit/sample]"),
-    ] = None,
-    anti_windup: Annotated[
-        bool,
-        typer.Option(
-            "--anti-windup/--no-anti-windup",
-            help="with --u-max/--slew-max and a controller: observer anti-windup",
-        ),
-    ] = True,
+    u_max: UMaxOpt = None,
+    slew_max: SlewMaxOpt = None,
+    anti_windup: AntiWindupOpt = True,
     max_memory_mb: MaxMemoryOpt = DEFAULT_MAX_MEMORY_MB,
     plot: PlotOpt = None,
     json_out: JsonOpt = False,
 ) -> None:
     """Simulate the continuous output of a plant (set) on a fine grid."""
-    if (step is None) == (input_file is None):
-        raise ServokitValueError("give exactly one of --step AMP or --input FILE")
-    check_positive("--dt", dt, "s")
-    check_positive("--duration", duration, "s")
-    check_positive("--settle-band", settle_band)
-    substeps = check_count("--substeps", substeps)
-    if duration < dt:
-        raise ServokitValueError(
-            f"--duration {duration:g} s is shorter than one --dt {dt:g} s; simulate at least "
-            "one sampling period"
-        )
-    if variants and plant != "hdd-benchmark":
-        raise ServokitValueError("--variants is only defined for --plant hdd-benchmark")
-    if variants and variations is not None:
-        raise ServokitValueError("give --variants or --variations FILE, not both")
-    if input_file is not None:
-        check_input_file(input_file, "--input")
-    plot = plot_target(plot)
-    n_periods = duration / dt
-    plants = _plants(plant, variants, variations)
-    n_states = max(p.order for p in plants) + 4
-    check_memory(
-        n_periods * substeps * len(plants) * (n_states + _ARRAYS_PER_FINE_STEP) * 8,
-        what=f"--duration {duration:g} / --dt {dt:g} x --substeps {substeps} "
-        f"x {len(plants)} plant(s)",
-        max_memory_mb=max_memory_mb,
-    )
-    import numpy as np
+    job = simulate_job(SimulateFlags(**locals()))
+    with flag_names(_FLAGS):
+        res, met = _respond(job)
+    render_simulate(job, res, met)
 
-    K = int(np.ceil(n_periods))
-    ctrl = None if controller is None else load_controller(controller, dt)
-    kw, target = _inputs(step, input_file, ctrl, K)
-    limited = u_max is not None or slew_max is not None
-    with flag_names(_FLAGS | {"u_max": "--u-max", "slew_max": "--slew-max"}):
-        from servokit.simulate import step_metrics
 
-        if limited:
-            res = _saturated(plants, dt, K, ctrl, kw, u_max, slew_max, anti_windup)
-        else:
-            from servokit.simulate import simulate
+def _respond(job: SimulateJob) -> tuple[Any, Any]:
+    """The simulator's response and its step metrics (the library calls of the command)."""
+    from servokit.simulate import SimulationResult, simulate, simulate_saturated, step_metrics
 
-            res = simulate(plants, dt=dt, n_samples=K, substeps=substeps, controller=ctrl, **kw)
-        if ctrl is None:
-            target = float(np.median(res.yc[:, -1]))
-        met = step_metrics(res.t, res.yc, target, settle_band)
+    common = {"dt": job.dt, "n_samples": job.n_samples, "controller": job.controller}
+    if job.actuator is not None:  # a limited actuator: the loop at the samples
+        r = simulate_saturated(job.plants, actuator=job.actuator, **common, **job.inputs)
+        res = SimulationResult(r.td, r.yd, r.td, r.yd, r.u, 1)
+    else:
+        res = simulate(job.plants, substeps=job.substeps, **common, **job.inputs)
+    # open loop: the target is the final value of the (median) response
+    target = job.target if job.controller is not None else float(np.median(res.yc[:, -1]))
+    return res, step_metrics(res.t, res.yc, target, job.settle_band)
+
+
+def render_simulate(job: SimulateJob, res: Any, met: Any) -> None:
+    """Plot, print or emit the JSON of a simulation.
+
+    Parameters
+    ----------
+    job : SimulateJob
+        The checked simulation.
+    res : servokit.simulate.SimulationResult
+        The response.
+    met : servokit.simulate.StepMetrics
+        Its step metrics.
+    """
+    plants, plot = job.plants, job.output.plot
     if plot is not None:
-        _plot(res, plants, dt, res.substeps, plot)
+        _plot(res, plants, job.dt, res.substeps, plot)
     times, reason = _settled(np.atleast_1d(met.settling_time), float(res.t[-1]))
     worst = None if reason else float(max(times))
     data = {
@@ -174,10 +259,11 @@ def simulate_cmd(
         "worst_settling_time_s": worst,
         "reason": reason,
         "peak_input": float(np.max(np.abs(res.u))),
-        "u_max": u_max,
+        "u_max": None if job.actuator is None or np.isinf(job.actuator.u_max)
+        else job.actuator.u_max,
         "plot": str(plot) if plot else None,
-    }
-    if json_out:
+    }  # fmt: skip
+    if job.output.json_out:
         emit_json(data)
         return
     settle = (
@@ -207,21 +293,19 @@ def _settled(times: Any, t_end: float) -> tuple[list[float | None], str | None]:
     )
 
 
-def _saturated(plants, dt, K, ctrl, kw, u_max, slew_max, anti_windup):  # noqa: ANN001, ANN202
-    """The loop with a limited actuator, sampled output, as a SimulationResult."""
-    from servokit.simulate import Actuator, SimulationResult, simulate_saturated
+def _actuator(u_max: float | None, slew_max: float | None, anti_windup: bool) -> Any:
+    """The checked ``--u-max``/``--slew-max`` actuator, or None without either."""
+    from servokit.simulate import Actuator
 
+    if u_max is None and slew_max is None:
+        return None
     if u_max is not None:
         check_positive("--u-max", u_max)
     if slew_max is not None:
         check_positive("--slew-max", slew_max)
-    act = Actuator(
-        u_max=float("inf") if u_max is None else u_max,
-        slew_max=slew_max,
-        anti_windup=anti_windup and ctrl is not None,
+    return Actuator(
+        u_max=float("inf") if u_max is None else u_max, slew_max=slew_max, anti_windup=anti_windup
     )
-    r = simulate_saturated(plants, dt=dt, n_samples=K, actuator=act, controller=ctrl, **kw)
-    return SimulationResult(r.td, r.yd, r.td, r.yd, r.u, 1)
 
 
 def _plants(plant: str, variants: bool, variations: Path | None) -> list:

@@ -1,5 +1,10 @@
 """``servokit sweep``: seek-time distribution of a feedforward design over a large
-Monte-Carlo variation set (Table 2.3 ranges), in bounded memory, in-process or on Dask."""
+Monte-Carlo variation set (Table 2.3 ranges), in bounded memory, in-process or on Dask.
+
+Flags -> :func:`sweep_job` (the checked set, design and limits; a design method builds its
+:class:`~servokit.seek.SeekRequest` through the seek builder) ->
+:func:`servokit.seek.sweep_seek_times` -> :func:`render_sweep`.
+"""
 
 from __future__ import annotations
 
@@ -15,6 +20,7 @@ from servokit.cli._app import (
     JsonOpt,
     MaxMemoryOpt,
     PlotOpt,
+    SettleBandOpt,
     VariationsOpt,
     app,
     console,
@@ -22,19 +28,21 @@ from servokit.cli._app import (
     example,
     flag_names,
     load_variations,
-    plot_target,
     progress,
     quiet_children,
     wrote,
 )
-from servokit.cli._options import given_on_command_line, refuse_inapplicable
-from servokit.errors import (
-    ServokitValueError,
-    check_count,
-    check_finite,
-    check_memory,
-    check_positive,
+from servokit.cli._options import (
+    DelayOpt,
+    Output,
+    SlewMaxOpt,
+    TargetOpt,
+    given_on_command_line,
+    refuse_inapplicable,
+    u_max_option,
 )
+from servokit.cli._requests import SEEK_FLAGS, SeekFlags, check_method, check_target, seek_job
+from servokit.errors import ServokitValueError, check_count, check_memory, check_positive
 
 
 @dataclasses.dataclass(frozen=True)
@@ -42,6 +50,48 @@ class _Design:
     u: np.ndarray
     dt: float
     source: str
+
+
+@dataclasses.dataclass(frozen=True)
+class SweepFlags:
+    """The flags of ``servokit sweep`` as typed."""
+
+    design: Path | None
+    method: str
+    tracks: float
+    n_samples: int | None
+    u_max: float | None
+    slew_max: float | None
+    settle_band: float
+    n_variants: int
+    seed: int | None
+    variations: Path | None
+    gain_range: bool
+    delay: bool
+    chunk_size: int | None
+    scheduler: str | None
+    workers: int | None
+    max_memory_mb: float
+    plot: Path | None
+    json_out: bool
+
+
+@dataclasses.dataclass(frozen=True)
+class SweepJob:
+    """A checked sweep: the plant set, the applied input and the run's sizes."""
+
+    vset: Any
+    design: _Design
+    actuator: Any
+    n_clipped: int
+    n: int
+    seed: int
+    target: float
+    band: float
+    chunk_size: int | None
+    max_memory_mb: float
+    output: Output
+    variations: Path | None
 
 
 def _from_file(path: Path) -> _Design:
@@ -52,56 +102,43 @@ def _from_file(path: Path) -> _Design:
     return _Design(u, dt, str(path))
 
 
-def _from_method(
-    method: str,
-    tracks: float,
-    n_samples: int | None,
-    u_max: float | None,
-    band: float,
-    delay: bool,
-) -> _Design:
-    """Design on the 18 plants of Table 2.3 as ``servokit seek`` does."""
-    from servokit.models import HDD_BENCHMARK_TS, hdd_benchmark_variants
-    from servokit.seek import SeekRequest, design_seek, search_range, table_2_4_weights
+def _from_method(f: SweepFlags) -> _Design:
+    """Design on the 18 plants of Table 2.3 as ``servokit seek`` does (its request builder),
+    searching N over :func:`~servokit.seek.search_range` of the seek distance."""
+    from servokit.seek import design_seek, search_range
 
-    if method == "robust" and u_max is None:
-        raise ServokitValueError("--method robust needs --u-max [plant input unit]")
-    if method not in ("fsc", "ffsc", "robust"):
-        raise ServokitValueError(f"--method must be 'fsc', 'ffsc' or 'robust', got {method!r}")
-    with flag_names({"u_max": "--u-max", "N": "--n-samples", "band": "--settle-band"}):
-        request = SeekRequest(
-            hdd_benchmark_variants(),
-            HDD_BENCHMARK_TS,
-            tracks,
-            band,
-            method,  # type: ignore[arg-type]
-            "auto" if n_samples is None else n_samples,
-            N_range=search_range(tracks),
-            band_weights=table_2_4_weights(tracks) if method == "ffsc" else (),
-            u_max=u_max,
-            simulate_delay=delay,
+    robust = f.method == "robust"
+    flags = SeekFlags(
+        target=f.tracks, method=f.method, settle_band=f.settle_band, delay=f.delay,
+        n_samples="auto" if f.n_samples is None else str(f.n_samples),
+        max_memory_mb=f.max_memory_mb, u_max=f.u_max if robust else None,
+    )  # fmt: skip
+    job = seek_job(flags, inapplicable={})
+    with flag_names(SEEK_FLAGS):
+        request = dataclasses.replace(
+            job.request, N_range=search_range(f.tracks), N_max=None, design_plant=None
         )
         ff = design_seek(request).ff
-    if method == "robust":
+    if robust:
         return _Design(ff.u, ff.dt, f"robust LP (N = {ff.N})")
-    return _Design(ff.u, ff.dt, f"{method.upper()} (N = {ff.N})")
+    return _Design(ff.u, ff.dt, f"{f.method.upper()} (N = {ff.N})")
 
 
-def _check_design_args(
-    method: str, n_samples: int | None, u_max: float | None, max_memory_mb: float
-) -> None:
-    """Refuse bad design flags before the design (minutes for a huge --n-samples) starts."""
-    if method not in ("fsc", "ffsc", "robust"):
-        raise ServokitValueError(f"--method must be 'fsc', 'ffsc' or 'robust', got {method!r}")
-    refuse_inapplicable("--method", method, {"u_max": ("--u-max", ("robust",))})
-    if n_samples is not None:
-        n_s = check_count("--n-samples", n_samples, lo=1)
+def _check_design_args(f: SweepFlags) -> None:
+    """Refuse bad design flags before the plant set is read or the design starts."""
+    if f.design is not None:  # the design comes from the file: its flags would be ignored
+        for name, flag in (("method", "--method"), ("n_samples", "--n-samples")):
+            if given_on_command_line(name):
+                raise ServokitValueError(f"{flag} does not apply with --design FILE; drop it")
+        return
+    check_method(f.method)
+    refuse_inapplicable("--method", f.method, {"u_max": ("--u-max", ("robust",))})
+    if f.n_samples is not None:
+        n_s = check_count("--n-samples", f.n_samples, lo=1)
         # the design solves for N samples against an N x N (and larger) system
-        check_memory(8.0 * 4 * n_s**2, what=f"--n-samples {n_s}", max_memory_mb=max_memory_mb)
-    if method == "robust":
-        if u_max is None:
-            raise ServokitValueError("--method robust needs --u-max [plant input unit]")
-        check_positive("--u-max", u_max)
+        check_memory(8.0 * 4 * n_s**2, what=f"--n-samples {n_s}", max_memory_mb=f.max_memory_mb)
+    if f.method == "robust" and f.u_max is None:
+        raise ServokitValueError("--method robust needs --u-max [plant input unit]")
 
 
 def _histogram(times: np.ndarray, pct: dict[str, float], title: str, path: Path) -> Path:
@@ -172,6 +209,116 @@ def _design_info(d: _Design, actuator: Any, n_clipped: int) -> dict[str, Any]:
             "n_clipped": n_clipped}  # fmt: skip
 
 
+def _plant_set(f: SweepFlags) -> tuple[Any, int]:
+    """The variation set drawn from (Table 2.3 box or ``--variations``) and the seed."""
+    from servokit.models import hdd_benchmark_variation_set, without_delay
+
+    if f.variations is not None:
+        vset = load_variations(f.variations)
+        if f.design is None and vset.nominal.name != "hdd-benchmark":
+            raise ServokitValueError(
+                f"--variations {f.variations}: the design methods use the HDD benchmark; for "
+                f"plant {vset.nominal.name!r} give --design FILE (from servokit seek --json)"
+            )
+    else:
+        vset = hdd_benchmark_variation_set()
+        if not f.gain_range:
+            vset = dataclasses.replace(vset, gain=(0.0, 0.0))
+    seed = vset.seed if f.seed is None else f.seed
+    if not f.delay:
+        vset = dataclasses.replace(vset, nominal=without_delay(vset.nominal)[0])
+    return vset, seed
+
+
+def sweep_job(f: SweepFlags) -> SweepJob:
+    """``servokit sweep``'s flags -> the checked plant set, applied input and sizes.
+
+    Parameters
+    ----------
+    f : SweepFlags
+        The flags as typed.
+
+    Returns
+    -------
+    SweepJob
+        Everything :func:`~servokit.seek.sweep_seek_times` needs; the chunk plan is
+        checked against ``--max-memory-mb`` before any plant is simulated.
+    """
+    from servokit.seek.sweep import plan_chunks
+
+    output = Output.checked(f.plot, f.json_out)
+    n = check_count("--n-variants", f.n_variants, lo=1)
+    band = check_positive("--settle-band", f.settle_band)
+    if f.chunk_size is not None:
+        check_count("--chunk-size", f.chunk_size, lo=1)
+    target = check_target(f.tracks)
+    _check_design_args(f)
+    actuator = _actuator(f.u_max, f.slew_max)  # clips any design, the file's too
+    if f.seed is not None and f.seed < 0:
+        raise ServokitValueError(f"--seed must be >= 0 (got {f.seed})")
+    vset, seed = _plant_set(f)
+    d, n_clipped = _applied(_from_file(f.design) if f.design else _from_method(f), actuator)
+    chunks = f"--n-variants {n}, --chunk-size {f.chunk_size if f.chunk_size else 'auto'}: "
+    with flag_names({}, prefix=chunks):  # refuse early, naming the flags that set the size
+        plan_chunks(vset, d, n, chunk_size=f.chunk_size, max_memory_mb=f.max_memory_mb)
+    return SweepJob(vset, d, actuator, n_clipped, n, seed, target, band, f.chunk_size,
+                    f.max_memory_mb, output, f.variations)  # fmt: skip
+
+
+UMaxOpt = u_max_option(
+    "the robust design respects it; any other design is clipped at it before the sweep"
+)
+DesignOpt = Annotated[
+    Path | None,
+    typer.Option(
+        "--design", help="JSON of `servokit seek --json` (input, dt_s) to evaluate", metavar="FILE"
+    ),
+]
+MethodOpt = Annotated[
+    str,
+    typer.Option(
+        "--method",
+        help="without --design: 'fsc', 'ffsc' (Table 2.4) or 'robust' design on the 18 plants "
+        "of Table 2.3",
+    ),
+]
+NSamplesOpt = Annotated[
+    int | None,
+    typer.Option("--n-samples", help="step number N of the design [count] (default: searched)"),
+]
+NVariantsOpt = Annotated[
+    int, typer.Option("--n-variants", help="Monte-Carlo plants drawn from Table 2.3 [count]")
+]
+SeedOpt = Annotated[
+    int | None,
+    typer.Option("--seed", help="random seed (default: the variation file's seed, else 0)"),
+]
+GainRangeOpt = Annotated[
+    bool,
+    typer.Option(
+        "--gain-range/--no-gain-range",
+        help="Table 2.3 box: also draw the +-10 % loop gain (an open-loop seek cannot absorb "
+        "it); a --variations file's gain_rel is always drawn",
+    ),
+]
+ChunkSizeOpt = Annotated[
+    int | None,
+    typer.Option("--chunk-size", help="plants simulated together [count] (default: fits 200 MB)"),
+]
+SchedulerOpt = Annotated[
+    str | None,
+    typer.Option(
+        "--scheduler",
+        help="run the chunks on this Dask scheduler (needs servokit[dask])",
+        metavar="ADDRESS",
+    ),
+]
+WorkersOpt = Annotated[
+    int | None,
+    typer.Option("--workers", help="run the chunks on a local Dask cluster of N workers [count]"),
+]
+
+
 @app.command(
     "sweep",
     epilog=example(
@@ -180,85 +327,21 @@ def _design_info(d: _Design, actuator: Any, n_clipped: int) -> dict[str, Any]:
     ),
 )
 def sweep_cmd(
-    design: Annotated[
-        Path | None,
-        typer.Option(
-            "--design",
-            help="JSON of `servokit seek --json` (input, dt_s) to evaluate",
-            metavar="FILE",
-        ),
-    ] = None,
-    method: Annotated[
-        str,
-        typer.Option(
-            "--method",
-            help="without --design: 'fsc', 'ffsc' (Table 2.4) or 'robust' design on "
-            "the 18 plants of Table 2.3",
-        ),
-    ] = "ffsc",
-    tracks: Annotated[
-        float, typer.Option("--target", "--tracks", help="seek distance [track]")
-    ] = 1.0,
-    n_samples: Annotated[
-        int | None,
-        typer.Option("--n-samples", help="step number N of the design [count] (default: searched)"),
-    ] = None,
-    u_max: Annotated[
-        float | None,
-        typer.Option(
-            "--u-max",
-            help="actuator input limit [plant input unit]: the robust design respects it; "
-            "any other design is clipped at it before the sweep",
-        ),
-    ] = None,
-    slew_max: Annotated[
-        float | None,
-        typer.Option(
-            "--slew-max", help="actuator slew limit |u[k] - u[k-1]| [plant input unit per sample]"
-        ),
-    ] = None,
-    settle_band: Annotated[
-        float, typer.Option("--settle-band", help="settling band half-width [track]")
-    ] = 0.1,
-    n_variants: Annotated[
-        int, typer.Option("--n-variants", help="Monte-Carlo plants drawn from Table 2.3 [count]")
-    ] = 10_000,
-    seed: Annotated[
-        int | None,
-        typer.Option("--seed", help="random seed (default: the variation file's seed, else 0)"),
-    ] = None,
+    design: DesignOpt = None,
+    method: MethodOpt = "ffsc",
+    tracks: TargetOpt = 1.0,
+    n_samples: NSamplesOpt = None,
+    u_max: UMaxOpt = None,
+    slew_max: SlewMaxOpt = None,
+    settle_band: SettleBandOpt = 0.1,
+    n_variants: NVariantsOpt = 10_000,
+    seed: SeedOpt = None,
     variations: VariationsOpt = None,
-    gain_range: Annotated[
-        bool,
-        typer.Option(
-            "--gain-range/--no-gain-range",
-            help="Table 2.3 box: also draw the +-10 % loop gain (an open-loop seek cannot "
-            "absorb it); a --variations file's gain_rel is always drawn",
-        ),
-    ] = False,
-    delay: Annotated[
-        bool, typer.Option("--delay/--no-delay", help="simulate the 10 us input delay")
-    ] = True,
-    chunk_size: Annotated[
-        int | None,
-        typer.Option(
-            "--chunk-size", help="plants simulated together [count] (default: fits 200 MB)"
-        ),
-    ] = None,
-    scheduler: Annotated[
-        str | None,
-        typer.Option(
-            "--scheduler",
-            help="run the chunks on this Dask scheduler (needs servokit[dask])",
-            metavar="ADDRESS",
-        ),
-    ] = None,
-    workers: Annotated[
-        int | None,
-        typer.Option(
-            "--workers", help="run the chunks on a local Dask cluster of N workers [count]"
-        ),
-    ] = None,
+    gain_range: GainRangeOpt = False,
+    delay: DelayOpt = True,
+    chunk_size: ChunkSizeOpt = None,
+    scheduler: SchedulerOpt = None,
+    workers: WorkersOpt = None,
     max_memory_mb: MaxMemoryOpt = 2000.0,
     plot: PlotOpt = None,
     json_out: JsonOpt = False,
@@ -275,103 +358,54 @@ def sweep_cmd(
     samples changed.
 
     JSON keys: n_variants, seed, variations, backend, chunk_size, chunk_memory_mb (estimate),
-    design {source, n_samples, dt_s, peak_input, u_max, slew_max, n_clipped}, target,
-    settle_band, mean_s, percentiles_s {p50, p90, p99, p99_9, p100}, worst_index,
-    worst_seek_time_s, worst_plant {modes, gain}, n_unsettled, elapsed_s, plot.
+    design {source, n_samples, dt_s, peak_input, u_max, slew_max, n_clipped}, target_out,
+    settle_band_out, mean_s, percentiles_s {p50, p90, p99, p99_9, p100}, worst_index,
+    worst_seek_time_s, worst_plant (name), worst_plant_detail {modes [{freq_hz, damping,
+    residue}], gain}, n_unsettled, elapsed_s, plot.
     """
-    from servokit.models import hdd_benchmark_variation_set, without_delay
-    from servokit.seek.sweep import plan_chunks, sweep_seek_times
+    job = sweep_job(SweepFlags(**locals()))  # first: locals() are the flags
+    from servokit.seek.sweep import sweep_seek_times
 
-    plot = plot_target(plot)
-    n = check_count("--n-variants", n_variants, lo=1)
-    band = check_positive("--settle-band", settle_band)
-    if chunk_size is not None:
-        check_count("--chunk-size", chunk_size, lo=1)
-    if float(check_finite("--target", tracks)) == 0:
-        raise ServokitValueError("--target must be non-zero (a seek distance)")
-    if design is None:
-        _check_design_args(method, n_samples, u_max, max_memory_mb)
-    else:  # the design comes from the file: the design flags would be silently ignored
-        for name, flag in (("method", "--method"), ("n_samples", "--n-samples")):
-            if given_on_command_line(name):
-                raise ServokitValueError(f"{flag} does not apply with --design FILE; drop it")
-    actuator = _actuator(u_max, slew_max)  # clips any design, the file's too
-    if seed is not None and seed < 0:
-        raise ServokitValueError(f"--seed must be >= 0 (got {seed})")
-    if variations is not None:
-        vset = load_variations(variations)
-        if design is None and vset.nominal.name != "hdd-benchmark":
-            raise ServokitValueError(
-                f"--variations {variations}: the design methods use the HDD benchmark; for "
-                f"plant {vset.nominal.name!r} give --design FILE (from servokit seek --json)"
-            )
-    else:
-        vset = hdd_benchmark_variation_set()
-        if not gain_range:
-            vset = dataclasses.replace(vset, gain=(0.0, 0.0))
-    seed = vset.seed if seed is None else seed
-    if not delay:
-        vset = dataclasses.replace(vset, nominal=without_delay(vset.nominal)[0])
-    d = (
-        _from_file(design)
-        if design is not None
-        else _from_method(method, tracks, n_samples, u_max, band, delay)
-    )
-    d, n_clipped = _applied(d, actuator)
-    chunks = f"--n-variants {n}, --chunk-size {chunk_size if chunk_size else 'auto'}: "
-    with flag_names({}, prefix=chunks):  # refuse early, naming the flags that set the size
-        plan_chunks(vset, d, n, chunk_size=chunk_size, max_memory_mb=max_memory_mb)
     client = _client(scheduler, workers)
     t0 = time.perf_counter()
     try:
-        with progress(n, f"sweep of {n} plants", enabled=n > 2000) as tick:
+        with progress(job.n, f"sweep of {job.n} plants", enabled=job.n > 2000) as tick:
             res = sweep_seek_times(
-                vset,
-                d,
-                tracks,
-                n=n,
-                seed=seed,
-                band=band,
-                chunk_size=chunk_size,
-                max_memory_mb=max_memory_mb,
-                client=client,
+                job.vset, job.design, job.target, n=job.n, seed=job.seed, band=job.band,
+                chunk_size=job.chunk_size, max_memory_mb=job.max_memory_mb, client=client,
                 progress=tick,
-            )
+            )  # fmt: skip
     finally:
         if client is not None:
             client.close()
-    elapsed = time.perf_counter() - t0
+    render_sweep(job, res, time.perf_counter() - t0)
+
+
+def render_sweep(job: SweepJob, res: Any, elapsed: float) -> None:
+    """Plot, print or emit the JSON of a sweep.
+
+    Parameters
+    ----------
+    job : SweepJob
+        The checked sweep.
+    res : servokit.seek.SweepResult
+        Its seek times.
+    elapsed : float
+        Wall time of the sweep [s].
+    """
+    d, vset, n, plot = job.design, job.vset, job.n, job.output.plot
     pct = res.percentiles()
-    worst = vset.from_draws(res.draws, res.gains)[0]
     if plot is not None:
         _histogram(
             res.seek_times,
             pct,
             f"{d.source}: seek times of {n} Monte-Carlo plants\n({vset.name or 'variation set'}"
-            f"{'; beyond the book, cf. Figs. 2.18-2.21' if variations is None else ''})",
+            f"{'; beyond the book, cf. Figs. 2.18-2.21' if job.variations is None else ''})",
             plot,
         )
         wrote(plot)
-    data = {
-        "n_variants": n,
-        "seed": seed,
-        "variations": vset.name,
-        "backend": res.backend,
-        "chunk_size": res.chunk_size,
-        "chunk_memory_mb": res.chunk_mb,
-        "design": _design_info(d, actuator, n_clipped),
-        "target": tracks,
-        "settle_band": band,
-        "mean_s": float(np.mean(res.seek_times)),
-        "percentiles_s": pct,
-        "worst_index": res.worst_index,
-        "worst_seek_time_s": float(res.seek_times[res.worst_index]),
-        "worst_plant": {"modes": [dataclasses.asdict(m) for m in worst.modes], "gain": worst.gain},
-        "n_unsettled": res.n_unsettled,
-        "elapsed_s": elapsed,
-        "plot": str(plot) if plot else None,
-    }
-    if json_out:
+    data = _result(job, res, pct, elapsed)
+    if job.output.json_out:
         emit_json(data)
         return
     console.print(
@@ -379,5 +413,35 @@ def sweep_cmd(
         f"{res.chunk_mb:.0f} MB each) in {elapsed:.1f} s; seek time p50 {pct['p50'] * 1e3:.4f} "
         f"ms, p99 {pct['p99'] * 1e3:.4f} ms, worst {data['worst_seek_time_s'] * 1e3:.4f} ms "
         f"(plant {res.worst_index}); {res.n_unsettled} unsettled"
-        + (f"; input limited at {n_clipped} sample(s)" if actuator is not None else "")
+        + (f"; input limited at {job.n_clipped} sample(s)" if job.actuator is not None else "")
     )
+
+
+def _result(job: SweepJob, res: Any, pct: dict, elapsed: float) -> dict:
+    """The JSON of a sweep (keys in the command's help)."""
+    vset = job.vset
+    worst = vset.from_draws(res.draws, res.gains)[0]  # draws: the worst plant's
+    return {
+        "n_variants": job.n,
+        "seed": job.seed,
+        "variations": vset.name,
+        "backend": res.backend,
+        "chunk_size": res.chunk_size,
+        "chunk_memory_mb": res.chunk_mb,
+        "design": _design_info(job.design, job.actuator, job.n_clipped),
+        "target_out": job.target,
+        "settle_band_out": job.band,
+        "mean_s": float(np.mean(res.seek_times)),
+        "percentiles_s": pct,
+        "worst_index": res.worst_index,
+        "worst_seek_time_s": float(res.seek_times[res.worst_index]),
+        # one name per concept: the worst plant is a name (as in seek), its data beside it
+        "worst_plant": f"{vset.name or vset.nominal.name} #{res.worst_index}",
+        "worst_plant_detail": {
+            "modes": [dataclasses.asdict(m) for m in worst.modes],
+            "gain": worst.gain,
+        },
+        "n_unsettled": res.n_unsettled,
+        "elapsed_s": elapsed,
+        "plot": str(plot) if (plot := job.output.plot) else None,
+    }

@@ -5,6 +5,7 @@ This layer sits above :mod:`servokit.feedforward` (the designs) and
 
 * :class:`SeekRequest` and :func:`design_seek` — one checked request and one design
   (FSC, FFSC or robust, fixed or automatic N) used by the CLI, the sweeps and the export;
+  :func:`run_seek` designs and simulates the seek over the request's plants;
 * :func:`simulate_seek` and :func:`seek_plot` — the outcome over the plant set and its figure;
 * :func:`table_2_4_weights`, :data:`DESIGNS` — the HDD benchmark designs of §2.4.2;
 * :func:`choose_N` — the step number N minimising the worst-case seek time (§2.4.2);
@@ -20,7 +21,14 @@ This layer sits above :mod:`servokit.feedforward` (the designs) and
 from servokit.seek.hdd import DESIGNS, SeekDesign, search_range, table_2_4_weights
 from servokit.seek.outcome import SeekOutcome, simulate_seek
 from servokit.seek.plots import seek_plot
-from servokit.seek.request import METHODS, SeekDesignResult, SeekRequest, design_seek
+from servokit.seek.request import (
+    METHODS,
+    SeekDesignResult,
+    SeekRequest,
+    SeekRun,
+    design_seek,
+    run_seek,
+)
 from servokit.seek.robust import (
     NoFeasibleSeekError,
     RobustFeedforwardInput,
@@ -43,7 +51,9 @@ __all__ = [
     "SeekDesignResult",
     "SeekOutcome",
     "SeekRequest",
+    "SeekRun",
     "design_seek",
+    "run_seek",
     "search_range",
     "seek_plot",
     "simulate_seek",

@@ -24,12 +24,12 @@ import numpy as np
 from servokit.errors import ServokitValueError, check_count, check_finite, check_positive
 from servokit.feedforward import FeedforwardInput, fsc_input
 from servokit.models.modal import ModalPlant, without_delay
-from servokit.seek.outcome import BAND
+from servokit.seek.outcome import BAND, SeekOutcome, simulate_seek
 from servokit.seek.robust import RobustFeedforwardInput, robust_minimum_time
 from servokit.seek.search import NSearchResult, choose_N
 from servokit.simulate.metrics import seek_time
 
-__all__ = ["METHODS", "SeekDesignResult", "SeekRequest", "design_seek"]
+__all__ = ["METHODS", "SeekDesignResult", "SeekRequest", "SeekRun", "design_seek", "run_seek"]
 
 #: the design methods of :class:`SeekRequest`
 METHODS = ("fsc", "ffsc", "robust")
@@ -82,6 +82,8 @@ class SeekRequest:
         it, the book's §2.4 convention.
     design_plant : ModalPlant, optional
         FSC/FFSC design model's plant; default the first of ``plants``.
+    max_memory_mb : float, optional
+        Robust: memory limit of the LP (its estimate is checked before it is built).
     """
 
     plants: Sequence[ModalPlant]
@@ -101,6 +103,7 @@ class SeekRequest:
     objective: str = "peak"
     simulate_delay: bool = True
     design_plant: ModalPlant | None = field(default=None, repr=False)
+    max_memory_mb: float | None = None
 
     def __post_init__(self) -> None:
         if self.method not in METHODS:
@@ -256,4 +259,59 @@ def _robust(request: SeekRequest) -> RobustFeedforwardInput:
         slew_max=request.slew_max,
         limits=tuple(request.limits) or None,
         objective=request.objective,  # type: ignore[arg-type]
+        max_memory_mb=request.max_memory_mb,
     )
+
+
+@dataclass(frozen=True, eq=False)
+class SeekRun:
+    """A designed seek input and its simulated seek over the request's plant set.
+
+    Attributes
+    ----------
+    design : SeekDesignResult
+        The input (and its N search).
+    outcome : SeekOutcome
+        The seek of every plant of ``request.simulated_plants()`` (read on the dt/10 grid).
+    design_time_s : float
+        Wall time of the design [s].
+    """
+
+    design: SeekDesignResult
+    outcome: SeekOutcome
+    design_time_s: float
+
+    @property
+    def ff(self) -> FeedforwardInput | RobustFeedforwardInput:
+        """The designed input."""
+        return self.design.ff
+
+
+def run_seek(request: SeekRequest, progress: Callable[[], Any] | None = None) -> SeekRun:
+    """Design the input of ``request`` (:func:`design_seek`) and simulate its seek (§2.4.1).
+
+    Parameters
+    ----------
+    request : SeekRequest
+        The checked request.
+    progress : callable, optional
+        As in :func:`design_seek`.
+
+    Returns
+    -------
+    SeekRun
+        The design, the seek time of every simulated plant, the design time.  A robust
+        input is simulated far beyond its length (20 times, at least 20 ms more), so its
+        tail bound is checked by the ordinary simulator, not only by the LP.
+    """
+    import time
+
+    t0 = time.perf_counter()
+    design = design_seek(request, progress)
+    design_time = time.perf_counter() - t0
+    ff = design.ff
+    horizon = max(20 * ff.duration, ff.duration + 0.02) if request.method == "robust" else None
+    outcome = simulate_seek(
+        request.simulated_plants(), ff, request.target, band=request.band, horizon=horizon
+    )
+    return SeekRun(design, outcome, design_time)
