@@ -11,7 +11,8 @@ With ``--per-case`` it also runs the cases one after another in this process
 reports each case's CPU seconds (``RUSAGE_SELF`` before and after; the first case also
 pays the imports).
 
-Run: ``MPLBACKEND=Agg python bench/reproduce_cpu.py [--case NAME ...] [--per-case]``.
+Run: ``MPLBACKEND=Agg python bench/reproduce_cpu.py [--case NAME ...] [--per-case]
+[--out DIR]``.
 """
 
 from __future__ import annotations
@@ -75,9 +76,10 @@ def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--case", action="append", default=[], help="only these cases")
     parser.add_argument("--per-case", action="store_true", help="also CPU s per case, serially")
+    parser.add_argument("--out", help="keep the report here (default: a temporary directory)")
     args = parser.parse_args()
     with tempfile.TemporaryDirectory(prefix="servokit-reproduce-") as tmp:
-        res = run_reproduce(args.case, Path(tmp) / "out")
+        res = run_reproduce(args.case, Path(args.out) if args.out else Path(tmp) / "out")
         if args.per_case:
             res["per_case_cpu_s"] = per_case_cpu(args.case, Path(tmp) / "serial")
     cpu_of = res.get("per_case_cpu_s", {})

@@ -10,14 +10,14 @@ import pytest
 from servokit.cases.runner import _groups, one_blas_thread, skip_missing_slycot
 
 
-def test_cases_of_one_module_share_a_worker_and_the_longest_starts_first() -> None:
+def test_cases_of_one_module_share_a_worker_in_run_order() -> None:
     names = ["hdd-seek", "peak-filter-12khz", "identification-vcm", "hdd-loopshape",
              "ltv-peak-filter-locus", "identification-pzt", "zz-run-time-case"]  # fmt: skip
     assert _groups(names) == [
-        ["hdd-loopshape"],
         ["hdd-seek"],
         ["peak-filter-12khz", "ltv-peak-filter-locus"],
         ["identification-vcm", "identification-pzt"],
+        ["hdd-loopshape"],
         ["zz-run-time-case"],
     ]
 

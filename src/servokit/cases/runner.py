@@ -68,11 +68,6 @@ def default_workers() -> int:
     return max(1, min(_cores(), 4))
 
 
-#: Cases started first in a pool: the longest, so that the others fill the other cores
-#: meanwhile (wall time; the CPU time does not depend on the order).
-RUN_FIRST = ("hdd-loopshape",)
-
-
 #: Variables read by BLAS/OpenMP libraries loaded after the limit is set (in a worker).
 _THREAD_VARS = ("OPENBLAS_NUM_THREADS", "OMP_NUM_THREADS", "MKL_NUM_THREADS")
 
@@ -146,15 +141,16 @@ def _run_group(
 
 
 def _groups(names: Sequence[str]) -> list[list[str]]:
-    """``names`` grouped by case module (first-seen order), :data:`RUN_FIRST` groups first.
+    """``names`` grouped by case module, in the order of each group's first case.
 
     Cases of one module share its computed designs (``functools.lru_cache``), which a
-    separate worker would compute again.
+    separate worker would compute again.  The order is kept (``hdd-loopshape`` last):
+    its "design time" row is a wall time, measured best while the other cases are done.
     """
     groups: dict[str, list[str]] = {}
     for name in names:
         groups.setdefault(CASES.get(name, (0, f"<{name}>"))[1], []).append(name)
-    return sorted(groups.values(), key=lambda g: not any(n in RUN_FIRST for n in g))
+    return list(groups.values())
 
 
 def _cores() -> int:
