@@ -10,10 +10,13 @@ Sections: open-loop simulation of 1000 HDD Monte-Carlo variants (vs python-contr
 the modal recursion / measured DGEMM peak), 10^5 variants through ``simulate_metrics``
 (peak memory), closed loops (vs python-control ``feedback`` + ``forced_response``), the
 constrained FSC QP (default path vs dense, N = 100 ... 3000, banded and unbanded;
-issue 24), ``sampled_data_sensitivity`` over 10^4 frequencies, and ``demo``:
+issue 24), HDD seek sweeps of 10^5 and 10^6 variants (share outside the simulation) and
+their Dask scaling (1 and 2 local workers, an external scheduler; issue 24),
+``sampled_data_sensitivity`` over 10^4 frequencies, and ``demo``:
 the five original ``make demo`` cases in CPU seconds, against the paths the demo speed-up
 replaced (same numbers required), and ``margins``: the IEEJ benchmark loop's full margins
-against python-control's ``stability_margins`` (issue 20).
+against python-control's ``stability_margins`` (issue 20), and ``admissible``: the
+switching-admissible case's O_inf and slices, certificates vs one LP per question.
 """
 
 from __future__ import annotations
@@ -31,6 +34,7 @@ from pathlib import Path  # noqa: E402
 
 sys.path.insert(0, str(Path(__file__).parent))
 
+import admissible  # noqa: E402
 import demo  # noqa: E402
 import margins  # noqa: E402
 import numpy as np  # noqa: E402
@@ -51,9 +55,15 @@ TARGETS = {
     "sensitivity.speedup_vs_per_cell": (">=", 5.0),
     "sensitivity.max_relative_difference": ("<=", 1e-10),
     "sweep.n1e6_2_threads_s": ("<", 60.0),
+    "sweep.n1e6_2_threads_cpu_s": ("<", 60.0),
+    "sweep.n1e5_share_outside_simulation": ("<", 0.5),
+    "dask.dask_2_workers_over_in_process_2_threads": ("<=", 1.0),
+    "dask.dask_1_worker_over_in_process_1_thread": ("<=", 1.0),
+    "dask.dask_2_workers_speedup_vs_1_worker": (">=", 1.2),
     "demo.total_cpu_s": ("<", 8.0),
     "demo.max_relative_difference": ("<=", 1e-12),
     "margins.speedup_vs_python_control": (">=", 1.0),
+    "admissible.speedup": (">=", 3.0),
 }
 
 
@@ -84,8 +94,10 @@ def main() -> None:
         "qp": lambda: qp.constrained_fsc((100, 300) if q else qp.STEPS),
         "sensitivity": lambda: sensitivity.sensitivity(2000 if q else 10_000),
         "sweep": lambda: sweep.sweeps((10_000,) if q else (100_000, 1_000_000)),
+        "dask": lambda: sweep.dask_scaling(20_000 if q else 100_000, 1 if q else 3),
         "demo": lambda: demo.demo(1 if q else 2),
-        "margins": lambda: margins.margins(3 if q else 7),
+        "margins": lambda: margins.margins(7 if q else 25),
+        "admissible": admissible.admissible,
     }
     wanted = args.only or list(sections)
     results: dict = {

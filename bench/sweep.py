@@ -1,5 +1,6 @@
 """Seek-time sweeps of the HDD benchmark (Table 2.3 ranges, Design 2, 10 tracks): draws
-straight to arrays (issue 24), 10^5 and 10^6 variants in chunks, in-process.
+straight to arrays (issue 24), 10^5 and 10^6 variants in chunks, in-process; and the
+same 10^5-variant sweep on Dask (:func:`dask_scaling`).
 
 Per size: wall seconds with 2 threads and the share of the time spent outside the
 simulation kernel ``run_chunk`` (draws, arrays, plant bank, settling-time read-out); at
@@ -80,6 +81,90 @@ def sweeps(sizes: tuple[int, ...] = (100_000, 1_000_000), baseline_max: int = 10
             ref = _plant_path(vset, ff, n, 2026, res1.chunk_size)
             out[f"{key}_plant_object_path_s"] = time.perf_counter() - t0
             out[f"{key}_same_numbers"] = bool(np.array_equal(ref, res.seek_times))
+    return out
+
+
+_EXTERNAL = """
+import sys, time
+from distributed import LocalCluster
+cluster = LocalCluster(n_workers=int(sys.argv[1]), threads_per_worker=1, dashboard_address=None)
+print(cluster.scheduler_address, flush=True)
+sys.stdin.read()  # until the benchmark closes our stdin
+"""
+
+
+def _external_scheduler(workers: int):
+    """A LocalCluster in a separate process (as a user's running scheduler); returns the
+    process and the scheduler address."""
+    import subprocess
+    import sys
+
+    proc = subprocess.Popen(
+        [sys.executable, "-c", _EXTERNAL, str(workers)],
+        stdin=subprocess.PIPE, stdout=subprocess.PIPE, stderr=subprocess.DEVNULL, text=True,
+    )  # fmt: skip
+    return proc, proc.stdout.readline().strip()
+
+
+def _cpu(client) -> float:
+    """CPU seconds of this process plus (with a client) of every Dask worker process."""
+    own = time.process_time()
+    return own if client is None else own + sum(client.run(time.process_time).values())
+
+
+def _timed_sweep(vset, ff, n: int, client=None, **kw) -> tuple[object, float, float]:
+    """(result, wall seconds, CPU seconds of all processes involved)."""
+    c0, t0 = _cpu(client), time.perf_counter()
+    res = sweep_mod.sweep_seek_times(vset, ff, 10.0, n=n, seed=2026, client=client, **kw)
+    wall = time.perf_counter() - t0
+    return res, wall, _cpu(client) - c0
+
+
+def dask_scaling(n: int = 100_000, rounds: int = 2) -> dict:
+    """Wall seconds of one sweep of ``n`` variants in-process (1 and 2 threads) and on
+    Dask: a local cluster of 1 and of 2 single-threaded workers, and an external
+    scheduler (a LocalCluster of 2 workers in another process, passed by address).
+    Cluster start-up is timed apart (paid once per session); best of ``rounds`` with the
+    backends run in turn; CPU seconds summed over this process and the workers; the
+    seek times must be identical on every backend."""
+    import logging
+
+    logging.getLogger("distributed").setLevel(logging.ERROR)
+    vset = dataclasses.replace(hdd_benchmark_variation_set(), gain=(0.0, 0.0))
+    ff = DESIGNS[3].design(hdd_benchmark().replace(delay=0.0))
+    ref = _timed_sweep(vset, ff, n)[0]
+    out: dict = {"variants": n}
+    proc, address = _external_scheduler(2)
+    backends: dict = {"in_process_1_thread": {"threads": 1}, "in_process_2_threads": {"threads": 2}}
+    try:
+        for name, how in (("dask_1_worker", {"workers": 1}), ("dask_2_workers", {"workers": 2}),
+                          ("dask_external_2_workers", {"scheduler": address})):  # fmt: skip
+            t0 = time.perf_counter()
+            backends[name] = {"client": sweep_mod.connect_dask(**how)}
+            out[f"{name}_startup_s"] = time.perf_counter() - t0
+        best = {name: (float("inf"), float("inf")) for name in backends}
+        for _ in range(rounds):  # backends in turn: a burst of load hits all of them alike
+            for name, kw in backends.items():
+                res, wall, cpu = _timed_sweep(vset, ff, n, **kw)
+                assert np.array_equal(res.seek_times, ref.seek_times)
+                best[name] = (min(best[name][0], wall), min(best[name][1], cpu))
+                out[f"{name}_chunk_size"] = res.chunk_size
+    finally:
+        for kw in backends.values():
+            if "client" in kw:
+                kw["client"].close()
+        proc.stdin.close()
+        proc.wait(timeout=60)
+    for name, (wall, cpu) in best.items():
+        out[f"{name}_s"], out[f"{name}_cpu_s"] = wall, cpu
+    out["dask_1_worker_over_in_process_1_thread"] = (
+        out["dask_1_worker_s"] / out["in_process_1_thread_s"]
+    )
+    out["dask_2_workers_over_in_process_2_threads"] = (
+        out["dask_2_workers_s"] / out["in_process_2_threads_s"]
+    )
+    out["dask_2_workers_speedup_vs_1_worker"] = out["dask_1_worker_s"] / out["dask_2_workers_s"]
+    out["same_numbers"] = True
     return out
 
 

@@ -166,6 +166,8 @@ CASES: list[tuple[list[str], str]] = [
     (["sensitivity", "--controller", "no-such"], "--controller"),
     (["sensitivity", "--plant", "no-such"], "--plant"),
     (["sensitivity", "--plot", "DIR"], "--plot"),
+    (["sensitivity", "--plant", "BIG.toml"], "--max-memory-mb"),
+    (["sensitivity", "--max-memory-mb", "inf"], "--max-memory-mb"),
     # ---- unobservable
     (["unobservable", "magnitude", "--freq", "0", "--dt", "25e-6"], "--freq"),
     (["unobservable", "magnitude", "--freq", "nan", "--dt", "25e-6"], "--freq"),
@@ -210,6 +212,10 @@ CASES: list[tuple[list[str], str]] = [
     (["srs", "--kind", "peak"], "--kind"),
     (["srs", "--damping", "1"], "--damping"),
     (["srs", "--plot", "DIR"], "--plot"),
+    (["srs", "--freq", "1e300"], "--freq"),
+    (["srs", "--freq", "1e9", "--kind", "initial"], "--freq"),  # 3.2e7 integration panels
+    (["srs", "--kind", "initial", "--fmax", "1e8"], "--fmax"),
+    (["srs", "--max-memory-mb", "inf"], "--max-memory-mb"),
     # ---- reproduce
     (["reproduce", "--out", "u.txt"], "--out"),
     (["reproduce", "--out", "u.txt/sub"], "--out"),
@@ -321,6 +327,17 @@ CASES: list[tuple[list[str], str]] = [
     ([*COST, "--dt", "nan"], "--dt"),
     ([*COST, "--freq", "-1"], "--freq"),
     ([*COST, "--controller", "no-such"], "--controller"),
+    # ---- sizes estimated before allocating (issue 23): a 20 000-mode plant, a tiny --dt
+    ([*IVC, "--plant", "BIG.toml"], "--max-memory-mb"),
+    ([*IVC, "--max-memory-mb", "0.5"], "--max-memory-mb"),
+    ([*IVC, "--max-memory-mb", "inf"], "--max-memory-mb"),
+    ([*ADM, "--plant", "BIG.toml"], "--max-memory-mb"),
+    ([*ADM, "--dt", "1e-12"], "--dt"),
+    ([*COST, "--plant", "BIG.toml"], "--max-memory-mb"),
+    ([*COST, "--position", "1e300"], "--position"),
+    ([*NOTCH, "--dt", "1e-300"], "--dt"),
+    ([*NOTCH, "--dt", "2e-4"], "--freq"),  # 4449 Hz above the 2500 Hz Nyquist frequency
+    ([*NOTCH, "--dt", "nan"], "--dt"),
     # ---- identify
     (["identify", "--plant", "no-such", "--controller", "table-5.2"], "--plant"),
     (["identify", "--plant", "DIR", "--controller", "table-5.2"], "--plant"),
@@ -330,6 +347,11 @@ CASES: list[tuple[list[str], str]] = [
     ([*IDENT, "--fs", "nan"], "--fs"),
     ([*IDENT, "--fs", "-3e4"], "--fs"),
     ([*IDENT, "--dt", "0"], "--dt"),
+    (["identify", "--plant", "BIG.toml", "--controller", "table-5.2"], "--max-memory-mb"),
+    ([*IDENT, "--loop-plant", "BIG.toml"], "--max-memory-mb"),
+    ([*MARG, "--plant", "BIG.toml"], "--max-memory-mb"),
+    ([*MARG, "--n-freq", "10000000"], "--max-memory-mb"),
+    ([*MARG, "--max-memory-mb", "inf"], "--max-memory-mb"),
     ([*IDENT, "--dt", "1e-300"], "--dt"),
     ([*IDENT, "--dt", "nan"], "--dt"),
     ([*IDENT, "--fmin", "0"], "--fmin"),
@@ -523,6 +545,14 @@ CASES: list[tuple[list[str], str]] = [
     ([*VAR, "--dist-den", "0.01,1", "--dt", "-1"], "--dt"),
     ([*VAR, "--dist-den", "0.01,1", "--rolloff-order", "0"], "--rolloff-order"),
     ([*VAR, "--dist-den", "0.01,1", "--rolloff-order", "51"], "--rolloff-order"),
+    # an unstable closed loop: (6.13) stays finite on the boundary but is no variance
+    (["limits", "variance", "--num", "1", "--den", "1,-3,1", "--dist-num", "1",
+      "--dist-den", "0.01,1"], "--num/--den"),
+    (["limits", "variance", "--num", "3", "--den", "1,-0.5", "--dist-num", "1",
+      "--dist-den", "1,0.5", "--dt", "1e-4"], "--num/--den"),
+    ([*BODE, "--dt", "1e-4", "--n-freq", "16777216", "--max-memory-mb", "100"], "--max-memory-mb"),
+    ([*BODE, "--dt", "1e-4", "--max-memory-mb", "inf"], "--max-memory-mb"),
+    ([*BODE, "--dt", "1e-4", "--max-memory-mb", "0"], "--max-memory-mb"),
     (["limits", "dynamic-range", "--stroke-m", "0", "--accuracy-m", "3e-9"], "--stroke-m"),
     (["limits", "dynamic-range", "--stroke-m", "0.03", "--accuracy-m", "nan"], "--accuracy-m"),
     (["limits", "dynamic-range", "--stroke-m", "0.03", "--accuracy-m", "-1"], "--accuracy-m"),
@@ -564,6 +594,8 @@ CASES: list[tuple[list[str], str]] = [
     (["settle", "judge", "--judge", "GARBAGE.toml", "--level", "inf"], "--level"),
     # ---- pes
     (["pes", "--plant", "no-such"], "--plant"),
+    (["pes", "--plant", "BIG.toml"], "--max-memory-mb"),
+    (["pes", "--max-memory-mb", "inf"], "--max-memory-mb"),
     (["pes", "--plant", "DIR"], "--plant"),
     (["pes", "--controller", "no-such"], "--controller"),
     (["pes", "--controller", "DIR"], "--controller"),
@@ -792,6 +824,13 @@ def _materialise(args: list[str], where: Path, monkeypatch: pytest.MonkeyPatch) 
     (where / "LATIN.toml").write_bytes('name = "caf\u00e9"\n'.encode("latin-1"))
     (where / "UTF16.toml").write_bytes("[plant]\n".encode("utf-16"))
     (where / "BINARY.json").write_bytes(bytes(range(256)))
+    # a 20 000-mode plant: its dense discrete model would take ~12 GiB (issue 23)
+    if not (where / "BIG.toml").exists():
+        modes = "".join(
+            f"[[modes]]\nfreq_hz = {100.0 + k}\ndamping = 0.01\nresidue = 1.0\n"
+            for k in range(20_000)
+        )
+        (where / "BIG.toml").write_text('name = "big"\ngain = 1.0\n' + modes)
     ro = where / "RO"
     ro.mkdir(exist_ok=True)
     ro.chmod(0o500)

@@ -201,27 +201,16 @@ KNOWN_UNSUFFIXED: dict[str, set[str]] = {
                           "input_lsb", "output_lsb", "input_max", "node_peak"},
     # gain x residue of each fitted mode: in the plant's gain unit
     "fit": {"gain_residue", "gain_residue_std"},
-    # ---- clithin2's commands
-    # magnitudes of Sd/Ssd/Tsd (ratios: one concept, `magnitude_ratio` or `_db`), the
-    # plant's magnitude pd_mag (plant unit), the alias-sum bounds and Gamma sum
-    "sensitivity": {"gamma_sum", "pd_mag", "peak_sd", "peak_ssd", "peak_tsd", "s_delta",
-                    "sd_mag", "ssd", "t_delta", "tail_estimate", "td_mag", "tsd"},
+    # ---- clithin2's commands: dimensional keys still without a unit suffix (the
+    # dimensionless ones -- ratios, counts, z-plane values -- are listed in CONVENTIONS)
+    # the plant's magnitude |Pd| (plant output unit per input unit)
+    "sensitivity": {"pd_mag"},
     # variance bounds in (output unit)^2
     "limits variance": {"bound_high", "bound_low", "printed_bound"},
-    # bridge gains and the leak at the corner frequency (V/V or V)
-    "ssa ddssa": {"um_gain", "vm_gain"},
-    "ssa idssa": {"um_leak_at_fc"},
     # the adaptive bridge's start/end values (V, and the gain k0)
     "ssa adaptive": {"k0_end", "v_end", "v_start", "ys_end"},
-    # the needed input (plant input unit) and t* (samples)
-    "switching admissible-set": {"needed_u_ivc", "needed_u_zero_reset", "t_star"},
     # the optimal switching state (output unit and its rates)
     "switching cost-map": {"optimal_state"},
-    # RMS of y_ui and its histogram (output unit), sampling phases [s]
-    "unobservable magnitude": {"histogram_edges", "minimum", "minimum_sampling_phase", "rms",
-                               "worst", "worst_sampling_phase"},
-    "unobservable sampling": {"level", "peak_rms"},
-    "unobservable time": {"level", "rms"},
 }  # fmt: skip
 
 

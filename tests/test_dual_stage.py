@@ -90,15 +90,17 @@ def test_dms_identities_on_random_responses(rows) -> None:
     a = np.array(rows)
     pv, cv, pm, cm = (a[:, 2 * k] * np.exp(1j * a[:, 2 * k + 1]) for k in range(4))
     ld = dual_stage_open_loop(pv, cv, pm, cm, "dms")
-    sd = 1 / (1 + ld)
-    sv, sm = 1 / (1 + cv * pv), 1 / (1 + cm * pm)
-    # (5.87) SD = SV SM; (5.89) DMS == parallel with CVP = (1 + CM PM) CV
-    np.testing.assert_allclose(sd, sv * sm, rtol=1e-12, atol=1e-12 * np.abs(sd).max())
+    # (5.87) SD = SV SM, compared as return differences 1 + LD = (1 + CV PV)(1 + CM PM):
+    # the inverses blow up where hypothesis draws 1 + L ~ 0, the products do not
+    rv, rm = 1 + cv * pv, 1 + cm * pm
+    scale = (1 + np.abs(cv * pv)) * (1 + np.abs(cm * pm))
+    np.testing.assert_allclose((1 + ld) / scale, rv * rm / scale, rtol=0, atol=1e-12)
+    # (5.89) DMS == parallel with CVP = (1 + CM PM) CV
     par = dual_stage_open_loop(pv, (1 + cm * pm) * cv, pm, cm, "parallel")
     np.testing.assert_allclose(ld, par, rtol=1e-12)
     # (5.83): CMS sensitivity
     lc = dual_stage_open_loop(pv, cv, pm, cm, "cms")
-    np.testing.assert_allclose(1 / (1 + lc), 1 / (1 + cm * pm + cv * pv * cm * pm), rtol=1e-12)
+    np.testing.assert_allclose(lc, cm * pm + cv * pv * cm * pm, rtol=1e-12)
 
 
 def test_dms_statespace_product() -> None:

@@ -221,6 +221,133 @@ def test_ieej_benchmark_loop_margins_against_python_control_and_poles():
     assert np.array(m.phase_crossovers_hz) == pytest.approx(w180_ref, rel=1e-4)
 
 
+def _book_loop() -> tuple:
+    from servokit.models import hdd_benchmark, ieej_example_controller
+
+    return hdd_benchmark(), ieej_example_controller()
+
+
+def _issue_loop() -> tuple:
+    from servokit.models import ieej_benchmark_loop, ieej_benchmark_plant
+
+    return ieej_benchmark_plant(), ieej_benchmark_loop()[1:]
+
+
+@pytest.mark.parametrize("make", [_book_loop, _issue_loop], ids=["book-plant", "issue-20-loop"])
+def test_delay_margin_of_the_sampled_data_benchmark_loop_by_exact_rediscretisation(make):
+    # discrete controller + continuous plant: the extra delay (2.5 samples, fractional)
+    # is put into the continuous plant and the loop discretised again exactly (delayed ZOH,
+    # extra delay states); the closed-loop poles decide
+    from scipy.optimize import brentq
+
+    from servokit.models import HDD_BENCHMARK_TS
+
+    plant, ctrl = make()
+    m = stability_margins([plant.discretize(HDD_BENCHMARK_TS), *ctrl])
+    tau = m.delay_margin_s
+    assert 0.05 < tau / HDD_BENCHMARK_TS % 1 < 0.95  # a fractional number of samples
+    c_ss = control.ss(ctrl[0])
+    for c in ctrl[1:]:
+        c_ss = c_ss * control.ss(c)
+    assert control.ss(plant.discretize(HDD_BENCHMARK_TS)).nstates + c_ss.nstates == 25
+
+    def radius(extra: float) -> float:
+        pd = plant.replace(delay=plant.delay + extra).discretize(HDD_BENCHMARK_TS)
+        return float(np.max(np.abs(control.feedback(control.ss(pd) * c_ss, 1).poles())))
+
+    assert radius(0.999 * tau) < 1.0 < radius(1.001 * tau)
+    # the e^{-j w tau} model of the extra delay ignores how the aliased images of the plant
+    # turn with it: the exact critical delay is a few 1e-4 shorter
+    exact = brentq(lambda x: radius(x) - 1.0, 0.99 * tau, 1.01 * tau, xtol=1e-13)
+    assert exact / tau == pytest.approx(1.0, abs=1e-3)
+    assert exact < tau
+
+
+def test_issue_20_benchmark_loop_numbers():
+    # issue 20: PM 35.17 deg, GM 4.11 dB at 1626 Hz, delay margin 97.68 us (25 states)
+    from servokit.models import ieej_benchmark_loop
+
+    loop = ieej_benchmark_loop()
+    m = stability_margins(loop)
+    assert m.phase_margin_deg == pytest.approx(35.17, abs=0.01)
+    assert m.gain_margin_db == pytest.approx(4.11, abs=0.01)
+    assert m.gm_freq_hz == pytest.approx(1626.0, abs=1.0)
+    assert m.delay_margin_s * 1e6 == pytest.approx(97.68, abs=0.01)
+    full = control.ss(loop[0])
+    for c in loop[1:]:
+        full = full * control.ss(c)
+    assert full.nstates == 25
+    assert m.closed_loop_stable is True and not _cl_unstable(full)
+    # python-control's dense state-space evaluation at our crossings: exact
+    from servokit.models import HDD_BENCHMARK_TS
+
+    def dense(f: float) -> complex:
+        return complex(full(np.exp(2j * np.pi * f * HDD_BENCHMARK_TS)))
+
+    assert abs(dense(m.pm_freq_hz)) == pytest.approx(1.0, abs=1e-10)
+    assert 180 + np.degrees(np.angle(dense(m.pm_freq_hz))) == pytest.approx(35.17, abs=0.01)
+    assert -20 * np.log10(abs(dense(m.gm_freq_hz))) == pytest.approx(m.gain_margin_db, abs=1e-9)
+    # python-control's own stability_margins (polynomial roots) drifts here: |L| = 0.99991
+    # at its crossover, PM 35.165 deg
+    _gm, pm, _sm, _w180, wc, _wms = control.stability_margins(full)
+    assert abs(dense(wc / (2 * np.pi))) != pytest.approx(1.0, abs=1e-5)
+    assert m.phase_margin_deg == pytest.approx(pm, abs=0.01)
+
+
+def test_issue_20_loop_fit_predicts_the_other_two_numbers():
+    # fit the low-pass damping and the crossover (notch pole damping 0.5) to the PM and the
+    # delay margin only: the gain margin and the phase crossover are then predictions
+    from scipy.optimize import least_squares
+
+    from servokit.models import HDD_BENCHMARK_TS, ieej_benchmark_plant, ieej_example_controller
+    from servokit.models.benchmark_controller import (
+        IEEJ_FITTED_CROSSOVER_HZ,
+        IEEJ_FITTED_LOWPASS_DAMPING,
+    )
+
+    plant = ieej_benchmark_plant()
+    pd = plant.discretize(HDD_BENCHMARK_TS)
+
+    def margins(p):
+        c = ieej_example_controller(lowpass_damping=p[0], crossover_hz=p[1], plant=plant)
+        return stability_margins([pd, *c])
+
+    def resid(p):
+        m = margins(p)
+        return [(m.phase_margin_deg - 35.17) / 0.01, (m.delay_margin_s * 1e6 - 97.68) / 0.01]
+
+    fit = least_squares(resid, [0.5, 1000.0], diff_step=1e-6, xtol=1e-12)
+    assert fit.x == pytest.approx([IEEJ_FITTED_LOWPASS_DAMPING, IEEJ_FITTED_CROSSOVER_HZ], rel=1e-3)
+    m = margins(fit.x)
+    assert m.gain_margin_db == pytest.approx(4.11, abs=0.01)
+    assert m.gm_freq_hz == pytest.approx(1626.0, abs=1.0)
+
+
+def test_ieej_controller_options_crossover_and_matched_sections():
+    from servokit.models import HDD_BENCHMARK_TS, hdd_benchmark, ieej_example_controller
+
+    pd = hdd_benchmark().discretize(HDD_BENCHMARK_TS)
+    for method in ("tustin", "matched"):
+        ctrl = ieej_example_controller(crossover_hz=1000.0, method=method)
+        z = np.exp(2j * np.pi * 1000.0 * HDD_BENCHMARK_TS)
+        loop = complex(pd(z)) * np.prod([complex(c(z)) for c in ctrl])
+        assert abs(loop) == pytest.approx(1.0, rel=1e-12)
+        m = stability_margins([pd, *ctrl])
+        assert m.gain_crossovers_hz[0] == pytest.approx(1000.0, rel=1e-6)
+        for c in ctrl[1:]:  # notches and low-pass: unit DC gain, poles inside |z| < 1
+            assert complex(c(1.0)) == pytest.approx(1.0, rel=1e-12)
+            assert np.all(np.abs(c.poles()) < 1)
+    # matched low-pass: its two zeros at infinity go to z = -1 (zero gain at Nyquist)
+    low = ieej_example_controller(method="matched")[-1]
+    assert abs(complex(low(-1.0))) < 1e-12
+    with pytest.raises(ValueError, match="method"):
+        ieej_example_controller(method="zoh")
+    with pytest.raises(ValueError, match="lowpass_damping"):
+        ieej_example_controller(lowpass_damping=0.0)
+    with pytest.raises(ValueError, match="notch_pole_damping"):
+        ieej_example_controller(notch_pole_damping=(0.5, -1.0, 0.5))
+
+
 def test_a_crossing_pair_beside_a_grid_point_exactly_on_0_db():
     # found by the slow property test: |L(600 Hz)| = 1 exactly at a packed grid point, and
     # the resonance rises above 0 dB just after it and falls back at 600.2157 Hz

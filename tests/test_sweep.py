@@ -199,3 +199,26 @@ def test_cli_u_max_clips_the_held_input(monkeypatch, capsys, tmp_path: Path):
     )
     assert runs[0.5 * peak]["n_unsettled"] == int(np.sum(~np.isfinite(direct))) == 50
     # (an open-loop seek cannot land with half its peak current: every plant is unsettled)
+
+
+def test_worker_chunk_tunes_the_heap_and_gives_the_same_numbers():
+    # the Dask task (heap thresholds set once per process first) is the in-process chunk
+    from servokit.seek import sweep as sweep_mod
+
+    draws, gains = VSET.draw(7, 3)
+    held = sweep_mod._Held(np.asarray(FF.u, dtype=float), FF.dt)
+    args = (held, 1.0, 0.1, None, None)
+    ref = sweep_mod._chunk_seek_times(VSET, draws, gains, *args)
+    for chunk in (7, 3, 1):  # a task in chunks; the heap set up once (idempotent)
+        task = sweep_mod._chunk_on_worker(VSET, draws, gains, args, chunk)
+        np.testing.assert_array_equal(task, ref)
+    assert sweep_mod._MALLOC_TUNED
+
+
+def test_default_chunk_fits_the_budget():
+    from servokit.seek.sweep import _CHUNK_BUDGET, plan_chunks
+
+    size, per_plant = plan_chunks(VSET, FF, 10**6)
+    assert size * per_plant <= _CHUNK_BUDGET < (size + 1) * per_plant
+    size2, _ = plan_chunks(VSET, FF, 10**6, n_workers=2)
+    assert size2 == size  # a million plants: plenty of chunks for every worker

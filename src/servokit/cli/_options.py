@@ -487,3 +487,68 @@ def load_variations(value: Path | str, fallback: Any = None, flag: str = "--vari
 
     with flag_names({}, prefix=f"{flag} "):
         return read_variations(path, fallback=fallback)
+
+
+# ---- size of a plant's discrete state-space model, estimated before it is built ----
+#: N x N work arrays a dense state-space step holds at once (the ZOH exponential, the
+#: closed-loop matrices, a Lyapunov or Schur solve).
+DENSE_COPIES = 16
+#: Largest N^3 of one dense state-space step: LAPACK at ~1e9 flop/s, about a minute.
+MAX_DENSE_WORK = 6e10
+
+
+def discrete_states(plant: Any, dt: float, controller_states: int = 0) -> int:
+    """States of ``plant`` discretised at ``dt`` (modes, delay states) plus a controller's.
+
+    Parameters
+    ----------
+    plant : ModalPlant
+        The plant (its ``order`` and ``delay`` [s]).
+    dt : float
+        Sampling period [s].
+    controller_states : int
+        States the controller adds.
+
+    Returns
+    -------
+    int
+        Estimated state count, known before anything is built.
+    """
+    order = int(getattr(plant, "order", 0) or 0)
+    delay = float(getattr(plant, "delay", 0.0) or 0.0)
+    delay_states = int(np.ceil(delay / dt)) + 1 if delay > 0 and dt > 0 else 0
+    return order + delay_states + int(controller_states)
+
+
+def controller_states(controller: Any) -> int:
+    """State count of a python-control controller (transfer function or state space)."""
+    n = getattr(controller, "nstates", None)
+    if n is not None:
+        return int(n)
+    den = getattr(controller, "den", None)
+    return max(len(np.atleast_1d(den[0][0])) - 1, 0) if den is not None else 0
+
+
+def check_state_size(n_states: int, *, what: str, max_memory_mb: float) -> None:
+    """Refuse a loop of ``n_states`` whose dense N x N steps exceed the memory or work limit.
+
+    Parameters
+    ----------
+    n_states : int
+        States of the discrete loop (:func:`discrete_states`).
+    what : str
+        The argument that sets the size, as typed (``"--plant big.toml"``).
+    max_memory_mb : float
+        The ``--max-memory-mb`` limit [MB].
+    """
+    from servokit.errors import check_memory, check_work
+
+    n = float(n_states)
+    check_memory(
+        DENSE_COPIES * 8.0 * n * n,
+        what=f"{what} ({n_states} states)",
+        max_memory_mb=max_memory_mb,
+    )
+    check_work(
+        n**3, what=f"{what} ({n_states} states)", limit=MAX_DENSE_WORK, about="about a minute"
+    )

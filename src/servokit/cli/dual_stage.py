@@ -2,7 +2,6 @@
 
 from __future__ import annotations
 
-import re
 from dataclasses import replace
 from typing import Annotated
 
@@ -17,6 +16,7 @@ from servokit.cli._app import (
     console,
     emit_json,
     example,
+    flag_names,
     plot_target,
     progress,
     wrote,
@@ -46,16 +46,51 @@ second_phase_margin_deg), book (the printed row), plot."""
 
 
 def _unknowns(method: str, overrides: dict[str, float | None]):
+    """The fitted unknowns of ``method`` with the flags the user gave (errors name flags)."""
     from servokit.feedback.dual_stage_fitted import fitted_unknowns
 
     chosen = {k: v for k, v in overrides.items() if v is not None}
-    try:
+    with flag_names(_FLAGS):  # whole names only (notch_depth_damping in extra_...)
         return replace(fitted_unknowns(method), **chosen)
-    except ServokitValueError as exc:
-        msg = str(exc)
-        for field, flag in _FLAGS.items():  # whole names only (notch_depth_damping in extra_...)
-            msg = re.sub(rf"(?<![\w-]){re.escape(field)}(?![\w-])", flag, msg)
-        raise ServokitValueError(msg) from None
+
+
+def _check_choices(method: str, structure: str, maxiter: int) -> None:
+    from servokit.feedback.dual_stage import STRUCTURES
+    from servokit.feedback.dual_stage_design import METHODS
+
+    if method not in METHODS:
+        raise ServokitValueError(f"--method must be one of {', '.join(METHODS)} (got {method!r})")
+    if structure not in STRUCTURES:
+        raise ServokitValueError(
+            f"--structure must be one of {', '.join(STRUCTURES)} (got {structure!r})"
+        )
+    check_count("--maxiter", maxiter, lo=1, hi=1000)
+
+
+def _render(method: str, structure: str, u, row, target, json_out: bool) -> None:  # noqa: ANN001
+    """Figure (Fig. 5.40), JSON or the Table 5.4 column of a dual-stage design."""
+    from servokit.feedback.dual_stage_design import BOOK_TABLE_5_4, design_responses
+
+    if target is not None:
+        from servokit.feedback.dual_stage_plots import bode_figure
+
+        r = design_responses(method, u, np.geomspace(10.0, 5.0e4, 4000), structure)
+        title = f"Fig. 5.40: {structure.upper()} open loop LD"
+        wrote(bode_figure({method: r}, "open_loop", title, target))
+    book = BOOK_TABLE_5_4[method]
+    if json_out:
+        emit_json(
+            {
+                "structure": structure,
+                "method": method,
+                "unknowns": u.__dict__,
+                "row": row.as_dict(),
+                "book": {k: float(v) for k, v in book.items()},
+                "plot": str(target) if target else None,
+            }
+        )
+        return
+    _print_row(row, book, u, structure)
 
 
 def _fit(method: str, start, maxiter: int):
@@ -155,22 +190,9 @@ def dual_stage_cmd(
     json_out: JsonOpt = False,
     plot: PlotOpt = None,
 ) -> None:
-    from servokit.feedback.dual_stage import STRUCTURES
-    from servokit.feedback.dual_stage_design import (
-        BOOK_TABLE_5_4,
-        DEFAULT_GRID_HZ,
-        METHODS,
-        design_responses,
-        evaluate_design,
-    )
+    from servokit.feedback.dual_stage_design import DEFAULT_GRID_HZ, evaluate_design
 
-    if method not in METHODS:
-        raise ServokitValueError(f"--method must be one of {', '.join(METHODS)} (got {method!r})")
-    if structure not in STRUCTURES:
-        raise ServokitValueError(
-            f"--structure must be one of {', '.join(STRUCTURES)} (got {structure!r})"
-        )
-    check_count("--maxiter", maxiter, lo=1, hi=1000)
+    _check_choices(method, structure, maxiter)
     target = plot_target(plot)
     u = _unknowns(
         method,
@@ -189,26 +211,4 @@ def dual_stage_cmd(
     if fit:
         u = _fit(method, u, maxiter)
     row = evaluate_design(method, u, DEFAULT_GRID_HZ, structure, refine=True)
-    if target is not None:
-        from servokit.feedback.dual_stage_plots import bode_figure
-
-        r = design_responses(method, u, np.geomspace(10.0, 5.0e4, 4000), structure)
-        wrote(
-            bode_figure(
-                {method: r}, "open_loop", f"Fig. 5.40: {structure.upper()} open loop LD", target
-            )
-        )
-    book = BOOK_TABLE_5_4[method]
-    if json_out:
-        emit_json(
-            {
-                "structure": structure,
-                "method": method,
-                "unknowns": u.__dict__,
-                "row": row.as_dict(),
-                "book": {k: float(v) for k, v in book.items()},
-                "plot": str(target) if target else None,
-            }
-        )
-        return
-    _print_row(row, book, u, structure)
+    _render(method, structure, u, row, target, json_out)

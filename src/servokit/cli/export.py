@@ -11,6 +11,7 @@ import typer
 from servokit.cli._app import (
     JsonOpt,
     MaxMemoryOpt,
+    OutDirOpt,
     emit_json,
     example,
     flag_names,
@@ -44,7 +45,6 @@ PrecisionOpt = Annotated[
     ),
 ]
 # a str, not a Path: typer turns an empty --out "" into Path("."), the working directory
-OutOpt = Annotated[str, typer.Option("--out", help="output directory", metavar="DIR")]
 NameOpt = Annotated[str, typer.Option("--name", help="C prefix and file stem (a C identifier)")]
 
 
@@ -150,7 +150,7 @@ def feedforward_cmd(
     ),
     fmt: FormatOpt = "c",
     precision: PrecisionOpt = "float",
-    out: OutOpt = "firmware",
+    out: OutDirOpt = "firmware",
     name: NameOpt = "hdd_ff",
     max_memory_mb: MaxMemoryOpt = DEFAULT_MAX_MEMORY_MB,
     json_out: JsonOpt = False,
@@ -206,7 +206,7 @@ def controller_cmd(
     ),
     fmt: FormatOpt = "c",
     precision: PrecisionOpt = "float",
-    out: OutOpt = "firmware",
+    out: OutDirOpt = "firmware",
     name: NameOpt = "ctrl",
     u_max: float | None = typer.Option(
         None,
@@ -364,7 +364,7 @@ def ivc_cmd(
     ),
     fmt: FormatOpt = "c",
     precision: PrecisionOpt = "float",
-    out: OutOpt = "firmware",
+    out: OutDirOpt = "firmware",
     name: NameOpt = "ivc",
     json_out: JsonOpt = False,
 ) -> None:
@@ -391,7 +391,7 @@ def table_cmd(
     ),
     fmt: FormatOpt = "c",
     precision: PrecisionOpt = "float",
-    out: OutOpt = "firmware",
+    out: OutDirOpt = "firmware",
     name: NameOpt = "tables",
     json_out: JsonOpt = False,
 ) -> None:

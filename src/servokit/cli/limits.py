@@ -9,6 +9,7 @@ import typer
 
 from servokit.cli._app import (
     JsonOpt,
+    MaxMemoryOpt,
     PlotOpt,
     console,
     emit_json,
@@ -19,7 +20,13 @@ from servokit.cli._app import (
     wrote,
 )
 from servokit.cli._options import old_name, renamed
-from servokit.errors import ServokitValueError, check_count, check_positive
+from servokit.errors import (
+    DEFAULT_MAX_MEMORY_MB,
+    ServokitValueError,
+    check_count,
+    check_memory,
+    check_positive,
+)
 
 limits_app = sub_app("limits", "Performance limits: waterbed, Bode integrals, variance (§6.3).")
 
@@ -93,6 +100,10 @@ def waterbed_cmd(
     )
 
 
+#: complex arrays of --n-freq points the discrete Bode integral holds (response, ln|S|, ...)
+_BODE_ARRAYS = 8
+
+
 @limits_app.command(
     "bode-integral",
     epilog=example("servokit limits bode-integral --num 0.5,0.1 --den 1,-0.5,0.1 --dt 1e-4"),
@@ -102,6 +113,7 @@ def bode_integral_cmd(
     den: DenOpt,
     dt: DtOpt = None,
     n_freq: int = typer.Option(1 << 16, "--n-freq", help="number of frequency points", min=64),
+    max_memory_mb: MaxMemoryOpt = DEFAULT_MAX_MEMORY_MB,
     plot: PlotOpt = None,
     json_out: JsonOpt = False,
 ) -> None:
@@ -112,6 +124,9 @@ def bode_integral_cmd(
     loop = _loop(num, den, dt)
     if dt is not None:
         n_freq = check_count("--n-freq", n_freq, lo=64, hi=1 << 24)
+        check_memory(
+            _BODE_ARRAYS * 16.0 * n_freq, what=f"--n-freq {n_freq}", max_memory_mb=max_memory_mb
+        )
     res = discrete_bode_integral(loop, n_freq=n_freq) if dt else continuous_bode_integral(loop)
     if plot is not None:
         from servokit.limits.plots import bode_integral_plot
@@ -154,15 +169,39 @@ def variance_cmd(
 
     JSON: bandwidth_hz, variance, bound, bound_low, bound_high, beta, gamma, printed_bound.
     """
-    from servokit.limits import output_variance, rolloff_bandwidth, variance_lower_bound
+    from servokit.limits import variance_against_bound
 
     plot = plot_target(plot)
+    delta, k = _rolloff(delta, k, k_old)
+    loop = _loop(num, den, dt)
+    dist = _disturbance(dist_num, dist_den, dt)
+    with flag_names(_VARIANCE_FLAGS):
+        res = variance_against_bound(loop, dist, delta=delta, k=k)
+    if plot is not None:
+        from servokit.limits.plots import variance_plot
+
+        wrote(variance_plot(loop, dist, res.bandwidth_hz, plot))
+    _variance_render(res, json_out)
+
+
+_VARIANCE_FLAGS = {
+    "delta": "--delta",
+    "k": "--rolloff-order",
+    "disturbance and loop": "--dist-num/--dist-den and --num/--den",
+}
+
+
+def _rolloff(delta: float, k: int, k_old: int | None) -> tuple[float, int]:
+    """--delta in (0, 1) and --rolloff-order (or the deprecated --k) in 1..50."""
     delta = check_positive("--delta", delta)
     if delta >= 1:
         raise ServokitValueError(f"--delta must be < 1 (got {delta:g}); the book uses 0.5")
     k = renamed(k, k_old, new_flag="--rolloff-order", old_flag="--k", default=1)
-    k = check_count("--rolloff-order", k, lo=1, hi=50)
-    loop = _loop(num, den, dt)
+    return delta, check_count("--rolloff-order", k, lo=1, hi=50)
+
+
+def _disturbance(dist_num: str, dist_den: str, dt: float | None):  # noqa: ANN202
+    """The disturbance filter; a continuous one must be strictly proper."""
     dist = _loop(dist_num, dist_den, dt, ("--dist-num", "--dist-den"))
     if dt is None and len(dist_num.split(",")) >= len(dist_den.split(",")):
         raise ServokitValueError(
@@ -170,36 +209,17 @@ def variance_cmd(
             "(fewer --dist-num than --dist-den coefficients): white noise through it has "
             "unbounded variance"
         )
-    with flag_names({"delta": "--delta", "k": "--rolloff-order"}):
-        omega_hz = rolloff_bandwidth(loop, delta=delta, k=k)
-    if plot is not None:
-        from servokit.limits.plots import variance_plot
+    return dist
 
-        wrote(variance_plot(loop, dist, omega_hz, plot))
-    names = {"bandwidth_hz": "the roll-off bandwidth", "delta": "--delta", "k": "--rolloff-order"}
-    with flag_names(names):
-        vb = variance_lower_bound(dist, omega_hz, delta=delta, k=k, dt=dt)
-    var = output_variance(loop, dist)
-    if not (np.isfinite(var) and var >= 0):
-        # an improper or non-strictly-proper disturbance filter (white noise in, unbounded
-        # power out) or an unstable loop: the integral (6.13) diverges
-        raise ServokitValueError(
-            f"--dist-num/--dist-den and --num/--den give an unbounded output variance "
-            f"(computed {var:.3g}); the disturbance filter must be strictly proper and the "
-            "closed loop stable"
-        )
-    data = {
-        "bandwidth_hz": omega_hz,
-        "variance": var,
-        "bound": vb.bound,
-        "bound_low": vb.low,
-        "bound_high": vb.high,
-        "beta": vb.beta,
-        "gamma": vb.gamma,
-        "printed_bound": vb.printed,
-    }
+
+def _variance_render(res, json_out: bool) -> None:  # noqa: ANN001
+    vb, var, omega_hz = res.bound, res.variance, res.bandwidth_hz
     if json_out:
-        emit_json(data)
+        emit_json({
+            "bandwidth_hz": omega_hz, "variance": var, "bound": vb.bound,
+            "bound_low": vb.low, "bound_high": vb.high, "beta": vb.beta, "gamma": vb.gamma,
+            "printed_bound": vb.printed,
+        })  # fmt: skip
         return
     console.print(
         f"Omega = {omega_hz:.4g} Hz; var(y) = {var:.5g} >= bound {vb.bound:.5g} "

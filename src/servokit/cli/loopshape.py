@@ -49,6 +49,8 @@ _FLAGS = {
     "keep_low_gain": "--keep-low-gain",
     "lowpass_hz": "--lowpass",
     "freq_hz": "FRF_FILE",
+    # the library asks for its parameter `initial`; the user gives it as --controller
+    "a stabilising initial controller": "a stabilising initial controller (--controller)",
 }
 
 

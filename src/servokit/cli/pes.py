@@ -18,6 +18,7 @@ from servokit.cli._app import (
     plot_target,
     wrote,
 )
+from servokit.cli._options import check_state_size, controller_states, discrete_states
 from servokit.errors import DEFAULT_MAX_MEMORY_MB, ServokitValueError, check_memory
 
 _PEAK_FORM = "FREQ_HZ:DAMPING:DEPTH_DB, e.g. 960:0.08:12"
@@ -89,9 +90,6 @@ def pes_cmd(
     JSON: nrpe_3sigma_percent, pes_3sigma_percent, rpe_pp_track, freq_hz[], pes_psd_db[]
     (10 log10 of track^2/Hz).
     """
-    import numpy as np
-
-    from servokit.feedback.peak_filtered import peak_filtered_controller
     from servokit.models import BenchmarkDisturbances
     from servokit.simulate.pes import track_following_pes
 
@@ -100,32 +98,45 @@ def pes_cmd(
         raise ServokitValueError(f"--seed must be >= 0 (got {seed})")
     bd = BenchmarkDisturbances()
     spec = _peak_spec(peak_filter, bd.dt) if peak_filter is not None else None
-    n = n_revolutions * bd.samples_per_rev
-    check_memory(8.0 * n * 60, what=f"--n-revolutions {n_revolutions}", max_memory_mb=max_memory_mb)
-    p = load_plant(plant)
-    c = _controller(controller, bd.dt)
-    if spec is not None:
-        c = peak_filtered_controller(c, p.discretize(bd.dt), spec)
+    p, c = _loop(plant, controller, spec, n_revolutions, bd, max_memory_mb)
     res = track_following_pes(
         p, c, bd.generate(n_revolutions, seed=seed), max_memory_mb=max_memory_mb
     )
+    _render(res, plot, json_out)
+
+
+def _loop(plant: str, controller: str, spec, n_revolutions: int, bd, max_memory_mb: float):  # noqa: ANN001, ANN202
+    """Plant and controller (peak filter added), their run's size checked before building."""
+    from servokit.feedback.peak_filtered import peak_filtered_controller
+
+    p = load_plant(plant)
+    c = _controller(controller, bd.dt)
+    n_states = discrete_states(p, bd.dt, controller_states(c))
+    check_state_size(n_states, what=f"--plant {plant}", max_memory_mb=max_memory_mb)
+    n = n_revolutions * bd.samples_per_rev
+    check_memory(
+        8.0 * n * max(_STATES_PER_SAMPLE, n_states + 4),
+        what=f"--n-revolutions {n_revolutions}",
+        max_memory_mb=max_memory_mb,
+    )
+    if spec is not None:
+        c = peak_filtered_controller(c, p.discretize(bd.dt), spec)
+    return p, c
+
+
+#: Values per sample of the PES run held at once (states, inputs, outputs) at least.
+_STATES_PER_SAMPLE = 60
+
+
+def _render(res, plot, json_out: bool) -> None:  # noqa: ANN001
+    """Figure (cf. Fig. 6.5), JSON or one line of a track-following run."""
+    import numpy as np
+
     f, psd = res.spectrum(2048)
     if plot is not None:
-        import matplotlib.pyplot as plt
+        from servokit.simulate.plots import pes_spectrum_plot
 
-        from servokit._figures import save_figure
-
-        fig, ax = plt.subplots(figsize=(7, 3.6))
-        ax.semilogx(
-            f[1:],
-            10 * np.log10(psd[1:]),
-            label=f"NRPE 3sigma {res.nrpe_3sigma_percent:.2f} % of track",
-        )
-        ax.set(xlabel="frequency [Hz]", ylabel="PES PSD [dB track^2/Hz]")
-        ax.set_title("PES spectrum (cf. book Fig. 6.5)")
-        ax.grid(True, which="both", alpha=0.3)
-        ax.legend()
-        wrote(save_figure(fig, plot))
+        wrote(pes_spectrum_plot(f, psd, res.nrpe_3sigma_percent, plot))
     data = {
         "nrpe_3sigma_percent": res.nrpe_3sigma_percent,
         "pes_3sigma_percent": res.pes_3sigma_percent,

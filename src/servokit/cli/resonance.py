@@ -1,10 +1,10 @@
 """``servokit filter ...`` and ``servokit margins``: resonance-compensation filters (§5.3)
-and stability margins on the exact loop frequency response."""
+and stability margins on the exact loop frequency response (``servokit identify`` is in
+:mod:`servokit.cli.identify`)."""
 
 from __future__ import annotations
 
-from collections.abc import Iterator
-from contextlib import contextmanager
+from contextlib import AbstractContextManager
 from pathlib import Path
 from typing import TYPE_CHECKING, Annotated, Any
 
@@ -12,6 +12,7 @@ import numpy as np
 import typer
 
 from servokit.cli._app import (
+    DampingOpt,
     JsonOpt,
     MaxMemoryOpt,
     PlotOpt,
@@ -19,20 +20,27 @@ from servokit.cli._app import (
     console,
     emit_json,
     example,
+    flag_names,
     load_controller,
     load_plant,
     plot_target,
-    progress,
     sub_app,
     wrote,
 )
-from servokit.cli._options import old_name, renamed
+from servokit.cli._options import (
+    check_state_size,
+    controller_states,
+    discrete_states,
+    old_name,
+    renamed,
+)
 from servokit.errors import (
+    DEFAULT_MAX_MEMORY_MB,
     ServokitValueError,
     check_count,
     check_finite,
+    check_memory,
     check_positive,
-    check_work,
 )
 
 if TYPE_CHECKING:
@@ -41,7 +49,6 @@ if TYPE_CHECKING:
 filter_app = sub_app("filter", "Resonance-compensation filters of book §5.3 (continuous/Tustin).")
 
 FreqOpt = Annotated[float, typer.Option("--freq", help="filter / mode frequency [Hz]")]
-DampingOpt = Annotated[float, typer.Option("--damping", help="damping ratio [1]")]
 DtOpt = Annotated[
     float | None,
     typer.Option("--dt", help="also give the Tustin discretisation prewarped at --freq [s]"),
@@ -52,17 +59,9 @@ _JSON_HELP = (
 )
 
 
-@contextmanager
-def _flags(**names: str) -> Iterator[None]:
-    """Re-raise a library error naming the flag the user typed instead of the parameter."""
-    try:
-        yield
-    except ServokitValueError as exc:
-        msg = str(exc)
-        for param, flag in names.items():
-            if msg.startswith(param + " "):
-                msg = flag + msg[len(param) :]
-        raise ServokitValueError(msg) from None
+def _flags(**names: str) -> AbstractContextManager[None]:
+    """Re-raise a library error naming the flags the user typed (:func:`flag_names`)."""
+    return flag_names(names)
 
 
 def _natural(roots: np.ndarray) -> tuple[list[float], list[float]]:
@@ -85,7 +84,7 @@ def _describe(tf: control.TransferFunction, freq: float, dt: float | None) -> di
     if dt is not None:
         from servokit.feedback import discretize_filter
 
-        with _flags(freq_hz=f"--freq (with --dt {dt:g} s)"):
+        with _flags(freq_hz=f"--freq (with --dt {dt:g} s)", dt="--dt"):
             fd = discretize_filter(tf, check_positive("--dt", dt, "s"), freq)
         out.update(dt_s=dt, num_z=np.asarray(fd.num[0][0]), den_z=np.asarray(fd.den[0][0]))
     return out
@@ -327,25 +326,21 @@ def margins_cmd(
             "--variations", help="variation file (.toml): margins over its corners", metavar="FILE"
         ),
     ] = None,
+    max_memory_mb: MaxMemoryOpt = DEFAULT_MAX_MEMORY_MB,
     plot: PlotOpt = None,
     json_out: JsonOpt = False,
 ) -> None:
-    from servokit.feedback import discretize_filter, stability_margins
+    from servokit.feedback import stability_margins
 
     target = plot_target(plot)
-    delay_flag = "--loop-delay" if delay_old is None else "--delay"
-    delay = renamed(delay, delay_old, new_flag="--loop-delay", old_flag="--delay", default=0.0)
-    if not float(check_finite(delay_flag, delay)) >= 0:
-        raise ServokitValueError(f"{delay_flag} must be >= 0 s (got {delay:g})")
+    delay, delay_flag = _loop_delay(delay, delay_old)
     check_count("--n-freq", n_freq, lo=16, hi=_MARGINS_MAX_FREQ)
     p = load_plant(plant)
     ctrl = load_controller(controller)
     dt = float(ctrl.dt)
     _check_delay(delay, dt, delay_flag)
-    chain: list[Any] = [ctrl]
-    for spec in filters or []:
-        tf, f0 = parse_filter(spec)
-        chain.append(discretize_filter(tf, dt, f0))
+    chain = [ctrl, *_filter_chain(filters, dt)]
+    _check_margins_size(p, plant, dt, chain, n_freq, max_memory_mb)
     if variations is not None:
         _margins_over_file(p, chain, variations, delay, n_freq, json_out, controller, dt)
         return
@@ -354,11 +349,54 @@ def margins_cmd(
     if target is not None:
         _margins_plot(loop, m, dt, target)
     _warn_unstable(m.closed_loop_stable, p.name)
+    _margins_render(m, p.name, controller, dt, json_out)
+
+
+def _loop_delay(delay: float, delay_old: float | None) -> tuple[float, str]:
+    """--loop-delay (or the deprecated --delay) [s], finite and >= 0, and the flag typed."""
+    delay_flag = "--loop-delay" if delay_old is None else "--delay"
+    delay = renamed(delay, delay_old, new_flag="--loop-delay", old_flag="--delay", default=0.0)
+    if not float(check_finite(delay_flag, delay)) >= 0:
+        raise ServokitValueError(f"{delay_flag} must be >= 0 s (got {delay:g})")
+    return delay, delay_flag
+
+
+def _filter_chain(filters: list[str] | None, dt: float) -> list[Any]:
+    """The --filter specs as discrete filters at ``dt`` (prewarped Tustin)."""
+    from servokit.feedback import discretize_filter
+
+    chain = []
+    for spec in filters or []:
+        tf, f0 = parse_filter(spec)
+        chain.append(discretize_filter(tf, dt, f0))
+    return chain
+
+
+#: Complex values held per background grid point and loop factor (responses, packed and
+#: refined grids, crossing searches): ~550 bytes per point measured for two factors.
+_MARGINS_VALUES_PER_POINT = 12
+
+
+def _check_margins_size(
+    p: Any, plant: str, dt: float, chain: list[Any], n_freq: int, max_memory_mb: float
+) -> None:
+    """The plant's discrete model and the frequency grids, estimated before building."""
+    n_states = discrete_states(p, dt, sum(controller_states(c) for c in chain))
+    check_state_size(n_states, what=f"--plant {plant}", max_memory_mb=max_memory_mb)
+    check_memory(
+        16.0 * _MARGINS_VALUES_PER_POINT * n_freq * (len(chain) + 2),
+        what=f"--n-freq {n_freq}",
+        max_memory_mb=max_memory_mb,
+    )
+
+
+def _margins_render(m: Any, name: str, controller: str, dt: float, json_out: bool) -> None:
+    """JSON or the margins and every crossover of one loop."""
     if json_out:
-        emit_json({"plant": p.name, "controller": controller, "dt_s": dt, **m.to_dict()})
+        emit_json({"plant": name, "controller": controller, "dt_s": dt, **m.to_dict()})
         return
     console.print(
-        f"{p.name} with {controller} (dt = {dt:g} s): GM {m.gain_margin_db:.4g} dB at "
+        f"{name} with {controller} (dt = {dt:g} s): GM {m.gain_margin_db:.4g} dB at "
         f"{m.gm_freq_hz:.5g} Hz, PM {m.phase_margin_deg:.4g} deg at {m.pm_freq_hz:.5g} Hz, "
         f"delay margin {m.delay_margin_s * 1e6:.4g} us, modulus margin "
         f"{m.modulus_margin:.4g} at {m.modulus_margin_freq_hz:.5g} Hz"
@@ -447,122 +485,3 @@ def _margins_over_file(
 
 #: Largest --n-freq of ``margins`` (the library's limit).
 _MARGINS_MAX_FREQ = 10_000_000
-
-#: Most excitation frequencies ``identify`` accepts (~40 ms each: about an hour).
-_IDENTIFY_MAX_FREQ = 100_000
-
-
-@app.command(
-    "identify",
-    epilog=example(
-        "servokit identify --plant vcm-dual-stage --controller table-5.2 "
-        "--fmax 60e3",
-        "servokit identify --plant pzt-active-suspension --loop-plant vcm-dual-stage "
-        "--controller table-5.2 --json",
-    ),
-    help="Identify a continuous plant above the Nyquist frequency from a simulated"
-    " closed-loop measurement (book §5.2.1.2, eqs. 5.10-5.11): Sd measured with a T-held"
-    " sinusoid, the plant with a sinusoid held at T/--substeps. Frequencies whose alias is 0"
-    " or Nyquist are excluded. JSON keys: plant, controller, fs_hz, freq_hz, aliased_hz,"
-    " magnitude_db, phase_deg, sd_magnitude_db, sd_phase_deg, excluded_hz, dt_s,"
-    " max_error_db, max_error_deg (against the plant model).",
-)
-def identify_cmd(
-    plant: Annotated[str, typer.Option("--plant", help="catalogue name or .toml plant")],
-    controller: Annotated[
-        str, typer.Option("--controller", help="book controller name or discrete .toml")
-    ],
-    dt: Annotated[
-        float | None, typer.Option("--dt", help="PES sampling period [s] (default 1/30 kHz)")
-    ] = None,
-    fs_old: old_name("--fs") = None,
-    fmin: Annotated[float, typer.Option("--fmin", help="first excitation frequency [Hz]")] = 50.0,
-    fmax: Annotated[float, typer.Option("--fmax", help="last excitation frequency [Hz]")] = 60e3,
-    step: Annotated[float, typer.Option("--freq-step", help="excitation spacing [Hz]")] = 50.0,
-    loop_plant: Annotated[
-        str | None,
-        typer.Option("--loop-plant", help="actuator the loop is closed around, if not --plant"),
-    ] = None,
-    substeps: Annotated[
-        int, typer.Option("--substeps", help="excitation steps per PES period", min=1)
-    ] = 12,
-    max_memory_mb: MaxMemoryOpt = 2000.0,
-    plot: PlotOpt = None,
-    json_out: JsonOpt = False,
-) -> None:
-    from servokit.models import get_discrete_controller
-    from servokit.sampled.identification import identification_plot, identify_above_nyquist
-
-    target = plot_target(plot)
-    if fs_old is not None:
-        check_positive("--fs", fs_old, "Hz")
-        dt = renamed(dt, 1.0 / fs_old, new_flag="--dt", old_flag="--fs")
-    fs = 1.0 / check_positive("--dt", 1.0 / 30e3 if dt is None else dt, "s")
-    check_finite("--fmin/--fmax/--freq-step", [fmin, fmax, step])
-    if not 0 < fmin <= fmax or step <= 0:
-        raise ServokitValueError(
-            f"need 0 < --fmin <= --fmax and --freq-step > 0 (got {fmin}, {fmax}, {step})"
-        )
-    n_exc = np.floor((fmax - fmin) / step + 1e-9) + 1
-    # about 40 ms per frequency (1200 frequencies of the default take ~50 s)
-    check_work(
-        n_exc,
-        what=f"--fmin {fmin:g} --fmax {fmax:g} --freq-step {step:g} ({n_exc:.3g} frequencies)",
-        limit=_IDENTIFY_MAX_FREQ,
-        about="about an hour",
-    )
-    p = load_plant(plant)
-    lp = None if loop_plant is None else load_plant(loop_plant, "--loop-plant")
-    load_controller(controller)  # an unknown name or a bad file names --controller
-    try:
-        ctrl = get_discrete_controller(controller, dt=1.0 / fs)
-    except ServokitValueError as exc:
-        typed = f"--fs {fs:g} Hz" if fs_old is not None else f"--dt {1 / fs:g} s"
-        raise ServokitValueError(f"{typed}: {exc}") from None
-    freq = fmin + step * np.arange(int(np.floor((fmax - fmin) / step + 1e-9)) + 1)
-    chunk = 150
-    with progress(
-        int(np.ceil(freq.size / chunk)), "identifying", enabled=freq.size > chunk
-    ) as tick:
-        with _flags(substeps="--substeps", freq_hz="--fmin/--fmax"):
-            res = identify_above_nyquist(
-                p,
-                ctrl,
-                freq,
-                substeps=substeps,
-                chunk=chunk,
-                max_memory_mb=max_memory_mb,
-                loop_plant=lp,
-                progress=lambda n: tick(1),
-            )
-    db, deg = res.errors(p.freqresp(res.freq_hz))
-    if target is not None:
-        wrote(
-            identification_plot(
-                res,
-                p.freqresp(res.freq_hz),
-                path=str(target),
-                title=f"{p.name} identified from PES sampled at {fs:g} Hz",
-            )
-        )
-    summary = {
-        "plant": p.name,
-        "controller": controller,
-        "fs_hz": fs,
-        "max_error_db": float(np.max(np.abs(db))),
-        "max_error_deg": float(np.max(np.abs(deg))),
-    }
-    if json_out:
-        emit_json({**summary, **res.to_dict()})
-        return
-    console.print(
-        f"{p.name}: {res.freq_hz.size} frequencies {fmin:g}-{fmax:g} Hz identified at "
-        f"fs = {fs:g} Hz; excluded {', '.join(f'{x:g}' for x in res.excluded_hz) or 'none'} Hz"
-    )
-    for lo, hi in ((0, fs / 2), (fs / 2, fs), (fs, 1.5 * fs), (1.5 * fs, np.inf)):
-        band = (res.freq_hz > lo) & (res.freq_hz <= hi)
-        if band.any():
-            console.print(
-                f"  {lo:8.0f}-{min(hi, fmax):8.0f} Hz: max error {np.max(np.abs(db[band])):.3g} dB,"
-                f" {np.max(np.abs(deg[band])):.3g} deg against the model"
-            )

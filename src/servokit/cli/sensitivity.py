@@ -2,7 +2,7 @@
 
 from __future__ import annotations
 
-from typing import Annotated, Any
+from typing import Annotated
 
 import typer
 
@@ -25,6 +25,7 @@ from servokit.cli._app import (
     progress,
     wrote,
 )
+from servokit.cli._options import check_state_size, controller_states, discrete_states
 from servokit.errors import (
     DEFAULT_MAX_MEMORY_MB,
     ServokitValueError,
@@ -102,37 +103,60 @@ def sensitivity_cmd(
 
     fmin, fmax = check_range(fmin, fmax)
     n = check_count("--n-freq", n_freq, lo=2)
-    if not (np.isfinite(tol) and 0 < tol < 1):
-        raise ServokitValueError(f"--tol must be in (0, 1) (got {tol:g})")
-    if band_limit is not None and not (np.isfinite(band_limit) and band_limit > 0):
-        raise ServokitValueError(f"--band-limit must be > 0 Hz (got {band_limit:g})")
+    _check_tolerances(tol, band_limit)
     check_memory(
         n * _ARRAYS_PER_FREQ * 16 + _ALIAS_BLOCK_BYTES,
         what=f"--n-freq {n}",
         max_memory_mb=max_memory_mb,
     )
     plot = plot_target(plot)
+    p, ctrl, mr = _loop(plant, controller, multirate, m, max_memory_mb)
+    dt, freq = float(ctrl.dt), np.linspace(fmin, fmax, n)
+    with flag_names(_FLAGS):
+        res = _sweep(p, ctrl, dt, freq, mr, tol, band_limit, show=not json_out)
+    _render(res, p.name, controller, plot, json_out)
+
+
+def _check_tolerances(tol: float, band_limit: float | None) -> None:
+    import numpy as np
+
+    if not (np.isfinite(tol) and 0 < tol < 1):
+        raise ServokitValueError(f"--tol must be in (0, 1) (got {tol:g})")
+    if band_limit is not None and not (np.isfinite(band_limit) and band_limit > 0):
+        raise ServokitValueError(f"--band-limit must be > 0 Hz (got {band_limit:g})")
+
+
+def _loop(plant: str, controller: str, multirate: bool, m: int, max_memory_mb: float):  # noqa: ANN202
+    """Plant, controller and the multirate setting; the plant's discrete model (at Ts/m with
+    --multirate) is estimated before anything is built."""
     p = load_plant(plant)
     ctrl = load_controller(controller)
     dt = float(ctrl.dt)
-    mr = None
-    if multirate:
-        from servokit.sampled.hdd_multirate import hdd_multirate
+    m = check_count("--m", m, lo=1, hi=_MAX_MULTIRATE) if multirate else 1
+    n_states = discrete_states(p, dt / m, controller_states(ctrl))
+    check_state_size(n_states, what=f"--plant {plant}", max_memory_mb=max_memory_mb)
+    if not multirate:
+        return p, ctrl, None
+    from servokit.sampled.hdd_multirate import hdd_multirate
 
-        mr = hdd_multirate(dt, check_count("--m", m, lo=1, hi=_MAX_MULTIRATE))
-    freq = np.linspace(fmin, fmax, n)
-    with flag_names(_FLAGS):
-        res = _sweep(p, ctrl, dt, freq, mr, tol, band_limit, show=not json_out)
+    return p, ctrl, hdd_multirate(dt, m)
+
+
+def _render(res, name: str, controller: str, plot, json_out: bool) -> None:  # noqa: ANN001
+    """Figure, JSON or the table of a sensitivity sweep."""
+    import numpy as np
+
     if plot is not None:
         from servokit.sampled import sensitivity_plot
 
         sensitivity_plot(res, quantities=("Ssd", "Tsd", "Sd"), filename=str(plot))
         wrote(plot)
+    freq = res.freq_hz
     i_s, i_t = int(np.argmax(res.Ssd)), int(np.argmax(res.Tsd))
     summary = {
-        "plant": p.name,
+        "plant": name,
         "controller": controller,
-        "dt_s": dt,
+        "dt_s": res.dt,
         "m": res.m,
         "peak_ssd": float(res.Ssd[i_s]),
         "peak_ssd_freq_hz": float(freq[i_s]),
@@ -144,7 +168,7 @@ def sensitivity_cmd(
     if json_out:
         emit_json({**summary, **_curves(res)})
         return
-    _print_table(res, p.name, dt, freq, summary)
+    _print_table(res, name, res.dt, freq, summary)
 
 
 #: Largest multirate number: the lifted system grows as m states; the book uses m = 2.
@@ -152,35 +176,17 @@ _MAX_MULTIRATE = 64
 
 
 def _sweep(p, ctrl, dt, freq, mr, tol, band_limit, *, show: bool):  # noqa: ANN001
-    """``sampled_data_sensitivity`` in chunks of the grid, with a progress bar."""
-    import dataclasses
-
+    """:func:`~servokit.sampled.sensitivity_in_chunks` with a progress bar."""
     import numpy as np
 
-    from servokit.sampled import sampled_data_sensitivity
+    from servokit.sampled.sensitivity import sensitivity_in_chunks
 
-    chunks = [freq[i : i + _CHUNK] for i in range(0, freq.size, _CHUNK)]
-    parts = []
-    with progress(len(chunks), "sensitivity sweep", enabled=show) as advance:
-        for f in chunks:
-            parts.append(
-                sampled_data_sensitivity(
-                    p, ctrl, dt, f, multirate=mr, tol=tol, band_limit_hz=band_limit
-                )
-            )
-            advance()
-    if len(parts) == 1:
-        return parts[0]
-    merged: dict[str, Any] = {}
-    for fld in dataclasses.fields(parts[0]):
-        values = [getattr(r, fld.name) for r in parts]
-        if isinstance(values[0], np.ndarray):
-            merged[fld.name] = np.concatenate(values)
-        elif fld.name in ("alias_terms", "tail_estimate"):
-            merged[fld.name] = max(values)
-        else:
-            merged[fld.name] = values[0]
-    return type(parts[0])(**merged)
+    n_chunks = int(np.ceil(freq.size / _CHUNK))
+    with progress(n_chunks, "sensitivity sweep", enabled=show) as advance:
+        return sensitivity_in_chunks(
+            p, ctrl, dt, freq, multirate=mr, tol=tol, band_limit_hz=band_limit, chunk=_CHUNK,
+            progress=advance,
+        )  # fmt: skip
 
 
 def _curves(res) -> dict:  # noqa: ANN001

@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import math
 from typing import Annotated
 
 import typer
@@ -52,6 +53,7 @@ _BLOCK_BYTES = 4_000_000 * 16 * 3  # the library's time blocks (complex cells)
 # second measured, so about twenty seconds
 MAX_CELLS = 2e9
 _GL_NODES = 12  # Gauss-Legendre nodes per panel of a continuous input (library)
+_PANEL_OVERHEAD = 1000  # a panel's Python step, in oscillator-node updates (measured)
 _JSON_KEYS = (
     "input, dt_s, duration_s, damping, kind, freq_hz, magnitude_ratio, peaks_hz, "
     "at [{freq_hz, magnitude_ratio}], plot"
@@ -119,38 +121,47 @@ def srs_cmd(
 
     fmin, fmax = check_range(fmin, fmax)
     n = check_count("--n-freq", n_freq, lo=2)
-    if at:
-        check_finite("--freq", at)
-        if min(at) <= 0:
-            raise ServokitValueError("--freq must be > 0 Hz")
+    at = _check_at(at)
     if dt is not None:
         check_positive("--dt", dt, "s")
-    accel, dur = _input(input_, dt, duration, n_samples, target, (n, fmax, max_memory_mb))
+    size = (n, fmax, kind, at, max_memory_mb)
+    accel, dur = _input(input_, dt, duration, n_samples, target, size)
     plot = plot_target(plot)
     freq = np.linspace(fmin, fmax, n)
     with flag_names(_FLAGS):
         spec = _spectrum(accel, dt, freq, damping, kind, dur, show=not json_out)
-        from servokit.sampled.srs import spectrum_peaks
-
-        peaks = spectrum_peaks(freq, spec.magnitude)
         # exact values at the requested frequencies, not interpolated from the grid
-        exact = (
-            _spectrum(accel, dt, np.asarray(at, float), damping, kind, dur, show=False)
-            if at
-            else None
-        )
+        exact = _spectrum(accel, dt, np.asarray(at), damping, kind, dur, show=False) if at else None
+    _srs_render(spec, exact, input_, dt, plot, json_out)
+
+
+def _check_at(at: list[float] | None) -> list[float]:
+    """The --freq values (finite, > 0 Hz)."""
+    if at:
+        check_finite("--freq", at)
+        if min(at) <= 0:
+            raise ServokitValueError("--freq must be > 0 Hz")
+    return [float(f) for f in at or []]
+
+
+def _srs_render(spec, exact, input_: str, dt, plot, json_out: bool) -> None:  # noqa: ANN001
+    """Figure, JSON or the table of peaks of a shock response spectrum."""
+    from servokit.sampled.srs import spectrum_peaks
+
+    peaks = spectrum_peaks(spec.freq_hz, spec.magnitude)
     values = (
         []
         if exact is None
         else [
             {"freq_hz": float(f), "magnitude_ratio": float(m)}
-            for f, m in zip(at, exact.magnitude, strict=True)
+            for f, m in zip(exact.freq_hz, exact.magnitude, strict=True)
         ]
     )
+    marks = [] if exact is None else list(exact.freq_hz)
     if plot is not None:
         from servokit.sampled.srs import srs_plot
 
-        srs_plot(spec, [f"{input_}, zeta = {damping:g}"], path=plot, marks_hz=at or ())
+        srs_plot(spec, [f"{input_}, zeta = {spec.damping:g}"], path=plot, marks_hz=marks)
         wrote(plot)
     if json_out:
         emit_json(
@@ -158,9 +169,9 @@ def srs_cmd(
                 "input": input_,
                 "dt_s": dt,
                 "duration_s": spec.duration,
-                "damping": damping,
-                "kind": kind,
-                "freq_hz": freq,
+                "damping": spec.damping,
+                "kind": spec.kind,
+                "freq_hz": spec.freq_hz,
                 "magnitude_ratio": spec.magnitude,
                 "peaks_hz": peaks,
                 "at": values,
@@ -168,7 +179,7 @@ def srs_cmd(
             }
         )
         return
-    _print(spec, input_, kind, peaks, values)
+    _print(spec, input_, spec.kind, peaks, values)
 
 
 def _check_size(n: int, length: float, steps: float, max_memory_mb: float) -> None:
@@ -186,28 +197,54 @@ def _check_size(n: int, length: float, steps: float, max_memory_mb: float) -> No
     )
 
 
+def _check_panels(n: int, fmax: float, at: list[float], duration: float, kind: str) -> None:
+    """Work of a continuous input: each spectrum call integrates on panels of its fastest
+    oscillator (--fmax for the grid, the largest --freq for the exact values), 64 per
+    period for the initial spectrum, 2 for the residual one (the library's rule), each
+    panel an update of every oscillator plus a Python step."""
+    per_period = 64 if kind == "initial" else 2
+    work, panels = 0.0, 0.0
+    for n_osc, top in ((n, fmax), (len(at), max(at, default=0.0))):
+        if n_osc:
+            p = max(32.0, math.ceil(per_period * top * duration))
+            work += p * (n_osc * _GL_NODES + _PANEL_OVERHEAD)
+            panels = max(panels, p)
+    top = max([fmax, *at])
+    check_work(
+        work,
+        what=f"--fmax/--freq {top:g} Hz with --duration {duration:g} s and --kind {kind} "
+        f"({panels:.3g} integration panels)",
+        limit=MAX_CELLS,
+        about="about twenty seconds",
+    )
+
+
 def _input(input_: str, dt, duration, n_samples, target, size):  # noqa: ANN001
     """The input as (accel, duration or None); its size is checked before it is built.
 
-    ``size`` is ``(n_freq, fmax, max_memory_mb)``.
+    ``size`` is ``(n_freq, fmax, kind, the --freq values, max_memory_mb)``.
     """
     from servokit.sampled.srs import half_sine, polynomial_wave
 
-    n, fmax, max_mb = size
+    n, fmax, kind, at, max_mb = size
+    n_at = len(at)
     if input_ == "half-sine":
         check_positive("--duration", duration, "s")
-        # a continuous input is integrated on panels of half a period of the fastest oscillator
-        steps = 2 * fmax * duration * _GL_NODES if dt is None else duration / dt
-        _check_size(n, 0 if dt is None else steps, steps, max_mb)
+        if dt is None:
+            _check_size(n + n_at, 0, 0, max_mb)
+            _check_panels(n, fmax, at, duration, kind)
+            return half_sine(duration), duration
+        steps = duration / dt
+        _check_size(n + n_at, steps, steps, max_mb)
         return half_sine(duration), duration
     u = None if input_ == "polynomial" else _read_samples(input_)
     if dt is None:
         raise ServokitValueError("--dt is required for held samples (the hold period [s])")
     if u is not None:
-        _check_size(n, u.size, u.size, max_mb)
+        _check_size(n + n_at, u.size, u.size, max_mb)
         return u, None
     length = check_count("--n-samples", n_samples)
-    _check_size(n, length, length, max_mb)
+    _check_size(n + n_at, length, length, max_mb)
     with flag_names(_FLAGS):
         return polynomial_wave(length, dt, float(check_finite("--target", target))), None
 
@@ -216,22 +253,13 @@ def _spectrum(accel, dt, freq, damping, kind, dur, *, show: bool):  # noqa: ANN0
     """The spectrum over ``freq`` in chunks of oscillators, with a progress bar."""
     import numpy as np
 
-    from servokit.sampled.srs import ShockResponseSpectrum, shock_response_spectrum
+    from servokit.sampled.srs import spectrum_in_chunks
 
-    chunks = [freq[i : i + _CHUNK] for i in range(0, freq.size, _CHUNK)]
-    parts = []
-    with progress(len(chunks), "shock response spectrum", enabled=show) as advance:
-        for f in chunks:
-            parts.append(shock_response_spectrum(accel, dt, f, damping, kind=kind, duration=dur))
-            advance()
-    first = parts[0]
-    return ShockResponseSpectrum(
-        np.concatenate([p.freq_hz for p in parts]),
-        np.concatenate([p.magnitude for p in parts]),
-        first.damping,
-        first.kind,
-        first.duration,
-    )
+    n_chunks = int(np.ceil(freq.size / _CHUNK))
+    with progress(n_chunks, "shock response spectrum", enabled=show) as advance:
+        return spectrum_in_chunks(
+            accel, dt, freq, damping, kind=kind, duration=dur, chunk=_CHUNK, progress=advance
+        )
 
 
 def _print(spec, input_: str, kind: str, peaks, values: list[dict]) -> None:  # noqa: ANN001
@@ -245,4 +273,4 @@ def _print(spec, input_: str, kind: str, peaks, values: list[dict]) -> None:  # 
         table.add_row(f"{f:.5g}", f"{spec.at(f):.4g}")
     console.print(table)
     for v in values:
-        console.print(f"gsrs({v['freq_hz']:g} Hz) = {v['magnitude']:.4g}")
+        console.print(f"gsrs({v['freq_hz']:g} Hz) = {v['magnitude_ratio']:.4g}")

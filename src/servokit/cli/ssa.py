@@ -7,7 +7,7 @@ from typing import Annotated
 import numpy as np
 import typer
 
-from servokit.cli._app import JsonOpt, console, emit_json, example, sub_app
+from servokit.cli._app import JsonOpt, console, emit_json, example, flag_names, sub_app
 from servokit.errors import ServokitValueError
 
 ssa_app = sub_app("ssa", "Self-sensing actuation (book §5.4): bridges, mode damping, adaptive.")
@@ -20,13 +20,6 @@ def _report(data: dict, json_out: bool) -> None:
     for key, value in data.items():
         shown = np.round(value, 6).tolist() if isinstance(value, np.ndarray | list) else value
         console.print(f"{key}: {shown}")
-
-
-def _flagged(exc: ServokitValueError, names: dict[str, str]) -> ServokitValueError:
-    msg = str(exc)
-    for name, flag in names.items():
-        msg = msg.replace(f"{name} ", f"{flag} ")
-    return ServokitValueError(msg)
 
 
 @ssa_app.command(
@@ -59,10 +52,8 @@ def ddssa_cmd(
     }
     if not (np.isfinite(freq) and freq > 0):
         raise ServokitValueError(f"--freq must be > 0 Hz (got {freq})")
-    try:
+    with flag_names(names):
         b = ddssa_bridge(c_pzt, c1, c2, c3, r1=r1, r3=r3)
-    except ServokitValueError as exc:
-        raise _flagged(exc, names) from None
     s = 2j * np.pi * freq
     _report(
         {

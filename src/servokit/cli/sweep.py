@@ -303,7 +303,7 @@ GainRangeOpt = Annotated[
 ]
 ChunkSizeOpt = Annotated[
     int | None,
-    typer.Option("--chunk-size", help="plants simulated together [count] (default: fits 200 MB)"),
+    typer.Option("--chunk-size", help="plants simulated together [count] (default: fits 50 MB)"),
 ]
 SchedulerOpt = Annotated[
     str | None,

@@ -10,6 +10,7 @@ import typer
 from servokit.cli._app import (
     JsonOpt,
     MaxMemoryOpt,
+    PlantOpt,
     PlotOpt,
     console,
     emit_json,
@@ -21,6 +22,7 @@ from servokit.cli._app import (
     sub_app,
     wrote,
 )
+from servokit.cli._options import check_state_size, controller_states, discrete_states
 from servokit.errors import (
     ServokitValueError,
     check_count,
@@ -36,9 +38,6 @@ switching_app = sub_app(
     "switching", "Mode switching: initial value compensation and admissible sets (book ch. 3)."
 )
 
-PlantOpt = Annotated[
-    str, typer.Option("--plant", help="catalogue name or .toml plant file", metavar="NAME_OR_TOML")
-]
 ControllerOpt = Annotated[
     str,
     typer.Option(
@@ -62,8 +61,11 @@ _MIN_SAMPLES_PER_CYCLE = 4
 _MAX_SAMPLES_PER_CYCLE = 1e5
 
 
-def _build_loop(plant: str, controller: str, freq: float, dt: float | None) -> SwitchedLoop:
-    """Discretise the plant at the controller's (or --dt) period and close the loop."""
+def _build_loop(
+    plant: str, controller: str, freq: float, dt: float | None, max_memory_mb: float
+) -> SwitchedLoop:
+    """Discretise the plant at the controller's (or --dt) period and close the loop; a
+    plant whose discrete loop would not fit --max-memory-mb is refused before it is built."""
     from servokit.switching import switched_loop
     from servokit.switching.design import lead_lag
 
@@ -82,10 +84,18 @@ def _build_loop(plant: str, controller: str, freq: float, dt: float | None) -> S
                 f"--dt {dt:g} s gives {1.0 / (dt * freq):.3g} samples per cycle of --freq "
                 f"{freq:g} Hz; use {_MIN_SAMPLES_PER_CYCLE}..{_MAX_SAMPLES_PER_CYCLE:.0e}"
             )
+        n = discrete_states(p, dt, _LEAD_LAG_STATES)
+        check_state_size(n, what=f"--plant {plant} at --dt {dt:g}", max_memory_mb=max_memory_mb)
         pd = p.discretize(dt)
         return switched_loop(pd, lead_lag(pd, freq))
     ctrl = load_controller(controller, dt)
+    n = discrete_states(p, float(ctrl.dt), controller_states(ctrl))
+    check_state_size(n, what=f"--plant {plant}", max_memory_mb=max_memory_mb)
     return switched_loop(p.discretize(float(ctrl.dt)), ctrl)
+
+
+#: States of the 'lead-lag' controller (a lead, a lag and an integrator at most).
+_LEAD_LAG_STATES = 3
 
 
 def _parse_complex(flag: str, text: str) -> list[complex]:
@@ -162,6 +172,7 @@ def ivc_cmd(
     n_samples: Annotated[
         int, typer.Option("--n-samples", help="samples of the plotted transient", min=2)
     ] = 200,
+    max_memory_mb: MaxMemoryOpt = 2000.0,
     plot: PlotOpt = None,
     json_out: JsonOpt = False,
 ) -> None:
@@ -171,9 +182,22 @@ def ivc_cmd(
     gain (K, m x n: xc[0] = K xp[0]) or numerators/denominator (input: r' = n_k/d xp_k[0]),
     zeros_position (zeros of xp_1[0] -> y after IVC, without the factor z).
     """
-    from servokit.switching import ivc_additional_input, ivc_jmin, ivc_pole_zero, ivc_zeros
-
     plot = plot_target(plot)
+    _check_ivc_request(method, poles, n_samples, input_weight, jerk_weight)
+    loop = _build_loop(plant, controller, freq, dt, max_memory_mb)
+    out, K, design = _ivc_design(
+        loop, method, weight, poles, pole, order, input_weight, jerk_weight
+    )
+    if plot is not None:
+        _ivc_plot(loop, K, design, n_samples, plot)
+        out["plot"] = str(plot)
+    _ivc_render(out, loop, K, design, json_out)
+
+
+def _check_ivc_request(
+    method: str, poles: str, n_samples: int, input_weight: float, jerk_weight: float
+) -> None:
+    """The ivc flags that need no loop, checked before it is built."""
     check_count("--n-samples", n_samples, lo=2, hi=1_000_000)
     for flag, w in (("--input-weight", input_weight), ("--jerk-weight", jerk_weight)):
         if float(check_finite(flag, w)) < 0:
@@ -182,7 +206,15 @@ def ivc_cmd(
         raise ServokitValueError(f"--method must be jmin, pole-zero or input (got {method!r})")
     if method == "pole-zero" and not poles:
         raise ServokitValueError("--method pole-zero needs --poles, e.g. --poles 0.905,0.954")
-    loop = _build_loop(plant, controller, freq, dt)
+
+
+def _ivc_design(
+    loop: SwitchedLoop, method: str, weight: str, poles: str, pole: float,
+    order: int | None, input_weight: float, jerk_weight: float,
+) -> tuple[dict, np.ndarray | None, object]:
+    """The IVC of ``method``: (JSON data, gain K or None, additional-input design or None)."""
+    from servokit.switching import ivc_additional_input, ivc_jmin, ivc_pole_zero, ivc_zeros
+
     out: dict = {
         "method": method,
         "dt_s": loop.dt,
@@ -190,35 +222,35 @@ def ivc_cmd(
         "n_controller_states": loop.m,
         "closed_loop_poles": _poles_json(loop.poles()),
     }
-    if method == "input":
-        if not abs(pole) < 1:
-            raise ServokitValueError(f"--pole must lie inside the unit circle (got {pole})")
-        unweighted = input_weight <= 0 and jerk_weight <= 0
-        if order is not None and order > loop.n + loop.m - 1 and unweighted:
-            raise ServokitValueError(
-                "--order above n + m - 1 needs --input-weight or --jerk-weight"
-            )
-        with flag_names(_INPUT_FLAGS):
-            design = ivc_additional_input(
-                loop, pole, order=order, input_weight=input_weight, jerk_weight=jerk_weight
-            )
-        out |= {"numerators": design.num, "denominator": design.den}
-        K = None
-    else:
+    if method != "input":
         if method == "jmin":
             K = ivc_jmin(loop, None, **_weight(loop, weight))
         else:
             K = ivc_pole_zero(loop, None, _parse_complex("--poles", poles))
-        out |= {"gain": K, "zeros_position": _poles_json(ivc_zeros(loop, K, 0))}
-    if plot is not None:
-        _ivc_plot(loop, K, design if K is None else None, n_samples, plot)
-        out["plot"] = str(plot)
+        return out | {"gain": K, "zeros_position": _poles_json(ivc_zeros(loop, K, 0))}, K, None
+    if not abs(pole) < 1:
+        raise ServokitValueError(f"--pole must lie inside the unit circle (got {pole})")
+    unweighted = input_weight <= 0 and jerk_weight <= 0
+    if order is not None and order > loop.n + loop.m - 1 and unweighted:
+        raise ServokitValueError("--order above n + m - 1 needs --input-weight or --jerk-weight")
+    with flag_names(_INPUT_FLAGS):
+        design = ivc_additional_input(
+            loop, pole, order=order, input_weight=input_weight, jerk_weight=jerk_weight
+        )
+    return out | {"numerators": design.num, "denominator": design.den}, None, design
+
+
+def _ivc_render(
+    out: dict, loop: SwitchedLoop, K: np.ndarray | None, design: object, json_out: bool
+) -> None:
     if json_out:
         emit_json(out)
         return
     console.print(f"closed loop: {loop.n} plant + {loop.m} controller states, dt = {loop.dt:g} s")
     if K is not None:
-        console.print(f"IVC gain K (xc[0] = K xp[0]), {method}:\n{np.array2string(K, precision=5)}")
+        console.print(
+            f"IVC gain K (xc[0] = K xp[0]), {out['method']}:\n{np.array2string(K, precision=5)}"
+        )
     else:
         console.print(f"r' = n_k/d xp_k[0]; d = {np.array2string(design.den, precision=5)}")
 
@@ -280,50 +312,35 @@ def admissible_cmd(
     polygon_ivc, polygon_zero_reset (vertices [position, velocity]), conditions (position_out,
     velocity_out_per_s, admissible_ivc, admissible_zero_reset, needed_u_ivc, needed_u_zero_reset).
     """
-    from servokit.switching import ivc_jmin, max_output_admissible_set
+    from servokit.switching import admissible_conditions
 
     plot = plot_target(plot)
     u_max = check_positive("--u-max", u_max)
     pts = [_parse_condition(c) for c in condition or []]
-    loop = _build_loop(plant, controller, freq, dt)
+    loop = _build_loop(plant, controller, freq, dt, max_memory_mb)
     N = loop.n + loop.m
     check_memory(
         8.0 * 2 * t_max * N * (N + 2),
         what=f"--t-max {t_max} with {N} states",
         max_memory_mb=max_memory_mb,
     )
-    K = ivc_jmin(loop, None, output_weight=loop.Cu)
-    full = max_output_admissible_set(loop.A, loop.Cu, -u_max, u_max, t_max=t_max)
-    E = np.eye(loop.n)[:, :2]
-    sets = {
-        "ivc": full.restrict(loop.stack(K) @ E),
-        "zero_reset": full.restrict(loop.stack(np.zeros_like(K)) @ E),
-    }
-    rows = []
-    for x in pts:
-        need = {k: float(s.gauge(x)[0]) * u_max for k, s in sets.items()}
-        rows.append(
-            {
-                "position_out": x[0],
-                "velocity_out_per_s": x[1],
-                "admissible_ivc": need["ivc"] <= u_max * (1 + 1e-9),
-                "admissible_zero_reset": need["zero_reset"] <= u_max * (1 + 1e-9),
-                "needed_u_ivc": need["ivc"],
-                "needed_u_zero_reset": need["zero_reset"],
-            }
-        )
+    res = admissible_conditions(loop, u_max, pts, t_max=t_max)
+    _admissible_render(res, pts, u_max, plot, json_out)
+
+
+def _admissible_render(res: object, pts: list, u_max: float, plot: object, json_out: bool) -> None:
     out = {
-        "t_star": full.t_star,
-        "n_inequalities": len(full.h),
-        "polygon_ivc": sets["ivc"].polygon(),
-        "polygon_zero_reset": sets["zero_reset"].polygon(),
-        "conditions": rows,
+        "t_star": res.t_star,
+        "n_inequalities": res.n_inequalities,
+        "polygon_ivc": res.ivc.polygon(),
+        "polygon_zero_reset": res.zero_reset.polygon(),
+        "conditions": res.conditions,
     }
     if plot is not None:
         from servokit.switching.plots import admissible_plot
 
         admissible_plot(
-            {"O_inf with IVC": sets["ivc"], "O_inf with zero reset": sets["zero_reset"]},
+            {"O_inf with IVC": res.ivc, "O_inf with zero reset": res.zero_reset},
             points={f"condition {i + 1}": p for i, p in enumerate(pts)},
             xlabel="Position [plant output unit]",
             ylabel="Velocity [unit/s]",
@@ -335,10 +352,10 @@ def admissible_cmd(
     if json_out:
         emit_json(out)
         return
-    console.print(f"O_inf determined at t* = {full.t_star} ({len(full.h)} inequalities)")
-    for i, r in enumerate(rows):
+    console.print(f"O_inf determined at t* = {res.t_star} ({res.n_inequalities} inequalities)")
+    for i, r in enumerate(res.conditions):
         console.print(
-            f"condition {i + 1} ({r['position']:g}, {r['velocity']:g}): "
+            f"condition {i + 1} ({r['position_out']:g}, {r['velocity_out_per_s']:g}): "
             f"IVC {'admissible' if r['admissible_ivc'] else 'violates'} "
             f"(needs {r['needed_u_ivc']:.4g}), zero reset "
             f"{'admissible' if r['admissible_zero_reset'] else 'violates'} "
@@ -390,12 +407,7 @@ def cost_map_cmd(
     JSON keys: velocity_out_per_s, acceleration_out_per_s2 (grid), ju, jy (maps, rows over
     acceleration), optimal_state (plant states minimising Ju with state 1 fixed).
     """
-    from servokit.switching import (
-        ivc_jmin,
-        optimal_condition,
-        switching_cost_map,
-        switching_cost_matrix,
-    )
+    from servokit.switching import ivc_jmin, switching_cost_grid
 
     check_finite("--position", position)
     if ivc not in ("jmin", "none"):
@@ -403,38 +415,23 @@ def cost_map_cmd(
     vel = _parse_range("--vel-range", vel_range)
     acc = _parse_range("--acc-range", acc_range)
     check_memory(8.0 * 4 * n_points**2, what=f"--n-points {n_points}", max_memory_mb=max_memory_mb)
-    loop = _build_loop(plant, controller, freq, dt)
+    loop = _build_loop(plant, controller, freq, dt, max_memory_mb)
     K = ivc_jmin(loop, None, output_weight=loop.Cu) if ivc == "jmin" else None
-    base = np.zeros(loop.n)
-    base[0] = float(check_finite("--position", position))
-    with_acc = acc[0] != acc[1]
-    if with_acc and loop.n < 3:
-        raise ServokitValueError("--acc-range needs a plant with a third state; use 0:0")
-    v = np.linspace(*vel, n_points)
-    # without acceleration the second axis is state 1 held at --position (one map row)
-    a = np.linspace(*acc, n_points) if with_acc else np.zeros(1)
-    axes, second = ((1, 2), a) if with_acc else ((1, 0), np.array([position]))
-    cmap = switching_cost_map(loop, K, base, axes, v, second)
-    if not (np.any(np.isfinite(cmap.ju)) or np.any(np.isfinite(cmap.jy))):
-        # every cell overflowed: the map would be all null, which answers nothing
-        raise ServokitValueError(
-            f"--position {position:g}: the switching cost overflows at every grid point; "
-            "give a position (and --vel-range/--acc-range) of the plant's scale"
-        )
-    M = switching_cost_matrix(loop, K, loop.Cu)
-    free = [1, 2] if with_acc else [1]
-    best = optimal_condition(M, base, free)
-    out = {
-        "velocity_out_per_s": v,
-        "acceleration_out_per_s2": a,
-        "ju": cmap.ju, "jy": cmap.jy, "optimal_state": best}
+    with flag_names(_COST_FLAGS):
+        grid = switching_cost_grid(loop, K, position, vel, acc, n_points)
     if json_out:
-        emit_json(out)
+        emit_json({
+            "velocity_out_per_s": grid.velocity, "acceleration_out_per_s2": grid.acceleration,
+            "ju": grid.cost.ju, "jy": grid.cost.jy, "optimal_state": grid.optimal_state,
+        })  # fmt: skip
         return
     console.print(
-        f"min Ju on the grid {np.min(cmap.ju):.4g}; best free states for "
-        f"position {position:g}: {np.array2string(best[free], precision=5)}"
+        f"min Ju on the grid {np.min(grid.cost.ju):.4g}; best free states for "
+        f"position {position:g}: {np.array2string(grid.optimal_state[grid.free], precision=5)}"
     )
+
+
+_COST_FLAGS = {"position": "--position", "vel_range": "--vel-range", "acc_range": "--acc-range"}
 
 
 def _parse_range(flag: str, text: str) -> tuple[float, float]:

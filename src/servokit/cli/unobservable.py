@@ -2,7 +2,7 @@
 
 from __future__ import annotations
 
-from typing import Annotated
+from typing import Annotated, Any
 
 import typer
 
@@ -108,10 +108,20 @@ def magnitude_cmd(
         ns = check_count("--n-samples", n_samples)
         _check_work(ns, _PHASES_MAGNITUDE * ns, "--n-samples", max_memory_mb)
     plot = plot_target(plot)
-    from servokit.sampled.unobservable import unobservable_magnitude, unobservable_plot
+    from servokit.sampled.unobservable import unobservable_magnitude
 
     with flag_names(_FLAGS):
         r = unobservable_magnitude(freq, dt, damping=damping, n_samples=n_samples)
+    _magnitude_render(r, freq, dt, damping, n_samples, plot, json_out)
+
+
+def _magnitude_render(
+    r: Any, freq: float, dt: float, damping: float, n_samples: int | None, plot: Any,
+    json_out: bool,
+) -> None:  # fmt: skip
+    """Figure, JSON or one line of an unobservable magnitude."""
+    from servokit.sampled.unobservable import unobservable_plot
+
     edges, pct = r.histogram(0.1)
     out = {
         "freq_hz": freq,
@@ -204,51 +214,56 @@ def sampling_cmd(
     points = _SCAN_POINTS + (_PLOT_POINTS if plot is not None else 0)
     _check_work(ns, points * _PHASES_SCAN * ns, "--n-samples", max_memory_mb)
     plot = plot_target(plot)
-    import numpy as np
-
-    from servokit.sampled.unobservable import (
-        unacceptable_sampling_frequencies,
-        unobservable_magnitude,
-        unobservable_plot,
-    )
+    from servokit.sampled.unobservable import unacceptable_sampling_frequencies
 
     with flag_names(_FLAGS):
         iv = unacceptable_sampling_frequencies(freq, damping, ns, level, (lo, hi))
+    if plot is not None:
+        _sampling_plot(freq, damping, ns, level, (lo, hi), plot)
     rows = [
         {"low_hz": i.low_hz, "high_hz": i.high_hz, "peak_hz": i.peak_hz, "peak_rms": i.peak_rms}
         for i in iv
     ]
-    if plot is not None:
-        fs = np.geomspace(lo, hi, _PLOT_POINTS)
-        rms = unobservable_magnitude(
-            freq, 1 / fs, damping=damping, n_samples=ns, n_phases=_PHASES_SCAN
-        ).rms
-        unobservable_plot(
-            fs,
-            {f"Ns = {ns}": rms},
-            xlabel="Sampling frequency [Hz]",
-            ylabel="yui [-]",
-            title=f"yui vs sampling frequency ({freq:g} Hz)",
-            level=level,
-            path=plot,
-            logx=True,
-        )
-        wrote(plot)
+    request = {"freq_hz": freq, "damping": damping, "n_samples": ns, "level": level}
+    _sampling_render(request, [lo, hi], rows, plot, json_out)
+
+
+def _sampling_plot(
+    freq: float, damping: float, ns: int, level: float, span: tuple[float, float], plot: Any
+) -> None:
+    """yui over the scanned sampling frequencies, the level drawn (Figs. 4.24, 4.54)."""
+    import numpy as np
+
+    from servokit.sampled.unobservable import unobservable_plot, unobservable_rms
+
+    fs = np.geomspace(*span, _PLOT_POINTS)
+    rms = unobservable_rms(freq, 1 / fs, damping=damping, n_samples=ns, n_phases=_PHASES_SCAN)
+    unobservable_plot(
+        fs,
+        {f"Ns = {ns}": rms},
+        xlabel="Sampling frequency [Hz]",
+        ylabel="yui [-]",
+        title=f"yui vs sampling frequency ({freq:g} Hz)",
+        level=level,
+        path=plot,
+        logx=True,
+    )
+    wrote(plot)
+
+
+def _sampling_render(
+    request: dict, span: list[float], rows: list[dict], plot: Any, json_out: bool
+) -> None:
+    """JSON or the table of unacceptable sampling-frequency bands."""
     if json_out:
         emit_json(
-            {
-                "freq_hz": freq,
-                "damping": damping,
-                "n_samples": ns,
-                "level": level,
-                "fs_range_hz": [lo, hi],
-                "intervals": rows,
-                "plot": str(plot) if plot else None,
-            }
-        )
+            {**request, "fs_range_hz": span, "intervals": rows,
+             "plot": str(plot) if plot else None}
+        )  # fmt: skip
         return
     from rich.table import Table
 
+    level, freq, ns = request["level"], request["freq_hz"], request["n_samples"]
     table = Table(title=f"sampling frequencies with yui > {level:g} ({freq:g} Hz, Ns = {ns})")
     for col in ("from [Hz]", "to [Hz]", "peak at [Hz]", "peak yui"):
         table.add_column(col, justify="right")
@@ -283,7 +298,7 @@ def time_cmd(
     # Ns = 1..n_max each cost P x Ns cells: P n_max^2 / 2 in all
     _check_work(n_max, _PHASES_SCAN * n_max * (n_max + 1) / 2, "--n-samples-max", max_memory_mb)
     plot = plot_target(plot)
-    from servokit.sampled.unobservable import required_measurement_time, unobservable_plot
+    from servokit.sampled.unobservable import required_measurement_time
 
     # Ns costs ~Ns: the bar advances by Ns so that it tracks the time left
     with (
@@ -293,8 +308,18 @@ def time_cmd(
         req = required_measurement_time(
             freq, dt, damping, level, max_samples=n_max, on_sample=advance
         )
+    _time_render(req, freq, dt, damping, level, n_max, plot, json_out)
+
+
+def _time_render(
+    req: Any, freq: float, dt: float, damping: float, level: float, n_max: int, plot: Any,
+    json_out: bool,
+) -> None:  # fmt: skip
+    """Figure, JSON or one line of a measurement-time requirement."""
     if plot is not None:
         import numpy as np
+
+        from servokit.sampled.unobservable import unobservable_plot
 
         ns = np.arange(1, req.rms.size + 1)
         unobservable_plot(
@@ -307,19 +332,13 @@ def time_cmd(
             path=plot,
         )
         wrote(plot)
-    out = {
-        "freq_hz": freq,
-        "dt_s": dt,
-        "damping": damping,
-        "level": level,
-        "n_samples": req.n_samples,
-        "time_s": req.time_s,
-        "crossing_time_s": req.crossing_time_s,
-        "rms": req.rms,
-        "plot": str(plot) if plot else None,
-    }
     if json_out:
-        emit_json(out)
+        emit_json({
+            "freq_hz": freq, "dt_s": dt, "damping": damping, "level": level,
+            "n_samples": req.n_samples, "time_s": req.time_s,
+            "crossing_time_s": req.crossing_time_s, "rms": req.rms,
+            "plot": str(plot) if plot else None,
+        })  # fmt: skip
         return
     if req.n_samples is None:
         console.print(f"yui stays above {level:g} up to Ns = {n_max}; raise --n-samples-max")

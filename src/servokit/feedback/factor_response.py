@@ -31,7 +31,7 @@ import numpy as np
 
 from servokit.errors import ServokitTypeError, ServokitValueError
 
-__all__ = ["Factor", "loop_evaluator", "make_factor"]
+__all__ = ["Factor", "clear_factor_cache", "loop_evaluator", "make_factor"]
 
 #: Eigenvector condition number above which the Schur form replaces the diagonal form.
 _MAX_COND = 1e8
@@ -81,7 +81,8 @@ def _point(dt: float | None) -> Callable[[np.ndarray], np.ndarray]:
 
 
 def _tf_factor(sys: Any, dt: float | None) -> Factor:
-    num, den = (np.asarray(c, dtype=float) for c in (sys.num[0][0], sys.den[0][0]))
+    # copies: the reduced form is cached and must not alias the system's own arrays
+    num, den = (np.array(c, dtype=float) for c in (sys.num[0][0], sys.den[0][0]))
     num = num[np.argmax(num != 0) :] if np.any(num != 0) else np.zeros(1)
     den = den[np.argmax(den != 0) :]
     x_of = _point(dt)
@@ -91,11 +92,36 @@ def _tf_factor(sys: Any, dt: float | None) -> Factor:
         with np.errstate(all="ignore"):  # a pole on the grid gives inf, handled by callers
             return np.polyval(num, x) / np.polyval(den, x)
 
-    zeros = np.roots(num).astype(complex) if num.size > 1 else np.zeros(0, complex)
-    poles = np.roots(den).astype(complex)
+    zeros = _poly_roots(num) if num.size > 1 else np.zeros(0, complex)
+    poles = _poly_roots(den)
     fa = Factor(resp, dt, poles, dt is None, sys, zeros=zeros)
     fa.pf = _tf_partial_fractions(num, den, poles)
     return fa
+
+
+def _poly_roots(p: np.ndarray) -> np.ndarray:
+    """Roots of a polynomial with a nonzero leading coefficient.
+
+    The filters of a servo loop are first- and second-order sections: their roots come
+    from the closed forms (the quadratic one in the cancellation-free form ``q = -(b +
+    sign(b) sqrt(b^2 - 4ac))/2``, roots ``q/a`` and ``c/q``), which are as accurate as the
+    companion-matrix eigenvalues of ``np.roots`` and ten times cheaper; higher degrees use
+    ``np.roots``.
+    """
+    k = p.size - 1
+    while k > 0 and p[k] == 0:  # trailing zero coefficients: roots at the origin
+        k -= 1
+    origin = np.zeros(p.size - 1 - k, dtype=complex)
+    if k == 1:
+        rest = np.array([-p[1] / p[0]], dtype=complex)
+    elif k == 2:
+        a, b, c = (complex(x) for x in p[:3])
+        root = np.sqrt(b * b - 4 * a * c)
+        q = -0.5 * (b + (root if (b.conjugate() * root).real >= 0 else -root))
+        rest = np.array([q / a, c / q], dtype=complex)
+    else:
+        rest = np.roots(p[: k + 1]).astype(complex)
+    return np.concatenate([rest, origin])
 
 
 def _tf_partial_fractions(
@@ -263,6 +289,56 @@ def _modal_factor(plant: Any) -> Factor:
     return Factor(resp, None, poles, True, plant, zeros=zeros)
 
 
+#: Reduced forms of recently seen LTI factors: ``id -> (system, fingerprint, Factor)``.
+#: A loop is usually evaluated many times with the same controller (margins over a plant
+#: set, loop shaping, a gain sweep, the CLI's report), so each system is reduced once.
+#: The entry keeps the system alive, so its id cannot be reused while cached; the
+#: fingerprint (coefficients and ``dt``) catches a system changed in place.
+_CACHE: dict[int, tuple[Any, bytes, Factor]] = {}
+_CACHE_SIZE = 64
+
+
+def _fingerprint(item: Any) -> bytes:
+    import control
+
+    if isinstance(item, control.TransferFunction):
+        parts = [item.num[0][0], item.den[0][0]]
+    else:
+        parts = [item.A, item.B, item.C, item.D]
+    raw = b"".join(np.ascontiguousarray(p, dtype=float).tobytes() + b"|" for p in parts)
+    return raw + repr(item.dt).encode()
+
+
+def clear_factor_cache() -> None:
+    """Forget every cached reduced form (a benchmark of the cold path calls this).
+
+    Returns
+    -------
+    None
+    """
+    _CACHE.clear()
+
+
+def _lti_factor(item: Any) -> Factor:
+    import control
+
+    if not isinstance(item, control.TransferFunction | control.StateSpace):
+        return _ss_factor(control.ss(item), _timebase(item))  # conversion fails with a clear error
+    key, fp = id(item), _fingerprint(item)
+    hit = _CACHE.get(key)
+    if hit is not None and hit[0] is item and hit[1] == fp:
+        return hit[2]
+    dt = _timebase(item)
+    if isinstance(item, control.TransferFunction):
+        fa = _tf_factor(item, dt)
+    else:
+        fa = _ss_factor(control.ss(item), dt)
+    if len(_CACHE) >= _CACHE_SIZE:
+        _CACHE.pop(next(iter(_CACHE)))  # oldest first
+    _CACHE[key] = (item, fp, fa)
+    return fa
+
+
 def make_factor(item: Any) -> Factor:
     """Wrap one loop factor (LTI, ModalPlant or callable) as a :class:`Factor`.
 
@@ -282,10 +358,7 @@ def make_factor(item: Any) -> Factor:
     if isinstance(item, control.LTI):
         if not (item.ninputs == 1 and item.noutputs == 1):
             raise ServokitValueError("loop must be single-input single-output")
-        dt = _timebase(item)
-        if isinstance(item, control.TransferFunction):
-            return _tf_factor(item, dt)
-        return _ss_factor(control.ss(item), dt)
+        return _lti_factor(item)
     if hasattr(item, "freqresp") and hasattr(item, "modes"):
         return _modal_factor(item)
     if callable(item):

@@ -365,4 +365,28 @@ def discretize_filter(filt: control.LTI, dt: float, freq_hz: float) -> control.L
         raise ServokitValueError(
             f"freq_hz must be below the Nyquist frequency {0.5 / h:g} Hz (got {f:g})"
         )
-    return control.sample_system(filt, h, method="tustin", prewarp_frequency=TWO_PI * f)
+    fd = control.sample_system(filt, h, method="tustin", prewarp_frequency=TWO_PI * f)
+    _check_not_degenerate(fd, h, f)
+    return fd
+
+
+def _check_not_degenerate(fd: control.LTI, dt: float, freq_hz: float) -> None:
+    """Refuse a Tustin filter whose coefficients no longer tell it from 1 (or are not finite).
+
+    Far above the filter's frequencies the bilinear map pushes every pole and zero to
+    z = 1: the numerator and denominator then agree to double precision (a notch at
+    4449 Hz with dt = 1e-300 s gives num = den) and the discrete filter is a wire, not the
+    filter asked for.
+    """
+    num = np.atleast_1d(np.asarray(fd.num[0][0], dtype=float))
+    den = np.atleast_1d(np.asarray(fd.den[0][0], dtype=float))
+    if not (np.all(np.isfinite(num)) and np.all(np.isfinite(den))):
+        raise ServokitValueError(f"dt {dt:g} s gives a non-finite Tustin filter at {freq_hz:g} Hz")
+    if num.size == den.size and np.max(np.abs(num - den)) <= 1e3 * np.finfo(float).eps * np.max(
+        np.abs(den)
+    ):
+        raise ServokitValueError(
+            f"dt {dt:g} s is {1 / (dt * freq_hz):.3g} samples per cycle of {freq_hz:g} Hz: the "
+            "Tustin filter's numerator equals its denominator to double precision (a "
+            "degenerate discretisation); give a longer sampling period"
+        )

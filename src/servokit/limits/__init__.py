@@ -4,9 +4,11 @@ integrals (6.17)-(6.22), the waterbed bound (6.20), the output-variance bound
 
 from servokit.limits.accuracy import (
     VarianceBound,
+    VarianceComparison,
     dynamic_range,
     output_variance,
     rolloff_bandwidth,
+    variance_against_bound,
     variance_lower_bound,
 )
 from servokit.limits.bode import (
@@ -21,12 +23,14 @@ from servokit.limits.bode import (
 __all__ = [
     "BodeIntegral",
     "VarianceBound",
+    "VarianceComparison",
     "continuous_bode_integral",
     "discrete_bode_integral",
     "dynamic_range",
     "high_frequency_gain",
     "output_variance",
     "rolloff_bandwidth",
+    "variance_against_bound",
     "variance_lower_bound",
     "waterbed_lower_bound",
     "waterbed_phi1",

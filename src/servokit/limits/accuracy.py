@@ -36,6 +36,8 @@ from scipy import integrate
 from servokit.errors import ServokitTypeError, ServokitValueError, check_count, check_positive
 
 __all__ = [
+    "VarianceComparison",
+    "variance_against_bound",
     "VarianceBound",
     "dynamic_range",
     "output_variance",
@@ -236,6 +238,71 @@ def rolloff_bandwidth(
     g = w * (np.abs(resp(w)) / d) ** (1.0 / (kk + 1))
     tail_max = np.maximum.accumulate(g[::-1])[::-1]
     return float(np.min(np.maximum(w, tail_max)) / (2 * np.pi))
+
+
+@dataclass(frozen=True)
+class VarianceComparison:
+    """The output variance (6.13) beside its lower bound (6.16); see
+    :func:`variance_against_bound`."""
+
+    bandwidth_hz: float  #: roll-off bandwidth Omega of (6.14) [Hz]
+    variance: float  #: var(y) of (6.13) [output unit^2]
+    bound: VarianceBound  #: the corrected bound and the printed form
+
+
+def variance_against_bound(
+    loop: control.TransferFunction | control.StateSpace,
+    disturbance: control.TransferFunction | control.StateSpace,
+    *,
+    delta: float = 0.5,
+    k: int = 1,
+) -> VarianceComparison:
+    """The roll-off bandwidth of ``loop``, the output variance under ``disturbance`` and its
+    lower bound, (6.13)-(6.16).
+
+    Parameters
+    ----------
+    loop : LTI
+        Open loop ``L`` (continuous, or discrete with its ``dt``).
+    disturbance : LTI
+        Shaping filter ``D`` of unit-variance white noise, with the loop's time base.
+    delta, k : float, int
+        Roll-off constants of (6.14).
+
+    Returns
+    -------
+    VarianceComparison
+
+    Raises
+    ------
+    ServokitValueError
+        When the variance is not a finite non-negative number: a disturbance filter that
+        is not strictly proper (white noise in, unbounded power out) or an unstable
+        closed loop makes the integral (6.13) diverge.
+    """
+    dt = float(loop.dt) if loop.isdtime() else None
+    poles = control.feedback(loop, 1).poles()
+    worst = poles[np.argmax(np.abs(poles) if dt else poles.real)] if poles.size else 0.0
+    if poles.size and (abs(worst) >= 1 if dt else worst.real >= 0):
+        # (6.13) integrates |S D|^2 on the boundary, which stays finite for an unstable
+        # loop: the number would look like a variance of an output that diverges
+        raise ServokitValueError(
+            f"disturbance and loop give no output variance: the closed-loop system is "
+            f"unstable (pole at {complex(worst):.4g})"
+        )
+    omega_hz = rolloff_bandwidth(loop, delta=delta, k=k)
+    try:
+        vb = variance_lower_bound(disturbance, omega_hz, delta=delta, k=k, dt=dt)
+    except ServokitValueError as exc:
+        msg = str(exc).replace("bandwidth_hz", "the roll-off bandwidth")
+        raise ServokitValueError(msg) from None
+    var = output_variance(loop, disturbance)
+    if not (np.isfinite(var) and var >= 0):
+        raise ServokitValueError(
+            f"disturbance and loop give an unbounded output variance (computed {var:.3g}); "
+            "the disturbance filter must be strictly proper and the closed-loop system stable"
+        )
+    return VarianceComparison(omega_hz, float(var), vb)
 
 
 def dynamic_range(stroke_m: float, accuracy_m: float) -> float:

@@ -4,6 +4,7 @@ sets, the built-in catalogue, the book's controllers and TOML plant/controller f
 from servokit.models.benchmark_controller import (
     BENCHMARK_NOTCHES,
     benchmark_controller,
+    ieej_benchmark_loop,
     ieej_example_controller,
 )
 from servokit.models.catalogue import (
@@ -13,6 +14,7 @@ from servokit.models.catalogue import (
     galvano_scanner,
     hdd_benchmark,
     hdd_sampled_data,
+    ieej_benchmark_plant,
     personal_mobility_robot,
     pzt_active_suspension,
     svm_head_plant,
@@ -61,6 +63,8 @@ __all__ = [
     "band_powers",
     "disturbance_magnitude",
     "benchmark_controller",
+    "ieej_benchmark_loop",
+    "ieej_benchmark_plant",
     "ieej_example_controller",
     "CATALOGUE",
     "CONTROLLERS",

@@ -39,6 +39,7 @@ __all__ = [
     "Identification",
     "identify_above_nyquist",
     "identification_plot",
+    "excitation_frequencies",
     "aliased_frequency",
     "settling_samples",
 ]
@@ -177,6 +178,29 @@ def _measure_output(plant, loop_plant, controller, dt, freq, substeps, n) -> np.
         [plant] * freq.size, dt=dt, n_samples=n, substeps=substeps, input_disturbance=d
     ).yc
     return _closed_loop(loop_plant, controller, dt, substeps, n, output_disturbance=yc).yd
+
+
+def excitation_frequencies(fmin_hz: float, fmax_hz: float, step_hz: float) -> np.ndarray:
+    """The excitation grid fmin, fmin + step, ... up to fmax (within rounding) [Hz].
+
+    Parameters
+    ----------
+    fmin_hz, fmax_hz : float
+        First and last excitation frequency [Hz], 0 < fmin_hz <= fmax_hz.
+    step_hz : float
+        Spacing [Hz], > 0.
+
+    Returns
+    -------
+    numpy.ndarray
+        The frequencies [Hz].
+    """
+    lo, hi, step = (check_positive(n, v, "Hz") for n, v in
+                    (("fmin_hz", fmin_hz), ("fmax_hz", fmax_hz), ("step_hz", step_hz)))  # fmt: skip
+    if hi < lo:
+        raise ServokitValueError(f"fmax_hz must be >= fmin_hz (got {hi:g} < {lo:g})")
+    # the 1e-9 keeps fmax itself when (fmax - fmin) / step is a whole number up to rounding
+    return lo + step * np.arange(int(np.floor((hi - lo) / step + 1e-9)) + 1)
 
 
 def identify_above_nyquist(

@@ -26,7 +26,7 @@ the truncated alias sum is checked against it before anything is returned.
 
 from __future__ import annotations
 
-from collections.abc import Sequence
+from collections.abc import Callable, Sequence
 from dataclasses import dataclass
 from typing import TYPE_CHECKING
 
@@ -52,6 +52,7 @@ __all__ = [
     "SampledDataSensitivity",
     "SinusoidResponse",
     "sampled_data_sensitivity",
+    "sensitivity_in_chunks",
     "gamma_terms",
     "sinusoid_response",
     "discrete_plant",
@@ -412,6 +413,65 @@ def sampled_data_sensitivity(
         tail_estimate=tail,
         band_limit_hz=band_limit_hz,
     )
+
+
+def sensitivity_in_chunks(
+    plant: ModalPlant,
+    controller_d: control.LTI,
+    dt: float,
+    freq_hz: np.ndarray,
+    *,
+    multirate: Multirate | None = None,
+    tol: float = 1e-6,
+    band_limit_hz: float | None = None,
+    chunk: int = 2000,
+    progress: Callable[[], None] | None = None,
+) -> SampledDataSensitivity:
+    """:func:`sampled_data_sensitivity` over ``freq_hz`` in chunks of ``chunk`` frequencies
+    (bounded alias-sum work per call), calling ``progress()`` after each.
+
+    Parameters
+    ----------
+    plant, controller_d, dt, multirate, tol, band_limit_hz
+        As for :func:`sampled_data_sensitivity`.
+    freq_hz : ndarray
+        Frequencies [Hz].
+    chunk : int
+        Frequencies per call.
+    progress : callable, optional
+        Called once per chunk.
+
+    Returns
+    -------
+    SampledDataSensitivity
+        Over all of ``freq_hz``; ``alias_terms`` and ``tail_estimate`` are the largest of
+        the chunks.
+    """
+    import dataclasses
+
+    f = np.atleast_1d(np.asarray(freq_hz, dtype=float))
+    parts = []
+    for i in range(0, f.size, chunk):
+        parts.append(
+            sampled_data_sensitivity(
+                plant, controller_d, dt, f[i : i + chunk], multirate=multirate, tol=tol,
+                band_limit_hz=band_limit_hz,
+            )
+        )  # fmt: skip
+        if progress is not None:
+            progress()
+    if len(parts) == 1:
+        return parts[0]
+    merged: dict[str, object] = {}
+    for fld in dataclasses.fields(parts[0]):
+        values = [getattr(r, fld.name) for r in parts]
+        if isinstance(values[0], np.ndarray):
+            merged[fld.name] = np.concatenate(values)
+        elif fld.name in ("alias_terms", "tail_estimate"):
+            merged[fld.name] = max(values)
+        else:
+            merged[fld.name] = values[0]
+    return SampledDataSensitivity(**merged)
 
 
 def gamma_terms(

@@ -55,6 +55,7 @@ __all__ = [
     "shock_response",
     "amplitude_spectrum",
     "half_sine",
+    "spectrum_in_chunks",
     "held_samples",
     "polynomial_wave",
     "spectrum_peaks",
@@ -353,6 +354,56 @@ def shock_response_spectrum(
     if not np.all(np.isfinite(mag)):
         raise ServokitValueError("shock response spectrum is not finite; check the input")
     return ShockResponseSpectrum(f, mag, zeta, kind, float(T))
+
+
+def spectrum_in_chunks(
+    accel: Accel,
+    dt_hold: float | None,
+    freq_hz: np.ndarray,
+    damping: float,
+    *,
+    kind: Literal["residual", "initial"] = "residual",
+    duration: float | None = None,
+    chunk: int = 500,
+    progress: Callable[[], None] | None = None,
+) -> ShockResponseSpectrum:
+    """:func:`shock_response_spectrum` over ``freq_hz`` in chunks of ``chunk`` oscillators
+    (bounded memory), calling ``progress()`` after each chunk.
+
+    Parameters
+    ----------
+    accel, dt_hold, damping, kind, duration
+        As for :func:`shock_response_spectrum`.
+    freq_hz : ndarray
+        Oscillator frequencies [Hz].
+    chunk : int
+        Oscillators per call.
+    progress : callable, optional
+        Called once per chunk.
+
+    Returns
+    -------
+    ShockResponseSpectrum
+        The spectrum over all of ``freq_hz``.
+    """
+    f = np.atleast_1d(np.asarray(freq_hz, dtype=float))
+    parts = []
+    for i in range(0, f.size, chunk):
+        parts.append(
+            shock_response_spectrum(
+                accel, dt_hold, f[i : i + chunk], damping, kind=kind, duration=duration
+            )
+        )
+        if progress is not None:
+            progress()
+    first = parts[0]
+    return ShockResponseSpectrum(
+        np.concatenate([q.freq_hz for q in parts]),
+        np.concatenate([q.magnitude for q in parts]),
+        first.damping,
+        first.kind,
+        first.duration,
+    )
 
 
 def shock_response(

@@ -30,8 +30,10 @@ __all__ = [
     "sweep_seek_times",
 ]
 
-#: default bytes one chunk may use (the rest of the limit stays free for the caller)
-_CHUNK_BUDGET = 200e6
+#: default bytes one chunk may use (the rest of the limit stays free for the caller):
+#: ~800 HDD plants, whose arrays stay in glibc's reused heap (below its 32 MB mmap
+#: threshold); 200 MB chunks ran 1.5-2x slower per plant (issue 24)
+_CHUNK_BUDGET = 50e6
 PERCENTILES = (50.0, 90.0, 99.0, 99.9, 100.0)
 
 
@@ -139,6 +141,47 @@ def _chunk_seek_times(
     )
 
 
+_MALLOC_TUNED = False
+
+
+def _heap_for_arrays() -> None:
+    """Let glibc keep freed array memory in this process (once; a no-op elsewhere).
+
+    Dask's nanny starts workers with ``MALLOC_TRIM_THRESHOLD_=65536``, which also fixes
+    the mmap threshold at 128 kB: every temporary array of a chunk is then mapped and
+    unmapped, and page-faulted afresh, 2-3x slower than in-process (measured, issue 24).
+    Thresholds of 32 MB (mmap) and 64 MB (trim) restore in-process speed.
+    """
+    global _MALLOC_TUNED
+    if _MALLOC_TUNED:
+        return
+    _MALLOC_TUNED = True
+    import ctypes
+    import ctypes.util
+
+    name = ctypes.util.find_library("c")
+    try:
+        libc = ctypes.CDLL(name) if name else None
+        mallopt = getattr(libc, "mallopt", None)
+    except OSError:
+        return
+    if mallopt is not None:  # glibc: M_MMAP_THRESHOLD = -3, M_TRIM_THRESHOLD = -1
+        mallopt(-3, 32 << 20)
+        mallopt(-1, 64 << 20)
+
+
+def _chunk_on_worker(
+    vset: VariationSet, draws: np.ndarray, gains: np.ndarray, args: tuple, chunk_size: int
+) -> np.ndarray:
+    """One Dask task: its plants in chunks of ``chunk_size`` in a worker process (heap
+    tuned first), as :func:`_chunk_seek_times` does in-process."""
+    _heap_for_arrays()
+    out = np.empty(draws.shape[0])
+    for sl in _chunks(draws.shape[0], chunk_size):
+        out[sl] = _chunk_seek_times(vset, draws[sl], gains[sl], *args)
+    return out
+
+
 def connect_dask(scheduler: str | None = None, workers: int | None = None) -> Any:
     """A ``distributed.Client``: to ``scheduler`` (an address) or a local cluster.
 
@@ -165,16 +208,26 @@ def connect_dask(scheduler: str | None = None, workers: int | None = None) -> An
         out of range.
     """
     try:
-        from distributed import Client, LocalCluster
+        from distributed import Client
     except ImportError:
         raise ServokitValueError(
             "the Dask backend needs the optional extra: pip install 'servokit[dask]'"
         ) from None
     if scheduler is not None:
-        return Client(scheduler, timeout="10s")
-    n = check_count("workers", 1 if workers is None else workers, lo=1, hi=256)
-    cluster = LocalCluster(n_workers=n, threads_per_worker=1, dashboard_address=None)
-    return Client(cluster)
+        client = Client(scheduler, timeout="10s")
+    else:
+        n = check_count("workers", 1 if workers is None else workers, lo=1, hi=256)
+        # the client starts (and on close() stops) its own LocalCluster
+        client = Client(n_workers=n, threads_per_worker=1, dashboard_address=None)
+    client.run(_ready_worker)  # imports and heap set-up now, not in the first chunk
+    return client
+
+
+def _ready_worker() -> None:
+    """Import the simulation kernel and tune the heap in a worker (start-up, once)."""
+    import servokit.seek.sweep  # noqa: F401
+
+    _heap_for_arrays()
 
 
 def plan_chunks(
@@ -203,7 +256,7 @@ def plan_chunks(
         Read-out step and record length [s], as in :func:`servokit.simulate.seek_time`
         (defaults ``ff.dt / 10`` and ``max(3 T, T + 2 ms)`` for an input of length ``T``).
     chunk_size : int, optional
-        Plants per chunk; by default as many as fit in 200 MB and in the limit left after
+        Plants per chunk; by default as many as fit in 50 MB and in the limit left after
         the draws, shared by ``n_workers`` (at most ``ceil(n / (4 n_workers))`` with
         several workers, so that each gets a few chunks).
     max_memory_mb : float, optional
@@ -283,7 +336,7 @@ def sweep_seek_times(
     grid, horizon : float, optional
         Read-out step and record length [s], as in :func:`servokit.simulate.seek_time`.
     chunk_size : int, optional
-        Plants per chunk; default: as many as fit in 200 MB (and in ``max_memory_mb``).
+        Plants per chunk; default: as many as fit in 50 MB (and in ``max_memory_mb``).
     max_memory_mb : float, optional
         Limit on the estimated memory of the draws plus one chunk per worker [MB].
     client : distributed.Client, optional
@@ -321,7 +374,7 @@ def sweep_seek_times(
         _run_local(vset, draws, gains, args, chunk_size, times, tick, threads)
         backend = "numpy"
     else:
-        _run_dask(client, vset, draws, gains, args, chunk_size, times, tick)
+        _run_dask(client, vset, draws, gains, args, chunk_size, times, tick, n_workers)
         backend = "dask"
     worst = int(np.argmax(times))
     return SweepResult(
@@ -364,14 +417,26 @@ def _run_dask(
     chunk_size: int,
     out: np.ndarray,
     tick: Callable[[int], None],
+    n_workers: int,
 ) -> None:
-    """Submit one task per chunk; fill ``out`` as they complete."""
+    """Submit about four tasks per worker, each simulating its plants chunk by chunk;
+    fill ``out`` as they complete.
+
+    A task per chunk (~800 plants, 0.03-0.1 s) made the scheduler round trips a large
+    part of the run on a busy machine; a few tasks per worker keep all of them busy to
+    the end, and the chunks inside a task keep the working set (and the memory) of an
+    in-process chunk.
+    """
     from distributed import as_completed
 
+    n = draws.shape[0]
+    task = max(chunk_size, -(-n // (4 * n_workers)))
     vset_f = client.scatter(vset, broadcast=True)
     futures = {}
-    for sl in _chunks(draws.shape[0], chunk_size):
-        fut = client.submit(_chunk_seek_times, vset_f, draws[sl], gains[sl], *args, pure=False)
+    for sl in _chunks(n, task):
+        fut = client.submit(
+            _chunk_on_worker, vset_f, draws[sl], gains[sl], args, chunk_size, pure=False
+        )
         futures[fut] = sl
     for fut in as_completed(futures):
         sl = futures[fut]

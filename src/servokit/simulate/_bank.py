@@ -27,6 +27,7 @@ from __future__ import annotations
 
 from collections.abc import Sequence
 from dataclasses import dataclass, field
+from functools import lru_cache
 
 import numpy as np
 
@@ -35,7 +36,12 @@ from servokit.models._zoh import modal_delayed_zoh
 from servokit.models.convert import as_modal_plants
 from servokit.models.modal import ModalPlant
 
-__all__ = ["PlantBank", "as_plant_list"]
+__all__ = ["PlantBank", "as_plant_list", "bank_for"]
+
+#: up to this many plants a discretisation is kept for the next call (a user re-running
+#: one loop with another reference or controller: issue 24's "one discretisation per
+#: plant and rate"); larger sets are built afresh and not held in memory
+_REUSE_MAX_PLANTS = 4
 
 
 def as_plant_list(plants: ModalPlant | Sequence[ModalPlant]) -> list[ModalPlant]:
@@ -206,3 +212,37 @@ class PlantBank:
         C = np.zeros(N)
         C[:n:2] = 1.0
         return A, B, C
+
+
+@lru_cache(maxsize=8)
+def _reused_bank(plants: tuple[ModalPlant, ...], h: float) -> PlantBank:
+    bank = PlantBank.build(plants, h)
+    for arr in (bank.w, bank.zeta, bank.r, bank.real, bank.Phi, bank.Gnew, bank.Gold):
+        arr.flags.writeable = False  # shared between calls: nobody may change it
+    return bank
+
+
+def bank_for(plants: Sequence[ModalPlant], h: float) -> PlantBank:
+    """:meth:`PlantBank.build`, reused for a few plants seen before at the same step.
+
+    ModalPlant is frozen, so equal plants have equal exact discretisations; the bank of
+    at most ``_REUSE_MAX_PLANTS`` plants is kept (8 most recent, read-only arrays; with
+    their transition rows and block maps, a few MB at most).
+
+    Parameters
+    ----------
+    plants : sequence of ModalPlant
+        The variants (sharing one delay).
+    h : float
+        Fine step [s].
+
+    Returns
+    -------
+    PlantBank
+    """
+    if len(plants) <= _REUSE_MAX_PLANTS:
+        try:
+            return _reused_bank(tuple(plants), float(h))
+        except TypeError:  # a plant with an unhashable field: no reuse
+            pass
+    return PlantBank.build(plants, h)

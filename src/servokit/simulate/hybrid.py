@@ -42,7 +42,7 @@ from servokit.errors import (
 )
 from servokit.models.modal import ModalPlant
 from servokit.models.tf import require_proper
-from servokit.simulate._bank import PlantBank, as_plant_list
+from servokit.simulate._bank import as_plant_list, bank_for
 from servokit.simulate._closed import Loop, run_closed
 from servokit.simulate._core import run_chunk
 from servokit.simulate.stability import closed_loop, unstable
@@ -317,7 +317,7 @@ def _chunks(job: _Job, budget_mb: float) -> Iterator[tuple[int, int]]:
 
 def _run(job: _Job, lo: int, hi: int, check_stability: bool) -> SimulationResult:
     """Simulate variants lo..hi-1 of the job."""
-    bank = PlantBank.build(job.plants[lo:hi], job.dt / job.S)
+    bank = bank_for(job.plants[lo:hi], job.dt / job.S)
     V, M = bank.shape
     x0 = job.rows(job.x0, lo, hi)
     if x0 is not None:

@@ -11,8 +11,12 @@ from servokit.switching.additional import (
 )
 from servokit.switching.admissible import AdmissibleSet, max_output_admissible_set
 from servokit.switching.conditions import (
+    ConditionCheck,
+    SwitchingCostGrid,
     SwitchingCostMap,
+    admissible_conditions,
     optimal_condition,
+    switching_cost_grid,
     switching_cost_map,
     switching_cost_matrix,
 )
@@ -44,6 +48,10 @@ __all__ = [
     "mode_switching_response",
     "reference_switching_response",
     "SwitchingCostMap",
+    "SwitchingCostGrid",
+    "switching_cost_grid",
+    "ConditionCheck",
+    "admissible_conditions",
     "optimal_condition",
     "switching_cost_map",
     "switching_cost_matrix",

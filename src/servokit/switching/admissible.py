@@ -8,7 +8,8 @@ by finitely many k: ``O_t = {x : Cz A^k x in Z, k = 0..t}`` and the first t with
 ``O_t = O_{t+1}`` gives ``O_inf = O_t`` (Gilbert-Tan, Theorem 4.1). ``O_t = O_{t+1}`` is
 tested by linear programs: every row of the step-(t+1) constraint must already be implied
 by ``O_t`` (its maximum over ``O_t`` within its bound). Redundant rows are then removed
-by the same LP test. LPs go to SciPy's HiGHS.
+by the same LP test. LPs go to SciPy's HiGHS; most of them are answered by exact
+certificates instead (witness points, vertices: :mod:`servokit.switching.admissible_lp`).
 
 With IVC the controller state is ``xc[0] = K xp[0]``, so the admissible plant states are
 ``{xp : H [I; K] xp <= h}`` (3.92); the finite-determination argument must run in the
@@ -25,23 +26,9 @@ from scipy.optimize import linprog
 from scipy.spatial import HalfspaceIntersection
 
 from servokit.errors import ServokitValueError, check_count, check_finite
+from servokit.switching.admissible_lp import not_implied, prune_rows
 
 __all__ = ["AdmissibleSet", "max_output_admissible_set"]
-
-_TOL = 1e-9
-
-
-def _lp_max(c: np.ndarray, H: np.ndarray, h: np.ndarray) -> float:
-    """max c x subject to H x <= h (inf if unbounded)."""
-    free = [(None, None)] * len(c)
-    res = linprog(-c, A_ub=H, b_ub=h, bounds=free, method="highs")
-    if res.status == 2:  # HiGHS presolve may report an unbounded LP as infeasible
-        res = linprog(-c, A_ub=H, b_ub=h, bounds=free, method="highs", options={"presolve": False})
-    if res.status == 3:
-        return np.inf
-    if res.status != 0:
-        raise ServokitValueError(f"the admissible-set LP failed: {res.message}")
-    return float(-res.fun)
 
 
 def _normalise(H: np.ndarray, h: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
@@ -57,12 +44,7 @@ def _prune(H: np.ndarray, h: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     H, h = _normalise(H, h)
     _, first = np.unique(np.round(np.hstack([H, h[:, None]]), 12), axis=0, return_index=True)
     H, h = H[np.sort(first)], h[np.sort(first)]
-    keep = np.ones(len(h), dtype=bool)
-    for i in range(len(h)):
-        others = keep.copy()
-        others[i] = False
-        if others.any() and _lp_max(H[i], H[others], h[others]) <= h[i] + _TOL * (1 + abs(h[i])):
-            keep[i] = False
+    keep = prune_rows(H, h)
     return H[keep], h[keep]
 
 
@@ -192,7 +174,7 @@ def max_output_admissible_set(
     M = Cz @ A
     for t in range(1, t_max + 1):
         cand, cb = _normalise(np.vstack([M, -M]), np.concatenate([hi, -lo]))
-        if all(_lp_max(c, H, h) <= b + _TOL * (1 + abs(b)) for c, b in zip(cand, cb, strict=True)):
+        if not not_implied(cand, cb, H, h):
             Hp, hp = _prune(H, h)
             return AdmissibleSet(Hp, hp, t - 1)
         H, h = np.vstack([H, cand]), np.concatenate([h, cb])

@@ -20,13 +20,26 @@ from __future__ import annotations
 
 from collections.abc import Sequence
 from dataclasses import dataclass
+from typing import TYPE_CHECKING
 
 import numpy as np
 
 from servokit.errors import ServokitValueError, check_finite
 from servokit.switching.loop import SwitchedLoop, weighted_gramian
 
-__all__ = ["switching_cost_matrix", "SwitchingCostMap", "switching_cost_map", "optimal_condition"]
+if TYPE_CHECKING:
+    from servokit.switching.admissible import AdmissibleSet
+
+__all__ = [
+    "switching_cost_matrix",
+    "SwitchingCostMap",
+    "switching_cost_map",
+    "optimal_condition",
+    "SwitchingCostGrid",
+    "switching_cost_grid",
+    "ConditionCheck",
+    "admissible_conditions",
+]
 
 
 def switching_cost_matrix(loop: SwitchedLoop, K: np.ndarray | None, Cz: np.ndarray) -> np.ndarray:
@@ -137,3 +150,131 @@ def optimal_condition(M: np.ndarray, base: Sequence[float], free: Sequence[int])
     sol, *_ = np.linalg.lstsq(M[np.ix_(free, free)], -M[np.ix_(free, fixed)] @ x[fixed], rcond=None)
     x[free] = sol
     return x
+
+
+@dataclass(frozen=True)
+class SwitchingCostGrid:
+    """Ju, Jy over initial velocity (and acceleration) with the position held, and the
+    free states minimising Ju (Fig. 3.13, (3.81)); see :func:`switching_cost_grid`."""
+
+    velocity: np.ndarray  #: grid of plant state 2 [output unit/s]
+    acceleration: np.ndarray  #: grid of plant state 3 [output unit/s^2] (one 0 without)
+    cost: SwitchingCostMap  #: the maps (rows over acceleration)
+    optimal_state: np.ndarray  #: plant state minimising Ju with state 1 fixed
+    free: list[int]  #: indices of the optimised states
+
+
+def switching_cost_grid(
+    loop: SwitchedLoop,
+    K: np.ndarray | None,
+    position: float,
+    vel_range: tuple[float, float],
+    acc_range: tuple[float, float] = (0.0, 0.0),
+    n_points: int = 41,
+) -> SwitchingCostGrid:
+    """Ju and Jy over a velocity (x acceleration) grid at a fixed position, (3.65)-(3.81).
+
+    Parameters
+    ----------
+    loop : SwitchedLoop
+    K : ndarray or None
+        IVC gain (None: zero reset).
+    position : float
+        Plant state 1 at the switch [output unit].
+    vel_range : (float, float)
+        Lowest and highest plant state 2 [output unit/s].
+    acc_range : (float, float)
+        Lowest and highest plant state 3; equal ends: no acceleration axis (the map then
+        has one row, state 1 held at ``position``).
+    n_points : int
+        Grid points per axis.
+
+    Returns
+    -------
+    SwitchingCostGrid
+        The grid, the maps and the best free states for ``position``.
+    """
+    base = np.zeros(loop.n)
+    base[0] = float(check_finite("position", position))
+    with_acc = acc_range[0] != acc_range[1]
+    if with_acc and loop.n < 3:
+        raise ServokitValueError("acc_range needs a plant with a third state; use 0:0")
+    v = np.linspace(*vel_range, n_points)
+    a = np.linspace(*acc_range, n_points) if with_acc else np.zeros(1)
+    axes, second = ((1, 2), a) if with_acc else ((1, 0), np.array([position]))
+    cmap = switching_cost_map(loop, K, base, axes, v, second)
+    if not (np.any(np.isfinite(cmap.ju)) or np.any(np.isfinite(cmap.jy))):
+        # every cell overflowed: the map would be all null, which answers nothing
+        raise ServokitValueError(
+            f"position {position:g}: the switching cost overflows at every grid point; "
+            "give a position (and vel_range/acc_range) of the plant's scale"
+        )
+    free = [1, 2] if with_acc else [1]
+    best = optimal_condition(switching_cost_matrix(loop, K, loop.Cu), base, free)
+    return SwitchingCostGrid(v, a, cmap, best, free)
+
+
+@dataclass(frozen=True)
+class ConditionCheck:
+    """The admissible slices with J-min IVC and with zero reset, and switching conditions
+    judged against them; see :func:`admissible_conditions`."""
+
+    t_star: int  #: horizon at which O_inf was determined [samples]
+    n_inequalities: int  #: inequalities of the full set
+    ivc: AdmissibleSet  #: slice over plant states 1-2 with J-min IVC (J = sum u^2)
+    zero_reset: AdmissibleSet  #: the same slice with zero reset
+    conditions: list[dict]  #: one row per condition (position, velocity, needed |u|)
+
+
+def admissible_conditions(
+    loop: SwitchedLoop,
+    u_max: float,
+    conditions: Sequence[Sequence[float]] = (),
+    *,
+    t_max: int = 500,
+) -> ConditionCheck:
+    """Maximal output admissible set for |u| <= u_max over (position, velocity), with J-min
+    IVC and zero reset, and the input each switching condition needs, (3.82)-(3.92).
+
+    Parameters
+    ----------
+    loop : SwitchedLoop
+    u_max : float
+        Input bound [plant input unit].
+    conditions : sequence of (position, velocity)
+        Plant states 1 and 2 at the switch, the others at rest.
+    t_max : int
+        Largest horizon tried [samples].
+
+    Returns
+    -------
+    ConditionCheck
+        The two 2-D slices and one row per condition: ``position_out``,
+        ``velocity_out_per_s``, ``admissible_ivc``, ``admissible_zero_reset``,
+        ``needed_u_ivc``, ``needed_u_zero_reset`` (the smallest bound admitting it).
+    """
+    from servokit.switching.admissible import max_output_admissible_set
+    from servokit.switching.ivc import ivc_jmin
+
+    K = ivc_jmin(loop, None, output_weight=loop.Cu)
+    full = max_output_admissible_set(loop.A, loop.Cu, -u_max, u_max, t_max=t_max)
+    E = np.eye(loop.n)[:, :2]
+    sets = {
+        "ivc": full.restrict(loop.stack(K) @ E),
+        "zero_reset": full.restrict(loop.stack(np.zeros_like(K)) @ E),
+    }
+    rows = []
+    for x in conditions:
+        x = np.asarray(x, dtype=float)
+        need = {k: float(s.gauge(x)[0]) * u_max for k, s in sets.items()}
+        rows.append(
+            {
+                "position_out": float(x[0]),
+                "velocity_out_per_s": float(x[1]),
+                "admissible_ivc": need["ivc"] <= u_max * (1 + 1e-9),
+                "admissible_zero_reset": need["zero_reset"] <= u_max * (1 + 1e-9),
+                "needed_u_ivc": need["ivc"],
+                "needed_u_zero_reset": need["zero_reset"],
+            }
+        )
+    return ConditionCheck(full.t_star, len(full.h), sets["ivc"], sets["zero_reset"], rows)
