@@ -42,6 +42,7 @@ bench: $(STAMP)
 	MPLBACKEND=Agg $(BIN)/python bench/robust_seek.py
 	MPLBACKEND=Agg $(BIN)/python bench/fit_modal.py
 	MPLBACKEND=Agg $(BIN)/python bench/startup.py
+	MPLBACKEND=Agg $(BIN)/python bench/reproduce_cpu.py
 
 lint: $(STAMP)
 	$(BIN)/ruff check src tests bench

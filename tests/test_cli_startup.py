@@ -38,3 +38,78 @@ def test_parsing_every_command_imports_no_heavy_library() -> None:
         check=True,
     ).stdout.strip()
     assert out == "", f"imported while parsing the CLI: {out}"
+
+
+#: Commands whose answer needs numpy only: they run for real and must stay light.
+CHEAP = (
+    ["plant", "list"],
+    ["plant", "show", "hdd-benchmark", "--json"],
+    ["limits", "dynamic-range", "--stroke-m", "0.03", "--accuracy-m", "3e-9"],
+    ["limits", "waterbed", "--alpha-db", "-40", "--freq", "1000", "--dt", "4e-5"],
+    ["filter", "notch", "--freq", "4449", "--damping", "0.09", "--dt", "1e-4", "--json"],
+    ["filter", "notch", "--freq", "4449", "--damping", "0.09", "--filter-freq", "5000"],
+    ["unobservable", "magnitude", "--freq", "4000", "--dt", "25e-6"],
+)
+
+_RUN = r"""
+import sys
+import servokit
+import servokit.cli
+codes = []
+for argv in %r:
+    sys.argv = ["servokit", *argv]
+    try:
+        servokit.cli.main()
+    except SystemExit as exc:
+        codes.append(exc.code)
+print("\nRESULT", codes, " ".join(m for m in %r if m in sys.modules))
+"""
+
+
+def test_cheap_commands_run_without_heavy_libraries() -> None:
+    proc = subprocess.run(
+        [sys.executable, "-c", _RUN % (CHEAP, HEAVY)],
+        capture_output=True,
+        text=True,
+        timeout=120,
+        check=True,
+    )
+    codes, _, loaded = proc.stdout.rsplit("RESULT ", 1)[1].strip().partition("] ")
+    assert codes.strip("[]") == ", ".join(["0"] * len(CHEAP)), proc.stderr
+    assert loaded.strip() == "", f"imported by a numpy-only command: {loaded}"
+    assert '"num_z"' in proc.stdout and "notch: num" in proc.stdout
+
+
+_IMPORT_ALL = r"""
+import sys, warnings
+import servokit
+warnings.simplefilter("ignore")  # servokit.robust is a deprecated alias
+for name in servokit.__all__:
+    getattr(servokit, name)
+heavy = %r + ("scipy.optimize", "scipy.integrate", "scipy.spatial", "qpsolvers", "dask")
+print(" ".join(m for m in heavy if m in sys.modules))
+"""
+
+
+def test_importing_every_subpackage_imports_no_heavy_library() -> None:
+    # library modules import python-control & co. on first use (servokit._lazy)
+    out = subprocess.run(
+        [sys.executable, "-c", _IMPORT_ALL % (HEAVY,)],
+        capture_output=True,
+        text=True,
+        timeout=120,
+        check=True,
+    ).stdout.strip()
+    assert out == "", f"imported by `import servokit.<subpackage>`: {out}"
+
+
+def test_lazy_module_loads_on_first_use_and_then_holds_the_namespace() -> None:
+    from servokit._lazy import LazyModule
+
+    lazy = LazyModule("colorsys")  # a small stdlib module this test can import freely
+    assert "colorsys" in repr(lazy)
+    assert lazy.rgb_to_hsv(1.0, 0.0, 0.0) == (0.0, 1.0, 1.0)
+    assert "rgb_to_hsv" in vars(lazy)  # later look-ups skip __getattr__
+    import colorsys
+
+    assert lazy.hsv_to_rgb is colorsys.hsv_to_rgb

@@ -177,3 +177,46 @@ def test_sensitivity_factorises_as_s0_times_sf(f, k, phi):
     assert shv == pytest.approx(pc / (1 + pc), rel=1e-9)
     assert 1 / (1 + pc * (1 + fv)) == pytest.approx(1 / (1 + pc) / (1 + shv * fv), rel=1e-9)
     assert pc * (1 + fv) == pytest.approx((1 + pc) * (1 + shv * fv) - 1, rel=1e-9, abs=1e-9)
+
+
+@settings(max_examples=60, deadline=None)
+@given(
+    f_r=st.floats(10.0, 2e4),
+    z_r=st.floats(1e-6, 0.99),
+    ratio=st.floats(0.5, 2.0),
+    z_d=st.floats(0.05, 1.0),
+    nyquist_share=st.floats(0.01, 0.9),
+)
+def test_numpy_notch_and_tustin_match_python_control(f_r, z_r, ratio, z_d, nyquist_share) -> None:
+    # the CLI's control-free path (start-up) against notch() + control.sample_system
+    from servokit.feedback.filters import notch_coefficients, tustin_coefficients
+
+    num, den = notch_coefficients(f_r, z_r, filter_freq_hz=ratio * f_r, filter_damping=z_d)
+    ref = notch(f_r, z_r, filter_freq_hz=ratio * f_r, filter_damping=z_d)
+    np.testing.assert_allclose(num, ref.num[0][0], rtol=1e-13)
+    np.testing.assert_allclose(den, ref.den[0][0], rtol=1e-13)
+    dt = nyquist_share * 0.5 / f_r  # prewarped at f_r, anywhere below Nyquist
+    num_z, den_z = tustin_coefficients(num, den, dt, f_r)
+    ref_z = discretize_filter(ref, dt, f_r)
+    scale = np.max(np.abs(ref_z.den[0][0]))
+    np.testing.assert_allclose(num_z, ref_z.num[0][0], rtol=1e-9, atol=1e-12 * scale)
+    np.testing.assert_allclose(den_z, ref_z.den[0][0], rtol=1e-9, atol=1e-12 * scale)
+    assert den_z[0] == 1.0
+    # exact at the prewarp frequency: the discrete filter equals the continuous one there
+    z = np.exp(2j * np.pi * f_r * dt)
+    at_z = np.polyval(num_z, z) / np.polyval(den_z, z)
+    assert abs(at_z - at(ref, f_r)) <= 1e-7 * max(1.0, abs(at(ref, f_r)))
+
+
+def test_tustin_coefficients_of_a_lag_and_the_nyquist_check() -> None:
+    from servokit.feedback.filters import tustin_coefficients
+
+    g = lag(2.0, 3000.0, 300.0)  # first order, num and den of equal length
+    num_z, den_z = tustin_coefficients(g.num[0][0], g.den[0][0], 1e-4, 300.0)
+    ref = discretize_filter(g, 1e-4, 300.0)
+    np.testing.assert_allclose(num_z, ref.num[0][0], rtol=1e-12)
+    np.testing.assert_allclose(den_z, ref.den[0][0], rtol=1e-12)
+    with pytest.raises(ServokitValueError, match="Nyquist"):
+        tustin_coefficients([1.0], [1.0, 1.0], 1e-3, 600.0)
+    with pytest.raises(ServokitValueError, match="proper"):
+        tustin_coefficients([1.0, 0.0, 0.0], [1.0, 1.0], 1e-3, 100.0)

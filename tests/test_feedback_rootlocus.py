@@ -10,7 +10,12 @@ from hypothesis import strategies as st
 
 from servokit.errors import ServokitValueError
 from servokit.feedback import peak_filter, peak_filter_phase
-from servokit.feedback.rootlocus import branch_gain_margins, departure_angles, root_locus
+from servokit.feedback.rootlocus import (
+    _roots_rows,
+    branch_gain_margins,
+    departure_angles,
+    root_locus,
+)
 
 
 @settings(max_examples=30, deadline=None)
@@ -86,3 +91,17 @@ def test_zero_placements_give_their_departure_angles_without_nearby_plant_poles(
     poles, ang = departure_angles(g)
     a = ang[np.argmax(poles.imag)]
     assert (a - expected + 180) % 360 - 180 == pytest.approx(0.0, abs=0.2)
+
+
+@settings(max_examples=25, deadline=None)
+@given(st.integers(2, 12), st.integers(0, 2**32 - 1))
+def test_batched_roots_equal_np_roots(n, seed):
+    # one stacked eigvals call gives np.roots' values bit for bit, rows with a zero
+    # leading or trailing coefficient (stripped by np.roots) included
+    rng = np.random.default_rng(seed)
+    polys = rng.standard_normal((40, n))
+    polys[3, 0] = 0.0
+    polys[5, -1] = 0.0
+    polys[7, :2] = 0.0
+    for got, row in zip(_roots_rows(polys), polys, strict=True):
+        np.testing.assert_array_equal(got, np.roots(row))

@@ -122,6 +122,24 @@ def test_evaluate_counts_failures():
     assert svm.delays.tolist() == [1 - 4] and svm.failures == 1  # near state at sample 1
 
 
+def test_evaluate_matches_judge_per_seek():
+    # the batched decision values (one call for every seek and level) judge each seek
+    # exactly as SettlingJudge.judge does, from sample 0 and from the end of the input
+    data = training_set(simulate_seeks(training_seeks(4, 6)))
+    judge = SettlingJudge(C=10.0, coef0=0.5).fit(data.X, data.labels)
+    val = simulate_seeks(validation_seeks(15))
+    for from_end in (False, True):
+        stats = evaluate_judgements(val, judge, levels=(0.0, -0.8), from_input_end=from_end)
+        for lvl, stat in zip((0.0, -0.8), stats[1:], strict=True):
+            ref = [
+                judge.judge(r.states, r.output, lvl, start=r.n_input if from_end else 0)
+                for r in val
+            ]
+            n0 = [r.n0(judge.bound) for r in val]
+            expect = [j - n for j, n in zip(ref, n0, strict=True) if j >= 0]
+            assert stat.delays.tolist() == expect
+
+
 def test_grids():
     assert len(training_seeks()) == 180
     seeks = validation_seeks()

@@ -11,6 +11,7 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
+from servokit.errors import ServokitValueError
 from servokit.feedback import fixed_order_structure, loopshape, pid_notch_structure
 from servokit.feedback.loopshape_eval import closed_loop_unstable, evaluate_loop
 from servokit.feedback.loopshape_init import initial_parameters, plant_integrators
@@ -206,3 +207,30 @@ def test_cli_loopshape_checks_the_models_it_is_given(tmp_path, monkeypatch, caps
     loop = control.feedback(stage.discretize(float(K.dt)) * control.tf2ss(K), 1)
     assert radii[0] == pytest.approx(np.max(np.abs(loop.poles())), rel=1e-9)
     assert radii[0] < 1.0
+
+
+def test_model_frfs_blocks_match_dense_solve_and_certify_matches_python_control():
+    # closed-form modal blocks vs the dense expm + solve reference; batched closed-loop
+    # spectral radii vs python-control's feedback of the discretised model
+    from servokit.feedback.loopshape_problem import model_resonances
+    from servokit.models import hdd_benchmark_variants
+
+    plants = hdd_benchmark_variants()[:6]
+    extra = (Mode(0.0, 0.0, 1.0), Mode(3000.0, 0.02, -0.5))
+    plants += [ModalPlant(gain=2e5, modes=extra, delay=0.0)]  # no delay: other bank
+    dt = HDD_BENCHMARK_TS
+    f = packed_grid(dt, model_resonances(plants, dt), n_freq=800)
+    ref = model_frfs(plants, dt, f)
+    fast = model_frfs(plants, dt, f, method="blocks")
+    assert np.max(np.abs(fast - ref) / np.abs(ref)) < 1e-10
+    with pytest.raises(ServokitValueError, match="method"):
+        model_frfs(plants, dt, f, method="eig")
+    c = benchmark_controller()
+    k = control.tf2ss(c)
+    gains = (0.9, 1.1)
+    got = certify_models(c, plants, gains)
+    for j, p in enumerate(plants):
+        for i, g in enumerate(gains):
+            cl = control.feedback(g * p.discretize(dt) * k, 1)
+            expect = np.max(np.abs(np.linalg.eigvals(np.asarray(cl.A))))
+            assert got[i, j] == pytest.approx(expect, rel=1e-12)

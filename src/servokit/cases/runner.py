@@ -12,10 +12,11 @@ from __future__ import annotations
 import os
 import time
 from collections.abc import Callable, Iterator, Sequence
+from contextlib import contextmanager
 from pathlib import Path
 from typing import TYPE_CHECKING
 
-from servokit.cases.registry import case_chapter, case_names, run_all
+from servokit.cases.registry import CASES, case_chapter, case_names, registry, run_all
 from servokit.errors import ServokitValueError
 
 if TYPE_CHECKING:
@@ -64,14 +65,54 @@ def default_workers() -> int:
     int
         ``>= 1``.
     """
+    return max(1, min(_cores(), 4))
+
+
+#: Variables read by BLAS/OpenMP libraries loaded after the limit is set (in a worker).
+_THREAD_VARS = ("OPENBLAS_NUM_THREADS", "OMP_NUM_THREADS", "MKL_NUM_THREADS")
+
+
+@contextmanager
+def one_blas_thread() -> Iterator[None]:
+    """Run the cases with one BLAS thread per process (the parallelism is across cases).
+
+    The cases' linear algebra is on small matrices (14-30 states: exact ZOH by Pade
+    ``expm``, batched 14 x 14 solves, closed-loop eigenvalues), where OpenBLAS threads
+    spin for work instead of doing it: on the 2-core machine of issue 24 one
+    ``delayed_zoh`` costs 10 ms of CPU with two threads and 0.09 ms with one.
+    """
+    from threadpoolctl import threadpool_limits
+
+    saved = {k: os.environ.get(k) for k in _THREAD_VARS}
+    os.environ.update(dict.fromkeys(_THREAD_VARS, "1"))  # for libraries loaded later
     try:
-        cores = len(os.sched_getaffinity(0))
-    except AttributeError:  # not on Linux
-        cores = os.cpu_count() or 1
-    return max(1, min(cores, 4))
+        with threadpool_limits(limits=1):
+            yield
+    finally:
+        for k, v in saved.items():
+            if v is None:
+                os.environ.pop(k, None)
+            else:
+                os.environ[k] = v
 
 
-def _die_with_parent() -> None:
+def skip_missing_slycot() -> None:
+    """Make python-control's repeated ``import slycot`` fail at once when it is absent.
+
+    python-control tries ``from slycot import ...`` on every state-space evaluation
+    (``StateSpace.__call__`` -> ``slycot_laub``) and falls back to numpy on ImportError;
+    without slycot each attempt searches ``sys.path`` again (60 % of a one-point
+    evaluation, 10^4 of them in the ``limits`` case).  A ``None`` entry in
+    ``sys.modules`` raises the same ImportError without the search.
+    """
+    import importlib.util
+    import sys
+
+    if "slycot" not in sys.modules and importlib.util.find_spec("slycot") is None:
+        sys.modules["slycot"] = None  # type: ignore[assignment]
+
+
+def _init_worker() -> None:
     """Worker initialiser: end with the parent (a killed ``reproduce`` leaves no worker)."""
     import ctypes
     import signal
@@ -83,7 +124,7 @@ def _die_with_parent() -> None:
 
 
 def _run_one(outdir: Path, name: str, svg: bool) -> tuple[list[CaseResult], float]:
-    """One case with its figure formats (a worker process's job); results and seconds."""
+    """One case with its figure formats; results and seconds."""
     from servokit._figures import also_save_as
 
     start = time.perf_counter()
@@ -92,14 +133,43 @@ def _run_one(outdir: Path, name: str, svg: bool) -> tuple[list[CaseResult], floa
     return done, time.perf_counter() - start
 
 
+def _run_group(
+    outdir: Path, names: Sequence[str], svg: bool
+) -> list[tuple[list[CaseResult], float]]:
+    """Cases of one module in one worker (a pool job): they share that module's caches."""
+    return [_run_one(outdir, name, svg) for name in names]
+
+
+def _groups(names: Sequence[str]) -> list[list[str]]:
+    """``names`` grouped by case module, in the order of each group's first case.
+
+    Cases of one module share its computed designs (``functools.lru_cache``), which a
+    separate worker would compute again.  The order is kept (``hdd-loopshape`` last):
+    its "design time" row is a wall time, measured best while the other cases are done.
+    """
+    groups: dict[str, list[str]] = {}
+    for name in names:
+        groups.setdefault(CASES.get(name, (0, f"<{name}>"))[1], []).append(name)
+    return list(groups.values())
+
+
+def _cores() -> int:
+    try:
+        return len(os.sched_getaffinity(0))
+    except AttributeError:  # not on Linux
+        return os.cpu_count() or 1
+
+
 def iter_cases(
     outdir: Path, names: Sequence[str], *, svg: bool = False, workers: int | None = None
 ) -> Iterator[tuple[str, list[CaseResult], float]]:
     """Run ``names``, yielding ``(name, results, seconds)`` in ``names`` order.
 
     With ``workers > 1`` the cases run in a pool of forked processes (each case writes
-    only its own figures, so they do not interfere); results come back in run order so
-    that ``results.json`` does not depend on which case finished first.
+    only its own figures, so they do not interfere), the cases of one module in one
+    worker; results come back in run order so that ``results.json`` does not depend on
+    which case finished first.  The case modules are imported before the fork, once for
+    every worker.
 
     Parameters
     ----------
@@ -119,19 +189,37 @@ def iter_cases(
     """
     Path(outdir).mkdir(parents=True, exist_ok=True)
     workers = default_workers() if workers is None else int(workers)
-    if workers <= 1 or len(names) <= 1:
+    groups = _groups(names)
+    skip_missing_slycot()
+    if workers <= 1 or len(groups) <= 1:
         for name in names:
-            yield (name, *_run_one(outdir, name, svg))
+            with one_blas_thread():
+                done = _run_one(outdir, name, svg)
+            yield (name, *done)
         return
     import multiprocessing
     from concurrent.futures import ProcessPoolExecutor
 
-    # fork: the workers inherit the case registry (including cases registered at run time)
+    import matplotlib.pyplot  # noqa: F401  (imported once here, inherited by the workers)
+
+    registry()  # imports every case module (and numpy, scipy, python-control) before the fork
+    # fork: the workers inherit the imports and the case registry (cases registered at run
+    # time included)
     ctx = multiprocessing.get_context("fork")
-    with ProcessPoolExecutor(workers, mp_context=ctx, initializer=_die_with_parent) as pool:
-        futures = [pool.submit(_run_one, outdir, name, svg) for name in names]
-        for name, fut in zip(names, futures, strict=True):
-            yield (name, *fut.result())
+    done: dict[str, tuple[list[CaseResult], float]] = {}
+    with (
+        one_blas_thread(),  # inherited by the forked workers
+        ProcessPoolExecutor(
+            min(workers, len(groups)), mp_context=ctx, initializer=_init_worker
+        ) as pool,
+    ):
+        futures = {pool.submit(_run_group, outdir, g, svg): g for g in groups}
+        owner = {name: fut for fut, g in futures.items() for name in g}
+        for name in names:
+            fut = owner[name]
+            if name not in done:
+                done.update(zip(futures[fut], fut.result(), strict=True))
+            yield (name, *done.pop(name))
 
 
 def run_cases(

@@ -46,6 +46,8 @@ from servokit.errors import (
 if TYPE_CHECKING:
     import control
 
+    _Filter = control.TransferFunction | tuple[np.ndarray, np.ndarray]
+
 filter_app = sub_app("filter", "Resonance-compensation filters of book §5.3 (continuous/Tustin).")
 
 FreqOpt = Annotated[float, typer.Option("--freq", help="filter / mode frequency [Hz]")]
@@ -70,29 +72,32 @@ def _natural(roots: np.ndarray) -> tuple[list[float], list[float]]:
     return (w / (2 * np.pi)).tolist(), zeta.tolist()
 
 
-def _describe(tf: control.TransferFunction, freq: float, dt: float | None) -> dict[str, Any]:
-    zf, zd = _natural(tf.zeros())
-    pf, pd = _natural(tf.poles())
+def _describe(tf: _Filter, freq: float, dt: float | None) -> dict[str, Any]:
+    # numpy only: a notch given as (num, den) never imports python-control (start-up)
+    num, den = tf if isinstance(tf, tuple) else (tf.num[0][0], tf.den[0][0])
+    num, den = np.asarray(num, dtype=float), np.asarray(den, dtype=float)
+    zf, zd = _natural(np.roots(num))
+    pf, pd = _natural(np.roots(den))
     out: dict[str, Any] = {
-        "num": np.asarray(tf.num[0][0], dtype=float),
-        "den": np.asarray(tf.den[0][0], dtype=float),
+        "num": num,
+        "den": den,
         "zeros_hz": zf,
         "zero_dampings": zd,
         "poles_hz": pf,
         "pole_dampings": pd,
     }
     if dt is not None:
-        from servokit.feedback import discretize_filter
+        from servokit.feedback.filters import tustin_coefficients
 
         with _flags(freq_hz=f"--freq (with --dt {dt:g} s)", dt="--dt"):
-            fd = discretize_filter(tf, check_positive("--dt", dt, "s"), freq)
-        out.update(dt_s=dt, num_z=np.asarray(fd.num[0][0]), den_z=np.asarray(fd.den[0][0]))
+            num_z, den_z = tustin_coefficients(num, den, check_positive("--dt", dt, "s"), freq)
+        out.update(dt_s=dt, num_z=num_z, den_z=den_z)
     return out
 
 
 def _show(
     name: str,
-    tf: control.TransferFunction,
+    tf: _Filter,
     freq: float,
     dt: float | None,
     plot: Any,
@@ -101,6 +106,9 @@ def _show(
     target = plot_target(plot)
     info = _describe(tf, freq, dt)
     if target is not None:
+        import control
+
+        tf = control.tf(*tf) if isinstance(tf, tuple) else tf
         from servokit.feedback.plots import bode_responses_plot
         from servokit.models.frequency_grid import frequency_grid
 
@@ -145,7 +153,7 @@ def notch_cmd(
     plot: PlotOpt = None,
     json_out: JsonOpt = False,
 ) -> None:
-    from servokit.feedback import notch
+    from servokit.feedback.filters import notch_coefficients
 
     with _flags(
         freq_hz="--freq",
@@ -153,7 +161,9 @@ def notch_cmd(
         filter_freq_hz="--filter-freq",
         filter_damping="--filter-damping",
     ):
-        tf = notch(freq, damping, filter_freq_hz=filter_freq, filter_damping=filter_damping)
+        tf = notch_coefficients(
+            freq, damping, filter_freq_hz=filter_freq, filter_damping=filter_damping
+        )
     _show("notch", tf, freq, dt, plot, json_out)
 
 

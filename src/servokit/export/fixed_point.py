@@ -57,9 +57,9 @@ from __future__ import annotations
 import math
 from dataclasses import dataclass, field
 
-import control
 import numpy as np
 
+from servokit._lazy import control
 from servokit.errors import ServokitValueError, check_positive
 from servokit.export.fixed_format import (
     FixedRow,

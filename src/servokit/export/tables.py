@@ -18,10 +18,10 @@ import math
 import re
 from dataclasses import dataclass, field
 
-import control
 import numpy as np
-from scipy import signal
 
+from servokit._lazy import control
+from servokit._lazy import scipy_signal as signal
 from servokit.errors import ServokitValueError, check_finite
 
 __all__ = [

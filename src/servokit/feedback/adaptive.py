@@ -32,7 +32,6 @@ from __future__ import annotations
 from dataclasses import dataclass
 
 import numpy as np
-from scipy.integrate import solve_ivp
 
 from servokit.errors import ServokitValueError, check_positive
 
@@ -218,6 +217,8 @@ def simulate_adaptive(
         [tip0 * shape / (beam.tip @ shape), np.zeros(n), [0.0, 0.0, gains.ys0, gains.k00]]
     )
     t = np.linspace(0.0, duration, n_out)
+    from scipy.integrate import solve_ivp
+
     sol = solve_ivp(
         _rhs(beam, gains),
         (0.0, duration),

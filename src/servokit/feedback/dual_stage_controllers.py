@@ -56,9 +56,9 @@ from dataclasses import dataclass, field
 from functools import lru_cache
 from typing import Literal
 
-import control
 import numpy as np
 
+from servokit._lazy import control
 from servokit.errors import ServokitValueError
 from servokit.feedback.filters import (
     complex_lag,

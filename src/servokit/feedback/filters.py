@@ -26,13 +26,14 @@ Book corrections
 
 from __future__ import annotations
 
-import control
 import numpy as np
 
+from servokit._lazy import control
 from servokit.errors import ServokitValueError, check_finite, check_positive
 
 __all__ = [
     "notch",
+    "notch_coefficients",
     "inverse_pair",
     "complex_lag",
     "lead_lag",
@@ -44,6 +45,7 @@ __all__ = [
     "ZERO_PLACEMENTS",
     "pseudo_plant",
     "discretize_filter",
+    "tustin_coefficients",
 ]
 
 TWO_PI = 2.0 * np.pi
@@ -90,13 +92,42 @@ def notch(
     control.TransferFunction
         The continuous notch filter.
     """
+    num, den = notch_coefficients(
+        freq_hz, damping, filter_freq_hz=filter_freq_hz, filter_damping=filter_damping
+    )
+    return control.tf(num, den)
+
+
+def notch_coefficients(
+    freq_hz: float,
+    damping: float,
+    *,
+    filter_freq_hz: float | None = None,
+    filter_damping: float = 0.5,
+) -> tuple[np.ndarray, np.ndarray]:
+    """Numerator and denominator of the notch N(s) of eq. (5.14), without python-control.
+
+    Parameters
+    ----------
+    freq_hz, damping : float
+        Natural frequency fR [Hz] and damping ζR (0 < ζR < 1) of the mode to cancel.
+    filter_freq_hz : float, optional
+        Frequency fD of the filter poles [Hz]; ``fR`` by default.
+    filter_damping : float
+        ζD of the filter poles (> 0).
+
+    Returns
+    -------
+    num, den : numpy.ndarray
+        Coefficients in descending powers of s, as :func:`notch` wraps them.
+    """
     f_r = check_positive("freq_hz", freq_hz, "Hz")
     z_r = _damping("damping", damping, upper=1.0)
     f_d = f_r if filter_freq_hz is None else check_positive("filter_freq_hz", filter_freq_hz, "Hz")
     z_d = _damping("filter_damping", filter_damping)
     if z_d == 0:
         raise ServokitValueError("filter_damping must be > 0 (undamped filter poles)")
-    return control.tf((f_d / f_r) ** 2 * _second_order(f_r, z_r), _second_order(f_d, z_d))
+    return (f_d / f_r) ** 2 * _second_order(f_r, z_r), _second_order(f_d, z_d)
 
 
 def inverse_pair(
@@ -359,18 +390,67 @@ def discretize_filter(filt: control.LTI, dt: float, freq_hz: float) -> control.L
     control.LTI
         The discrete filter with ``dt``.
     """
+    h, f = _tustin_rate(dt, freq_hz)
+    fd = control.sample_system(filt, h, method="tustin", prewarp_frequency=TWO_PI * f)
+    _check_not_degenerate(fd.num[0][0], fd.den[0][0], h, f)
+    return fd
+
+
+def _tustin_rate(dt: float, freq_hz: float) -> tuple[float, float]:
     h = check_positive("dt", dt, "s")
     f = check_positive("freq_hz", freq_hz, "Hz")
     if f >= 0.5 / h:
         raise ServokitValueError(
             f"freq_hz must be below the Nyquist frequency {0.5 / h:g} Hz (got {f:g})"
         )
-    fd = control.sample_system(filt, h, method="tustin", prewarp_frequency=TWO_PI * f)
-    _check_not_degenerate(fd, h, f)
-    return fd
+    return h, f
 
 
-def _check_not_degenerate(fd: control.LTI, dt: float, freq_hz: float) -> None:
+def tustin_coefficients(
+    num: np.ndarray, den: np.ndarray, dt: float, freq_hz: float
+) -> tuple[np.ndarray, np.ndarray]:
+    """:func:`discretize_filter` of a transfer function given by coefficients, in numpy.
+
+    Substitutes ``s = c (z - 1)/(z + 1)`` with ``c = ω / tan(ω dt / 2)``, ω = 2π
+    ``freq_hz`` (the prewarped Tustin map), and clears the ``(z + 1)`` powers; the cheap
+    path of ``servokit filter`` (no python-control import). Low orders only: the
+    expansion in powers of z is ill-conditioned beyond a few poles.
+
+    Parameters
+    ----------
+    num, den : numpy.ndarray
+        Continuous coefficients in descending powers of s (proper: ``len(num) <= len(den)``).
+    dt : float
+        Sampling period [s].
+    freq_hz : float
+        Prewarping frequency [Hz], below the Nyquist frequency.
+
+    Returns
+    -------
+    num_z, den_z : numpy.ndarray
+        Discrete coefficients in descending powers of z, ``den_z[0] = 1``.
+    """
+    h, f = _tustin_rate(dt, freq_hz)
+    num, den = np.atleast_1d(np.asarray(num, float)), np.atleast_1d(np.asarray(den, float))
+    n = den.size - 1
+    if num.size > den.size or den[0] == 0:
+        raise ServokitValueError("tustin_coefficients needs a proper filter (len(num) <= len(den))")
+    c = TWO_PI * f / np.tan(np.pi * f * h)
+
+    def mapped(coeffs: np.ndarray) -> np.ndarray:
+        out = np.zeros(n + 1)
+        for i, a in enumerate(coeffs[::-1]):  # a s^i -> a c^i (z-1)^i (z+1)^(n-i)
+            term = np.polymul(np.poly(np.ones(i)), np.poly(-np.ones(n - i)))
+            out += a * c**i * term
+        return out
+
+    num_z, den_z = mapped(num), mapped(den)
+    num_z, den_z = num_z / den_z[0], den_z / den_z[0]
+    _check_not_degenerate(num_z, den_z, h, f)
+    return num_z, den_z
+
+
+def _check_not_degenerate(num: np.ndarray, den: np.ndarray, dt: float, freq_hz: float) -> None:
     """Refuse a Tustin filter whose coefficients no longer tell it from 1 (or are not finite).
 
     Far above the filter's frequencies the bilinear map pushes every pole and zero to
@@ -378,8 +458,8 @@ def _check_not_degenerate(fd: control.LTI, dt: float, freq_hz: float) -> None:
     4449 Hz with dt = 1e-300 s gives num = den) and the discrete filter is a wire, not the
     filter asked for.
     """
-    num = np.atleast_1d(np.asarray(fd.num[0][0], dtype=float))
-    den = np.atleast_1d(np.asarray(fd.den[0][0], dtype=float))
+    num = np.atleast_1d(np.asarray(num, dtype=float))
+    den = np.atleast_1d(np.asarray(den, dtype=float))
     if not (np.all(np.isfinite(num)) and np.all(np.isfinite(den))):
         raise ServokitValueError(f"dt {dt:g} s gives a non-finite Tustin filter at {freq_hz:g} Hz")
     if num.size == den.size and np.max(np.abs(num - den)) <= 1e3 * np.finfo(float).eps * np.max(

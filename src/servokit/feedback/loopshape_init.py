@@ -14,9 +14,9 @@ from __future__ import annotations
 
 from typing import Any
 
-import control
 import numpy as np
 
+from servokit._lazy import control
 from servokit.errors import ServokitValueError
 from servokit.feedback.loopshape_problem import controller_polys
 

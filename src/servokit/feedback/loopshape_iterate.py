@@ -43,9 +43,9 @@ from collections.abc import Callable
 from dataclasses import dataclass, field
 from typing import Any
 
-import control
 import numpy as np
 
+from servokit._lazy import control
 from servokit.errors import ServokitValueError, check_count, check_finite, check_positive
 from servokit.feedback.loopshape_eval import LoopTable, evaluate_set
 from servokit.feedback.loopshape_init import initial_parameters, plant_integrators
@@ -53,6 +53,7 @@ from servokit.feedback.loopshape_problem import (
     Structure,
     check_frf_set,
     fixed_order_structure,
+    modal_banks,
     pid_notch_structure,
 )
 from servokit.feedback.loopshape_socp import Basis, StepData, solve_step
@@ -427,10 +428,18 @@ def certify_models(
     """
     dt = float(controller.dt)
     k_ss = control.tf2ss(controller)
+    Ak, Bk, Ck = (np.asarray(m, dtype=float) for m in (k_ss.A, k_ss.B, k_ss.C))
+    Dk = float(np.asarray(k_ss.D).ravel()[0])
     out = np.empty((len(gains), len(plants)))
-    for j, p in enumerate(plants):
-        pd = p.discretize(dt)
+    for idx, bank in modal_banks(plants, dt):
+        A, B, C = bank.discrete(dt)  # (V, N, N), (V, N), (N,): modal states, delay line
+        n, nk = A.shape[1], Ak.shape[0]
         for i, g in enumerate(gains):
-            cl = control.feedback(g * pd * k_ss, 1)
-            out[i, j] = np.max(np.abs(np.linalg.eigvals(np.asarray(cl.A))))
+            # u = K e, e = -y, y = g C x:  [[A - g D_K B C, g B C_K], [-B_K C, A_K]]
+            Acl = np.empty((idx.size, n + nk, n + nk))
+            Acl[:, :n, :n] = A - g * Dk * B[:, :, None] * C[None, None, :]
+            Acl[:, :n, n:] = g * B[:, :, None] * Ck[None, :, :]
+            Acl[:, n:, :n] = -Bk[None, :, :] * C[None, None, :]
+            Acl[:, n:, n:] = Ak[None]
+            out[i, idx] = np.max(np.abs(np.linalg.eigvals(Acl)), axis=-1)
     return out

@@ -19,9 +19,9 @@ from __future__ import annotations
 
 from dataclasses import dataclass
 
-import control
 import numpy as np
 
+from servokit._lazy import control
 from servokit.errors import ServokitValueError, check_count, check_finite, check_positive
 
 __all__ = [
@@ -31,6 +31,7 @@ __all__ = [
     "check_frf_set",
     "packed_grid",
     "model_frfs",
+    "modal_banks",
     "controller_polys",
 ]
 
@@ -294,8 +295,45 @@ def packed_grid(
     return grid
 
 
-def model_frfs(plants: list, dt: float, freq_hz: np.ndarray) -> np.ndarray:
+def modal_banks(plants: list, dt: float):
+    """Exact ZOH models of modal plants at ``dt``, stacked per input delay.
+
+    Parameters
+    ----------
+    plants : list of ModalPlant
+        Models.
+    dt : float
+        Sampling period [s].
+
+    Yields
+    ------
+    tuple of (ndarray, PlantBank)
+        Indices into ``plants`` and the :class:`~servokit.simulate._bank.PlantBank` of those
+        plants (closed-form 2x2 modal blocks, ``modal_delayed_zoh``, equal to the ``expm``
+        path to 1e-13; one batch instead of three ``expm`` per plant).
+    """
+    from servokit.simulate._bank import PlantBank
+
+    groups: dict[float, list[int]] = {}
+    for i, p in enumerate(plants):
+        groups.setdefault(float(p.delay), []).append(i)
+    for idx in groups.values():
+        yield np.array(idx), PlantBank.build([plants[i] for i in idx], dt)
+
+
+def model_frfs(
+    plants: list, dt: float, freq_hz: np.ndarray, *, method: str = "solve"
+) -> np.ndarray:
     """Discrete FRFs ``P_d(e^{jωT})`` of modal plants under an exact ZOH, delay included.
+
+    ``method="solve"`` (the reference) discretises each plant by ``expm`` and solves
+    ``C (zI - Φ)^{-1} (Γ_new z^{-d} + Γ_old z^{-d-1})`` densely at every frequency.
+    ``method="blocks"`` sums the 2x2 modal blocks of the closed-form ZOH
+    (:func:`modal_banks`) instead, each ``[1, 0] (zI - Φ_i)^{-1}`` being its first adjugate
+    row ``[z - Φ_i[1,1], Φ_i[0,1]]`` over ``det(zI - Φ_i)``: equal to the reference to
+    ~1e-12 relative and 10x cheaper, for evaluating many plants.  A design keeps the
+    reference: the loop-shaping iteration turns a 1e-13 change of its data into a 1e-6
+    change of its result (a different but equally valid local optimum).
 
     Parameters
     ----------
@@ -305,16 +343,22 @@ def model_frfs(plants: list, dt: float, freq_hz: np.ndarray) -> np.ndarray:
         Sampling period [s].
     freq_hz : ndarray
         Grid [Hz].
+    method : {"solve", "blocks"}
+        Dense solve per frequency, or closed-form modal blocks.
 
     Returns
     -------
     ndarray
         Shape ``(len(plants), len(freq_hz))``.
     """
+    z = np.exp(2j * np.pi * np.asarray(freq_hz, dtype=float) * dt)
+    if method == "blocks":
+        return _block_frfs(plants, dt, z)
+    if method != "solve":
+        raise ServokitValueError(f"method must be 'solve' or 'blocks', got {method!r}")
     from servokit.models._zoh import delayed_zoh
     from servokit.models.modal import modal_matrices
 
-    z = np.exp(2j * np.pi * np.asarray(freq_hz) * dt)
     out = np.empty((len(plants), z.size), dtype=complex)
     for i, p in enumerate(plants):
         A, B, C = modal_matrices(*p.arrays())
@@ -323,6 +367,25 @@ def model_frfs(plants: list, dt: float, freq_hz: np.ndarray) -> np.ndarray:
         M = z[:, None, None] * np.eye(Phi.shape[0])[None] - Phi[None]
         rhs = g_new[None] * z[:, None, None] ** -d + g_old[None] * z[:, None, None] ** (-d - 1)
         out[i] = (C[None] @ np.linalg.solve(M, rhs))[:, 0, 0]
+    return out
+
+
+def _block_frfs(plants: list, dt: float, z: np.ndarray) -> np.ndarray:
+    """``model_frfs(..., method="blocks")`` at ``z = e^{jωT}``."""
+    out = np.empty((len(plants), z.size), dtype=complex)
+    zc = z[None, :, None]
+    for idx, bank in modal_banks(plants, dt):
+        delay_factor = z ** (-bank.dd)
+        # plants in chunks: (plants, frequencies, modes) complex arrays of ~10 MB
+        step = max(1, 2**19 // (z.size * bank.Phi.shape[1]))
+        for lo in range(0, idx.size, step):
+            Phi = bank.Phi[lo : lo + step, None]  # (v, 1, M, 2, 2)
+            gn, go = bank.Gnew[lo : lo + step, None], bank.Gold[lo : lo + step, None]
+            a, b, c, e = Phi[..., 0, 0], Phi[..., 0, 1], Phi[..., 1, 0], Phi[..., 1, 1]
+            ze = zc - e
+            det = (zc - a) * ze - b * c
+            num = ze * (gn[..., 0] + go[..., 0] / zc) + b * (gn[..., 1] + go[..., 1] / zc)
+            out[idx[lo : lo + step]] = (num / det).sum(axis=-1) * delay_factor
     return out
 
 

@@ -24,8 +24,8 @@ from __future__ import annotations
 from dataclasses import dataclass
 
 import numpy as np
-import scipy.sparse as sp
 
+from servokit._lazy import scipy_sparse as sp
 from servokit.errors import ServokitValueError
 
 __all__ = ["Basis", "StepData", "solve_step"]

@@ -20,9 +20,9 @@ from __future__ import annotations
 
 from dataclasses import dataclass
 
-import control
 import numpy as np
 
+from servokit._lazy import control
 from servokit.errors import ServokitValueError, check_count, check_finite, check_positive
 from servokit.models._zoh import expm_batched
 

@@ -9,9 +9,9 @@ from __future__ import annotations
 
 from dataclasses import dataclass
 
-import control
 import numpy as np
 
+from servokit._lazy import control
 from servokit.errors import check_positive
 from servokit.feedback.filters import discretize_filter, peak_filter, peak_filter_phase
 

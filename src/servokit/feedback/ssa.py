@@ -46,9 +46,9 @@ from __future__ import annotations
 
 from dataclasses import dataclass
 
-import control
 import numpy as np
 
+from servokit._lazy import control
 from servokit.errors import ServokitValueError, check_positive
 
 __all__ = [

@@ -29,8 +29,7 @@ from dataclasses import dataclass
 from typing import TYPE_CHECKING
 
 import numpy as np
-import scipy.linalg
-import scipy.optimize
+import scipy.linalg  # scipy.optimize is loaded by SciPy on first use (start-up)
 import scipy.sparse
 
 from servokit.errors import ServokitTypeError, ServokitValueError, check_finite, check_positive

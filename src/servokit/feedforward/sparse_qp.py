@@ -41,7 +41,8 @@ import warnings
 from collections.abc import Sequence
 
 import numpy as np
-import scipy.sparse as sp
+
+from servokit._lazy import scipy_sparse as sp
 
 __all__ = [
     "SparseRow",

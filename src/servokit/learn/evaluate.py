@@ -123,13 +123,32 @@ def evaluate_judgements(
         for r, s in zip(responses, start, strict=True)
     ]
     out = [_stats(f"conventional ({n_in_row} in a row)", conv, n0)]
+    scored = _svm_scores(responses, judge, start)
     for lvl in levels:
-        svm = [
-            judge.judge(r.states, r.output, lvl, start=s)
-            for r, s in zip(responses, start, strict=True)
-        ]
+        svm = [int(i[f < lvl][0]) if np.any(f < lvl) else -1 for i, f in scored]
         out.append(_stats(f"SVM, level {lvl:g}", svm, n0))
     return out
+
+
+def _svm_scores(
+    responses: Sequence[SeekResponse], judge: SettlingJudge, start: Sequence[int]
+) -> list[tuple[np.ndarray, np.ndarray]]:
+    """Per seek: the in-bound samples from ``start`` on and the SVM's ``f(x)`` there.
+
+    :meth:`SettlingJudge.judge` at any level is the first of these samples with
+    ``f(x) < level``; the decision values are computed once for every level and every
+    seek in one call (the SVM scores each row independently: the same values).
+    """
+    inside = []
+    for r, s in zip(responses, start, strict=True):
+        i = np.flatnonzero(np.abs(np.asarray(r.output)) <= judge.bound)
+        inside.append(i[i >= s])
+    rows = [np.asarray(r.states)[i] for r, i in zip(responses, inside, strict=True)]
+    if not any(len(x) for x in rows):
+        return [(i, np.empty(0)) for i in inside]
+    f = judge.decision_function(np.concatenate(rows))
+    parts = np.split(f, np.cumsum([len(x) for x in rows])[:-1])
+    return list(zip(inside, parts, strict=True))
 
 
 def judgement_plot(

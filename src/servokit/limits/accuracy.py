@@ -29,10 +29,10 @@ from __future__ import annotations
 from collections.abc import Callable
 from dataclasses import dataclass
 
-import control
 import numpy as np
-from scipy import integrate
 
+from servokit._lazy import control
+from servokit._lazy import scipy_integrate as integrate
 from servokit.errors import ServokitTypeError, ServokitValueError, check_count, check_positive
 
 __all__ = [

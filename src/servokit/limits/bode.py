@@ -38,9 +38,9 @@ from __future__ import annotations
 
 from dataclasses import dataclass
 
-import control
 import numpy as np
 
+from servokit._lazy import control
 from servokit.errors import ServokitTypeError, ServokitValueError, check_count, check_positive
 
 __all__ = [

@@ -4,10 +4,10 @@ from __future__ import annotations
 
 from pathlib import Path
 
-import control
 import numpy as np
 
 from servokit._figures import save_figure
+from servokit._lazy import control
 from servokit.limits.bode import waterbed_lower_bound
 
 __all__ = ["bode_integral_plot", "variance_plot", "waterbed_plot"]

@@ -18,7 +18,7 @@ where 18 Taylor terms leave a truncation error below 1e-24.  Tests compare it wi
 from __future__ import annotations
 
 import numpy as np
-import scipy.linalg
+import scipy  # scipy.linalg is loaded by SciPy on first use (start-up)
 
 __all__ = [
     "damped_pair",

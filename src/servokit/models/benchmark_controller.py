@@ -21,9 +21,9 @@ parameters in their docstrings and in docs/guide/margins.md).
 
 from __future__ import annotations
 
-import control
 import numpy as np
 
+from servokit._lazy import control
 from servokit.errors import ServokitValueError, check_positive
 from servokit.models.catalogue import HDD_BENCHMARK_TS, hdd_benchmark, ieej_benchmark_plant
 from servokit.models.modal import ModalPlant

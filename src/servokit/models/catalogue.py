@@ -9,9 +9,9 @@ from __future__ import annotations
 
 from collections.abc import Callable
 
-import control
 import numpy as np
 
+from servokit._lazy import control
 from servokit.models.modal import ModalPlant, Mode
 
 __all__ = [

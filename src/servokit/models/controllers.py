@@ -8,8 +8,7 @@
 
 from __future__ import annotations
 
-import control
-
+from servokit._lazy import control
 from servokit.models.catalogue import HDD_SAMPLED_DATA_TS
 from servokit.models.tf import require_proper, zpk
 

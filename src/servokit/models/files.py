@@ -31,10 +31,10 @@ import tomllib
 from pathlib import Path
 from typing import Any
 
-import control
 import numpy as np
 import tomli_w
 
+from servokit._lazy import control
 from servokit.errors import ServokitValueError
 from servokit.models.modal import ModalPlant, Mode
 from servokit.models.tf import zpk

@@ -9,8 +9,7 @@ from __future__ import annotations
 
 from pathlib import Path
 
-import control
-
+from servokit._lazy import control
 from servokit.errors import ServokitValueError
 from servokit.models.catalogue import CATALOGUE
 from servokit.models.controllers import CONTROLLERS

@@ -17,7 +17,6 @@ from __future__ import annotations
 from collections.abc import Sequence
 
 import numpy as np
-from scipy.optimize import linear_sum_assignment
 
 from servokit.report import Comparison, printed_tolerance
 
@@ -57,6 +56,8 @@ def pair_rows(
     list of Comparison
         One row per book value (in the book's order), then one per unpaired computed item.
     """
+    from scipy.optimize import linear_sum_assignment
+
     items = np.asarray(found, dtype=float).ravel()
     values = np.array([float(t) for t in book_texts])
     cost = _distance(values, items)

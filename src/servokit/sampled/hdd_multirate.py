@@ -7,9 +7,9 @@ sample through the interpolator ``Ip = 1 + z^-1 + z^-2 + z^-3`` (4.67), the filt
 
 from __future__ import annotations
 
-import control
 import numpy as np
 
+from servokit._lazy import control
 from servokit.models.catalogue import HDD_SAMPLED_DATA_TS
 from servokit.sampled.multirate import Multirate
 

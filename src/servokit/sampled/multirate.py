@@ -20,9 +20,9 @@ from __future__ import annotations
 
 from dataclasses import dataclass
 
-import control
 import numpy as np
 
+from servokit._lazy import control
 from servokit.errors import ServokitTypeError, ServokitValueError, check_positive
 from servokit.models.modal import ModalPlant
 from servokit.models.tf import require_proper

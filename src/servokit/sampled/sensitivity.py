@@ -30,10 +30,10 @@ from collections.abc import Callable, Sequence
 from dataclasses import dataclass
 from typing import TYPE_CHECKING
 
-import control
 import numpy as np
 
 from servokit._figures import save_figure
+from servokit._lazy import control
 from servokit.errors import ServokitTypeError, ServokitValueError, check_finite
 from servokit.models.convert import as_modal_plant
 from servokit.models.modal import ModalPlant

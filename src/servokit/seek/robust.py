@@ -36,7 +36,7 @@ from dataclasses import dataclass, field
 from typing import Literal
 
 import numpy as np
-import scipy.optimize
+import scipy  # scipy.optimize is loaded by SciPy on first use (start-up)
 
 from servokit.errors import ServokitValueError, check_finite, check_memory, check_positive
 from servokit.feedforward import FeedforwardInput, constraint_rows, lifted_model, solve_fsc_qp

@@ -30,9 +30,9 @@ from collections.abc import Callable, Iterator, Sequence
 from dataclasses import dataclass
 from typing import Any
 
-import control
 import numpy as np
 
+from servokit._lazy import control
 from servokit.errors import (
     DEFAULT_MAX_MEMORY_MB,
     ServokitTypeError,

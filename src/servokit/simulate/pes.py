@@ -16,10 +16,10 @@ from __future__ import annotations
 
 from dataclasses import dataclass
 
-import control
 import numpy as np
-from scipy import signal
 
+from servokit._lazy import control
+from servokit._lazy import scipy_signal as signal
 from servokit.errors import ServokitValueError, check_count, check_memory
 from servokit.models.disturbances import DisturbanceRecord
 from servokit.models.modal import ModalPlant

@@ -21,9 +21,9 @@ from __future__ import annotations
 from collections.abc import Sequence
 from dataclasses import dataclass
 
-import control
 import numpy as np
 
+from servokit._lazy import control
 from servokit.models.modal import ModalPlant
 from servokit.simulate.hybrid import Signal, SimulationResult, simulate
 

@@ -34,11 +34,10 @@ from __future__ import annotations
 from collections.abc import Sequence
 from dataclasses import dataclass
 
-import control
 import numpy as np
-import scipy.linalg
-import scipy.signal
+import scipy.linalg  # scipy.signal is loaded by SciPy on first use (start-up)
 
+from servokit._lazy import control
 from servokit.errors import ServokitValueError, check_count, check_finite
 from servokit.switching.loop import SwitchedLoop, free_response, left_eig, siso_zeros
 

@@ -22,8 +22,6 @@ from __future__ import annotations
 from dataclasses import dataclass
 
 import numpy as np
-from scipy.optimize import linprog
-from scipy.spatial import HalfspaceIntersection
 
 from servokit.errors import ServokitValueError, check_count, check_finite
 from servokit.switching.admissible_lp import not_implied, prune_rows
@@ -109,6 +107,8 @@ class AdmissibleSet:
         """Vertices (counter-clockwise, shape (v, 2)) of a bounded 2-D set."""
         if self.dim != 2:
             raise ServokitValueError(f"polygon() needs a 2-D set (this one has {self.dim} dims)")
+        from scipy.spatial import HalfspaceIntersection
+
         centre = self.chebyshev_centre()
         hs = HalfspaceIntersection(np.hstack([self.H, -self.h[:, None]]), centre)
         v = hs.intersections
@@ -117,6 +117,8 @@ class AdmissibleSet:
 
     def chebyshev_centre(self) -> np.ndarray:
         """Centre of the largest ball inside the set (LP); refuses an empty/flat set."""
+        from scipy.optimize import linprog
+
         N = self.dim
         c = np.zeros(N + 1)
         c[-1] = -1.0

@@ -33,7 +33,6 @@ set of other rows.  The result equals the LP-only path (tested against it).
 from __future__ import annotations
 
 import numpy as np
-from scipy.optimize import linprog
 
 from servokit.errors import ServokitValueError
 
@@ -64,6 +63,8 @@ def lp_max(c: np.ndarray, H: np.ndarray, h: np.ndarray) -> float:
     float
         The maximum.
     """
+    from scipy.optimize import linprog
+
     free = [(None, None)] * len(c)
     res = linprog(-c, A_ub=H, b_ub=h, bounds=free, method="highs")
     if res.status == 2:  # HiGHS presolve may report an unbounded LP as infeasible
@@ -129,6 +130,8 @@ def _interior(H: np.ndarray, h: np.ndarray) -> np.ndarray | None:
     c = np.zeros(N + 1)
     c[-1] = -1.0
     A = np.hstack([H, np.ones((len(h), 1))])
+    from scipy.optimize import linprog
+
     res = linprog(c, A_ub=A, b_ub=h, bounds=[(None, None)] * N + [(0, 1.0)], method="highs")
     if res.status != 0 or res.x[-1] <= 0:
         return None

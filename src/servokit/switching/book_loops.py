@@ -13,8 +13,7 @@ from __future__ import annotations
 
 from functools import lru_cache
 
-import control
-
+from servokit._lazy import control
 from servokit.switching.design import (
     fit_delay_ratio,
     lead_lag,

@@ -18,10 +18,9 @@ from __future__ import annotations
 
 from collections.abc import Sequence
 
-import control
 import numpy as np
-from scipy.optimize import minimize_scalar
 
+from servokit._lazy import control
 from servokit.errors import ServokitValueError, check_positive
 
 __all__ = ["pade_double_integrator", "fit_delay_ratio", "place_controller", "lead_lag", "notch"]
@@ -85,6 +84,8 @@ def fit_delay_ratio(zeros: Sequence[float]) -> float:
     def miss(ratio: float) -> float:
         z = np.sort(np.real(control.zeros(pade_double_integrator(1.0, ratio))))
         return float(np.sum(((z - 1) / (z + 1) - (target - 1) / (target + 1)) ** 2))
+
+    from scipy.optimize import minimize_scalar
 
     res = minimize_scalar(miss, bounds=(0.05, 0.99), method="bounded", options={"xatol": 1e-12})
     return float(res.x)

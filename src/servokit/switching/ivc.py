@@ -32,9 +32,9 @@ from __future__ import annotations
 from collections.abc import Sequence
 from dataclasses import dataclass
 
-import control
 import numpy as np
 
+from servokit._lazy import control
 from servokit.errors import ServokitValueError, check_finite
 from servokit.switching.loop import (
     SwitchedLoop,

@@ -15,10 +15,10 @@ from __future__ import annotations
 
 from dataclasses import dataclass
 
-import control
 import numpy as np
 import scipy.linalg
 
+from servokit._lazy import control
 from servokit.errors import ServokitTypeError, ServokitValueError
 
 __all__ = [

@@ -1,0 +1,100 @@
+"""CPU time of ``servokit reproduce``: every case, as a user runs it (issue 24).
+
+Runs ``servokit reproduce --out DIR`` in a subprocess (the cases in its worker
+processes), reports user + system CPU of the whole process tree
+(``resource.getrusage(RUSAGE_CHILDREN)``) and the wall time, and the wall seconds of
+each case from its ``results.json`` (``runtime_s``).  Target (issue 24): at most 20 s of
+CPU on the 2-core machine class.  Writes ``bench/out/reproduce.json``.
+
+With ``--per-case`` it also runs the cases one after another in this process
+(``servokit.cases.runner.iter_cases(workers=1)``, as a one-core machine would) and
+reports each case's CPU seconds (``RUSAGE_SELF`` before and after; the first case also
+pays the imports).
+
+Run: ``MPLBACKEND=Agg python bench/reproduce_cpu.py [--case NAME ...] [--per-case]
+[--out DIR]``.
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import os
+import resource
+import subprocess
+import sys
+import tempfile
+import time
+from pathlib import Path
+
+_ENTRY = "import sys; from servokit.cli import main; sys.argv[0] = 'servokit'; main()"
+
+
+def run_reproduce(cases: list[str], out: Path) -> dict:
+    """Run ``servokit reproduce`` once; CPU [s] of the process tree, wall [s], case times."""
+    argv = [sys.executable, "-c", _ENTRY, "reproduce", "--out", str(out)]
+    for name in cases:
+        argv += ["--case", name]
+    before = resource.getrusage(resource.RUSAGE_CHILDREN)
+    start = time.perf_counter()
+    subprocess.run(
+        argv, check=True, stdout=subprocess.DEVNULL, env=dict(os.environ, MPLBACKEND="Agg")
+    )
+    wall = time.perf_counter() - start
+    after = resource.getrusage(resource.RUSAGE_CHILDREN)
+    doc = json.loads((out / "results.json").read_text(encoding="utf-8"))
+    return {
+        "user_s": after.ru_utime - before.ru_utime,
+        "sys_s": after.ru_stime - before.ru_stime,
+        "cpu_s": (after.ru_utime - before.ru_utime) + (after.ru_stime - before.ru_stime),
+        "wall_s": wall,
+        "cores": len(os.sched_getaffinity(0)) if hasattr(os, "sched_getaffinity") else None,
+        "load_avg_1min": os.getloadavg()[0],
+        "n_rows": len(doc["rows"]),
+        "runtime_s": {c["name"]: c["runtime_s"] for c in doc["cases"]},
+    }
+
+
+def per_case_cpu(cases: list[str], out: Path) -> dict[str, float]:
+    """CPU seconds of each case run in turn in this process (one BLAS thread, as reproduce)."""
+    from servokit.cases.runner import iter_cases, select_cases
+
+    def cpu() -> float:
+        r = resource.getrusage(resource.RUSAGE_SELF)
+        return r.ru_utime + r.ru_stime
+
+    result: dict[str, float] = {}
+    last = cpu()
+    for name, _, _ in iter_cases(out, select_cases(cases, None), workers=1):
+        now = cpu()
+        result[name], last = now - last, now
+    return result
+
+
+def main() -> None:
+    """Measure one run; print the per-case table and write ``bench/out/reproduce.json``."""
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--case", action="append", default=[], help="only these cases")
+    parser.add_argument("--per-case", action="store_true", help="also CPU s per case, serially")
+    parser.add_argument("--out", help="keep the report here (default: a temporary directory)")
+    args = parser.parse_args()
+    with tempfile.TemporaryDirectory(prefix="servokit-reproduce-") as tmp:
+        res = run_reproduce(args.case, Path(args.out) if args.out else Path(tmp) / "out")
+        if args.per_case:
+            res["per_case_cpu_s"] = per_case_cpu(args.case, Path(tmp) / "serial")
+    cpu_of = res.get("per_case_cpu_s", {})
+    print("  wall [s]  CPU [s]  case (wall in the reproduce run; CPU run serially)")
+    for name, seconds in sorted(res["runtime_s"].items(), key=lambda kv: -kv[1]):
+        print(f"{seconds:10.1f} {cpu_of.get(name, float('nan')):8.2f}  {name}")
+    print(
+        f"reproduce: {res['cpu_s']:.1f} s CPU (user {res['user_s']:.1f} + sys "
+        f"{res['sys_s']:.1f}), {res['wall_s']:.1f} s wall on {res['cores']} cores "
+        f"(load {res['load_avg_1min']:.1f}); {res['n_rows']} rows; target <= 20 s CPU"
+    )
+    out = Path(__file__).parent / "out"
+    out.mkdir(exist_ok=True)
+    (out / "reproduce.json").write_text(json.dumps(res, indent=2) + "\n")
+
+
+if __name__ == "__main__":
+    main()
