@@ -277,6 +277,18 @@ def stable_filters(draw: st.DrawFn) -> tuple[control.TransferFunction, bool]:
     return control.tf(num, den, 1e-4), integ
 
 
+def _assert_rounding_destabilises(tf: control.TransferFunction, precision: str,
+                                  realization: str) -> None:  # fmt: skip
+    """A refusal for rounded poles is only plausible for a short word and a pole near |z| = 1.
+
+    A repeated pole at radius r moves by about sqrt(step) under a coefficient step: with
+    the 16-bit words' steps (2^-15 .. 2^-12 after scaling) that reaches the unit circle
+    only from r > 0.9; a 32-bit word moves it by < 1e-4.
+    """
+    radius = np.max(np.abs(np.roots(tf.den[0][0])))
+    assert precision != "q31" and radius > 0.9, (precision, realization, radius)
+
+
 @settings(max_examples=40, deadline=None, suppress_health_check=[HealthCheck.too_slow])
 @given(
     filt=stable_filters(),
@@ -290,15 +302,20 @@ def test_random_filters_within_bound_and_range(filt, precision, realization, rou
     try:
         d = design_fixed_point(tf, precision, realization=realization, input_max=2.0,
                                u_max=1e6 if integ else None, rounding=rounding)  # fmt: skip
-    except ServokitValueError as exc:  # a modal form of near-repeated poles: sos instead
-        assert realization == "ss" and "use --realization sos" in str(exc)
+    except ServokitValueError as exc:
+        # a modal form of near-repeated poles: sos instead; or a short word whose rounded
+        # coefficients put a pole on or outside the unit circle (checked here)
+        if "unit circle for this word" in str(exc):
+            _assert_rounding_destabilises(tf, precision, realization)
+        else:
+            assert realization == "ss" and "use --realization sos" in str(exc)
         return
     n = 400
     x = quantize_input(d, np.random.default_rng(seed).uniform(-2.0, 2.0, n))
     y, pre, _ = fixed_point_response(d, x, nodes=True)
     pre = pre.astype(float)
     assert np.all(pre <= d.fmt.hi) and np.all(pre >= d.fmt.lo)
-    assert np.max(np.abs(y)) < d.out_max
+    assert np.max(np.abs(y)) <= d.out_max  # an integrating filter may sit at its clamp
     z, p, k = signal.tf2zpk(tf.num[0][0], tf.den[0][0])
     ref = signal.sosfilt(signal.zpk2sos(z, p, k), x * d.input_lsb)
     err = np.max(np.abs(y * d.output_lsb - ref))

@@ -83,6 +83,10 @@ def l1_matrix(a: np.ndarray, b: np.ndarray, c: np.ndarray, d: np.ndarray) -> np.
     """
     total = np.abs(d).astype(float)
     x = b.astype(float)
+    # an unstable or marginal network has no L1 norm: refuse at once instead of summing
+    # two million terms first
+    if a.size and np.max(np.abs(np.linalg.eigvals(a))) >= 1.0:
+        raise ServokitValueError("the controller's poles are too close to the unit circle to scale")
     for k in range(2_000_000):
         h = np.abs(c @ x)
         total += h

@@ -362,6 +362,7 @@ def _scale_and_verify(plan: _Plan, fmt: QFormat, rounding: str, g_out: float,
         rows, out_row = _quantized(plan, fmt, eta, g_out, v_limit, state_frac)
         q_rows = np.array([r.values() for r in rows])
         a, b, c, d = plan.network(q_rows, out_row.values())
+        _check_quantized_poles(a, fmt, plan.kind)
         l1 = l1_matrix(a, b, c, d)
         deltas = np.array([rounding_bound(fmt, rounding, r.frac) for r in rows])
         peaks = (l1[:-1, 0] + l1[:-1, 1:] @ deltas) * (1 + 1e-9)
@@ -372,6 +373,23 @@ def _scale_and_verify(plan: _Plan, fmt: QFormat, rounding: str, g_out: float,
             return tuple(rows), out_row, peaks, terms
         eta[bad] = np.minimum(2 * eta[bad] + (peaks[bad] / peak_word - 1), 0.9)
     raise ServokitValueError(f"no scaling keeps every node of the controller within {fmt.name}")
+
+
+def _check_quantized_poles(a: np.ndarray, fmt: QFormat, kind: str) -> None:
+    """Refuse a word whose coefficient rounding moves a pole onto or outside the unit circle.
+
+    Repeated poles near z = 1 move by about the square root of the coefficient step, so a
+    filter stable in float can become unstable in a short word (a double pole at 0.992
+    in q15 sections).
+    """
+    radius = float(np.max(np.abs(np.linalg.eigvals(a)))) if a.size else 0.0
+    if radius >= 1.0:
+        other = "ss" if kind == "sos" else "sos"
+        raise ServokitValueError(
+            f"rounding the coefficients to {fmt.name} moves a pole to radius {radius:.6f} "
+            f"(the controller's poles are too close to the unit circle for this word): use "
+            f"a longer word (q31) or --realization {other}"
+        )
 
 
 def _bound_terms(plan: _Plan, fmt: QFormat, rounding: str, g_out: float, net: tuple,
