@@ -16,9 +16,9 @@ from servokit.sampled.sensitivity import (
     discrete_plant,
     gamma_terms,
     sampled_data_sensitivity,
-    sensitivity_plot,
     sinusoid_response,
 )
+from servokit.sampled.sensitivity_plots import sensitivity_plot
 from servokit.sampled.srs import (
     ShockResponseSpectrum,
     amplitude_spectrum,
