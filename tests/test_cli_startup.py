@@ -49,6 +49,10 @@ CHEAP = (
     ["filter", "notch", "--freq", "4449", "--damping", "0.09", "--dt", "1e-4", "--json"],
     ["filter", "notch", "--freq", "4449", "--damping", "0.09", "--filter-freq", "5000"],
     ["unobservable", "magnitude", "--freq", "4000", "--dt", "25e-6"],
+    # a ModalPlant-only simulation and seek design (no python-control object anywhere)
+    ["simulate", "--plant", "hdd-benchmark", "--dt", "1e-4", "--duration", "0.01", "--step", "1"],
+    ["seek", "--target", "1", "--method", "fsc", "--n-samples", "26"],
+    ["sweep", "--method", "fsc", "--target", "1", "--n-variants", "100"],
 )
 
 _RUN = r"""

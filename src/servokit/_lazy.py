@@ -8,7 +8,7 @@ access and then holds its namespace, so later look-ups cost a plain attribute re
 Annotations stay strings (``from __future__ import annotations``), so naming
 ``control.TransferFunction`` in a signature imports nothing.
 
-``tests/test_startup.py`` checks that the cheap commands never touch these modules.
+``tests/test_cli_startup.py`` checks that the cheap commands never touch these modules.
 """
 
 from __future__ import annotations

@@ -22,6 +22,7 @@ SISO ``StateSpace`` or ``TransferFunction`` is accepted when it *is* such a sum:
 
 from __future__ import annotations
 
+import sys
 from collections.abc import Sequence
 from typing import Any
 
@@ -39,11 +40,10 @@ _FIT_OFFSETS = (0.1, 0.7, 1.01, 1.4, 10.0)
 
 
 def _is_lti(obj: object) -> bool:
-    try:
-        import control
-    except ImportError:  # pragma: no cover - python-control is a dependency
-        return False
-    return isinstance(obj, control.LTI)
+    # a python-control object exists only once python-control is imported: asking
+    # sys.modules keeps a ModalPlant-only run from paying that import (issue 23 start-up)
+    control = sys.modules.get("control")
+    return control is not None and isinstance(obj, control.LTI)
 
 
 def _checked_ss(sys: Any) -> Any:
