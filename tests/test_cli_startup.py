@@ -53,6 +53,9 @@ CHEAP = (
     ["simulate", "--plant", "hdd-benchmark", "--dt", "1e-4", "--duration", "0.01", "--step", "1"],
     ["seek", "--target", "1", "--method", "fsc", "--n-samples", "26"],
     ["sweep", "--method", "fsc", "--target", "1", "--n-variants", "100"],
+    ["filter", "peak", "--freq", "4449", "--damping", "0.015", "--gain", "0.1778", "--phi", "2.5"],
+    ["filter", "lag", "--freq", "6900", "--damping", "0.1", "--phase", "1.1519", "--dt", "2e-5"],
+    ["filter", "inverse", "--zero-freq", "4449", "--pole-freq", "4775"],
 )
 
 _RUN = r"""

@@ -182,10 +182,10 @@ def peak_cmd(
     plot: PlotOpt = None,
     json_out: JsonOpt = False,
 ) -> None:
-    from servokit.feedback import peak_filter
+    from servokit.feedback.filters import peak_filter_coefficients
 
     with _flags(freq_hz="--freq", damping="--damping", gain="--gain", phi="--phi"):
-        tf = peak_filter(freq, damping, gain, phi)
+        tf = peak_filter_coefficients(freq, damping, gain, phi)
     _show("peak", tf, freq, dt, plot, json_out)
 
 
@@ -202,10 +202,10 @@ def lag_cmd(
     plot: PlotOpt = None,
     json_out: JsonOpt = False,
 ) -> None:
-    from servokit.feedback import complex_lag
+    from servokit.feedback.filters import complex_lag_coefficients
 
     with _flags(freq_hz="--freq", damping="--damping", phase_rad="--phase"):
-        tf = complex_lag(freq, damping, phase)
+        tf = complex_lag_coefficients(freq, damping, phase)
     _show("complex lag", tf, freq, dt, plot, json_out)
 
 
@@ -223,7 +223,7 @@ def inverse_cmd(
     plot: PlotOpt = None,
     json_out: JsonOpt = False,
 ) -> None:
-    from servokit.feedback import inverse_pair
+    from servokit.feedback.filters import inverse_pair_coefficients
 
     with _flags(
         zero_hz="--zero-freq",
@@ -231,7 +231,7 @@ def inverse_cmd(
         zero_damping="--zero-damping",
         pole_damping="--pole-damping",
     ):
-        tf = inverse_pair(
+        tf = inverse_pair_coefficients(
             zero_freq, pole_freq, zero_damping=zero_damping, pole_damping=pole_damping
         )
     _show("inverse pair", tf, zero_freq, dt, plot, json_out)

@@ -35,11 +35,14 @@ __all__ = [
     "notch",
     "notch_coefficients",
     "inverse_pair",
+    "inverse_pair_coefficients",
     "complex_lag",
+    "complex_lag_coefficients",
     "lead_lag",
     "lag",
     "pi_controller",
     "peak_filter",
+    "peak_filter_coefficients",
     "peak_filter_phase",
     "design_peak_filter",
     "ZERO_PLACEMENTS",
@@ -156,13 +159,41 @@ def inverse_pair(
     control.TransferFunction
         The continuous second-order filter.
     """
+    return control.tf(
+        *inverse_pair_coefficients(
+            zero_hz, pole_hz, zero_damping=zero_damping, pole_damping=pole_damping
+        )
+    )
+
+
+def inverse_pair_coefficients(
+    zero_hz: float,
+    pole_hz: float,
+    *,
+    zero_damping: float = 0.05,
+    pole_damping: float = 0.05,
+) -> tuple[np.ndarray, np.ndarray]:
+    """Numerator and denominator of :func:`inverse_pair`, without python-control.
+
+    Parameters
+    ----------
+    zero_hz, pole_hz : float
+        Natural frequencies of the zeros and of the poles [Hz].
+    zero_damping, pole_damping : float
+        Their damping ratios (pole damping > 0).
+
+    Returns
+    -------
+    num, den : numpy.ndarray
+        Coefficients in descending powers of s.
+    """
     f_z = check_positive("zero_hz", zero_hz, "Hz")
     f_p = check_positive("pole_hz", pole_hz, "Hz")
     z_z = _damping("zero_damping", zero_damping, upper=1.0)
     z_p = _damping("pole_damping", pole_damping)
     if z_p == 0:
         raise ServokitValueError("pole_damping must be > 0 (undamped filter poles)")
-    return control.tf((f_p / f_z) ** 2 * _second_order(f_z, z_z), _second_order(f_p, z_p))
+    return (f_p / f_z) ** 2 * _second_order(f_z, z_z), _second_order(f_p, z_p)
 
 
 def complex_lag(freq_hz: float, damping: float, phase_rad: float) -> control.TransferFunction:
@@ -185,6 +216,28 @@ def complex_lag(freq_hz: float, damping: float, phase_rad: float) -> control.Tra
     control.TransferFunction
         The continuous complex lag.
     """
+    return control.tf(*complex_lag_coefficients(freq_hz, damping, phase_rad))
+
+
+def complex_lag_coefficients(
+    freq_hz: float, damping: float, phase_rad: float
+) -> tuple[np.ndarray, np.ndarray]:
+    """Numerator and denominator of :func:`complex_lag` (5.92)-(5.94), without python-control.
+
+    Parameters
+    ----------
+    freq_hz : float
+        Centre frequency fm [Hz].
+    damping : float
+        ζlg (> 0).
+    phase_rad : float
+        φm [rad], in (−π/2, π/2).
+
+    Returns
+    -------
+    num, den : numpy.ndarray
+        Coefficients in descending powers of s.
+    """
     f_m = check_positive("freq_hz", freq_hz, "Hz")
     zeta = check_positive("damping", damping)
     phi = float(check_finite("phase_rad", phase_rad))
@@ -195,7 +248,7 @@ def complex_lag(freq_hz: float, damping: float, phase_rad: float) -> control.Tra
     w_m = TWO_PI * f_m
     w_p, w_z = w_m * (root - a), w_m * (root + a)
     num = (w_p / w_z) * np.array([1.0, 2.0 * zeta * w_z, w_z * w_z])
-    return control.tf(num, [1.0, 2.0 * zeta * w_p, w_p * w_p])
+    return num, np.array([1.0, 2.0 * zeta * w_p, w_p * w_p])
 
 
 def lead_lag(
@@ -285,12 +338,36 @@ def peak_filter(
     control.TransferFunction
         The continuous peak filter; at ω1 it equals ``K/(2ζ1) j e^{−jφ}``.
     """
+    return control.tf(*peak_filter_coefficients(freq_hz, damping, gain, phi))
+
+
+def peak_filter_coefficients(
+    freq_hz: float, damping: float, gain: float, phi: float
+) -> tuple[np.ndarray, np.ndarray]:
+    """Numerator and denominator of :func:`peak_filter` (5.17), without python-control.
+
+    Parameters
+    ----------
+    freq_hz : float
+        Centre frequency f1 [Hz].
+    damping : float
+        ζ1 (> 0).
+    gain : float
+        K (> 0).
+    phi : float
+        Zero-placement phase φ [rad].
+
+    Returns
+    -------
+    num, den : numpy.ndarray
+        Coefficients in descending powers of s.
+    """
     w1 = TWO_PI * check_positive("freq_hz", freq_hz, "Hz")
     zeta = check_positive("damping", damping)
     k = check_positive("gain", gain)
     p = float(check_finite("phi", phi))
     num = k * np.array([np.cos(p), w1 * np.sin(p), 0.0])
-    return control.tf(num, [1.0, 2.0 * zeta * w1, w1 * w1])
+    return num, np.array([1.0, 2.0 * zeta * w1, w1 * w1])
 
 
 def pseudo_plant(loop: control.LTI) -> control.LTI:
