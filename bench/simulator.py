@@ -120,7 +120,7 @@ def many_variants(n_variants: int) -> dict:
 def _forget() -> None:
     """Drop the discretisations and eigenvalues kept for re-running a few plants."""
     _bank._reused_bank.cache_clear()
-    stability._radii_of_bytes.cache_clear()
+    stability.clear_radii_cache()
 
 
 def closed_loop(n_variants: int, n_baseline: int) -> dict:

@@ -15,7 +15,7 @@ from servokit.simulate import _bank, simulate, stability
 
 def _forget():
     _bank._reused_bank.cache_clear()
-    stability._radii_of_bytes.cache_clear()
+    stability.clear_radii_cache()
 
 
 def _run(plant, C):
@@ -56,3 +56,23 @@ def test_unstable_loop_still_refused_on_a_rerun():
     for _ in range(2):  # the second verdict comes from the kept eigenvalues
         with pytest.raises(ServokitValueError, match="unstable"):
             _run(p, C)
+
+
+def test_kept_transition_rows_and_block_maps_are_read_only():
+    p = sk.models.hdd_sampled_data()
+    _forget()
+    simulate(p, dt=TS, n_samples=20, substeps=4, feedforward=np.ones(3))
+    bank = _bank.bank_for([p], TS / 4)
+    for arr in (bank.transition_rows(4), bank.block_maps(4)):
+        with pytest.raises(ValueError):
+            arr[...] *= 2  # one write would change every later simulation of this plant
+
+
+def test_kept_spectral_radii_are_few_and_keyed_by_a_digest():
+    rng = np.random.default_rng(3)
+    _forget()
+    for _ in range(3 * stability._RADII_CACHE_SIZE):
+        A = 0.3 * rng.standard_normal((2, 6, 6))
+        np.testing.assert_array_equal(stability._radii_few(A), stability._radii(A))
+    assert len(stability._RADII_CACHE) == stability._RADII_CACHE_SIZE
+    assert all(len(key[0]) == 32 for key in stability._RADII_CACHE)

@@ -305,7 +305,10 @@ def _fingerprint(item: Any) -> bytes:
         parts = [item.num[0][0], item.den[0][0]]
     else:
         parts = [item.A, item.B, item.C, item.D]
-    raw = b"".join(np.ascontiguousarray(p, dtype=float).tobytes() + b"|" for p in parts)
+    # each part's shape goes in too: bytes alone could match after num shrinks and den grows
+    raw = b"".join(
+        repr(np.shape(p)).encode() + np.ascontiguousarray(p, dtype=float).tobytes() for p in parts
+    )
     return raw + repr(item.dt).encode()
 
 

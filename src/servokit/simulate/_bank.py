@@ -131,6 +131,7 @@ class PlantBank:
             out[1, i + 1] = a * f01 + b * f11
             out[2, i + 1] = c * f00 + d * f10
             out[3, i + 1] = c * f01 + d * f11
+        out.flags.writeable = False  # shared by every later call on this cached bank
         self._cache[key] = out
         return out
 
@@ -152,7 +153,9 @@ class PlantBank:
             g0, g1 = G[..., 0], G[..., 1]
             out[n, ..., 0] = p00 * g0 + p01 * g1
             out[n, ..., 1] = p10 * g0 + p11 * g1
-        self._cache[key] = out = out.reshape(2 * S, V, 2 * M)
+        out = out.reshape(2 * S, V, 2 * M)
+        out.flags.writeable = False  # shared by every later call on this cached bank
+        self._cache[key] = out
         return out
 
     def _period_model(self, S: int) -> tuple[np.ndarray, np.ndarray, np.ndarray, int]:
