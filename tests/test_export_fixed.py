@@ -369,3 +369,16 @@ def test_cli_exports_the_design_the_library_makes(tmp_path: Path) -> None:
 def _c_source(design, outdir: Path) -> str:
     write_fixed_export(design, outdir, "k", title="controller hdd-benchmark", n_samples=5000)
     return (outdir / "k.c").read_text()
+
+
+def test_a_short_word_that_puts_a_double_pole_on_the_unit_circle_is_refused() -> None:
+    # a double pole at 0.992 moves by ~sqrt(coefficient step): q15 section coefficients
+    # land it on |z| = 1 (an oscillator), q31 keeps it inside
+    tf = control.tf([1.0, -2.0, 1.0, 0.0, 0.0], np.real(np.poly([0.9921875] * 2 + [0.5] * 2)), 1e-4)
+    with pytest.raises(ServokitValueError, match=r"Q0\.15 moves a pole to radius 1\.0.*q31"):
+        design_fixed_point(tf, "q15", realization="sos", input_max=2.0)
+    d = design_fixed_point(tf, "q31", realization="sos", input_max=2.0)
+    x = quantize_input(d, np.random.default_rng(0).uniform(-2.0, 2.0, 400))
+    z, p, k = signal.tf2zpk(tf.num[0][0], tf.den[0][0])
+    ref = signal.sosfilt(signal.zpk2sos(z, p, k), x * d.input_lsb)
+    assert np.max(np.abs(fixed_point_response(d, x) * d.output_lsb - ref)) <= d.error_bound(400)
