@@ -11,7 +11,7 @@ import control
 import numpy as np
 import pytest
 import scipy.linalg
-from hypothesis import given, settings
+from hypothesis import example, given, settings
 from hypothesis import strategies as st
 
 import servokit as sk
@@ -61,6 +61,7 @@ def test_modal_zoh_hand_cases():
 
 @settings(max_examples=12, deadline=None)
 @given(delay_frac=st.floats(0.0, 3.0), seed=st.integers(0, 10_000))
+@example(delay_frac=0.08999495348426681, seed=600)  # a small-Gamma mode: 1.4e-12 of its row
 def test_modal_delayed_zoh_matches_expm_path(delay_frac, seed):
     rng = np.random.default_rng(seed)
     w = np.r_[0.0, 2 * np.pi * rng.uniform(100, 3e4, 5)]
@@ -74,9 +75,13 @@ def test_modal_delayed_zoh_matches_expm_path(delay_frac, seed):
     ref = delayed_zoh(A, B, h, delay_frac * h)
     new = modal_delayed_zoh(w, z, r, h, delay_frac * h)
     assert new[3] == ref[3]
+    # as in test_modal_zoh_matches_expm: the phase w h carries a rounding of eps * w h in
+    # both computations, so the per-mode tolerance grows with (1 + w h)
+    phase = 1.0 + w * h
     for a, b in ((new[0], ref[0]), (new[1], ref[1][..., 0]), (new[2], ref[2][..., 0])):
         scale = np.abs(b).max(axis=-1, keepdims=True) + 1e-300
-        assert np.all(np.abs(a - b) <= 1e-12 * scale)
+        per_mode = phase.reshape((-1,) + (1,) * (scale.ndim - 1))
+        assert np.all(np.abs(a - b) <= 1e-12 * scale * per_mode)
 
 
 def test_bank_discrete_matches_modal_plant_discretize():
