@@ -11,15 +11,19 @@
    extremum of the function there: every grid extremum close to zero is located exactly
    and splits its interval if it changes sign.
 4. All brackets of all tests are shrunk together (128 sub-points per bracket per pass,
-   one vectorised call of the exact response per pass) to a relative width of 1e-5 and
-   finished by two regula-falsi steps,
-   and each root is verified on the exact response before it is accepted. Hidden pairs
-   are located the same way (257-point zooming, vectorised over all candidates).
+   one vectorised call of the fast response per pass) to a relative width of 1e-5, then
+   finished on the accurate response (:mod:`~servokit.feedback.accurate_response`; its
+   sign change re-checked at the bracket ends and, if the fast response's rounding moved
+   it, looked for beside the bracket) by Illinois steps to ``|h| <= 1e-12`` (``h`` the
+   log-magnitude or the sine of the phase: 1e-12 relative in ``|L|``, 1e-12 rad), with
+   bisection to rounding where they stall (a very sharp crossing). Hidden pairs are
+   located the same way (257-point zooming, vectorised over all candidates).
 """
 
 from __future__ import annotations
 
 from collections.abc import Callable
+from dataclasses import dataclass
 
 import numpy as np
 
@@ -208,7 +212,8 @@ def find_crossings(
     L: np.ndarray,
     tests: list[Test],
     cut: np.ndarray | None = None,
-    tol: float = 1e-6,
+    tol: float = 1e-12,
+    exact: Response | None = None,
 ) -> list[list[float]]:
     """Roots of ``h(L(f))`` for each test ``(h, ok)``, bracketed on the grid and verified.
 
@@ -226,7 +231,11 @@ def find_crossings(
     cut : ndarray of bool, optional
         Intervals (``f.size - 1``) never to bracket (they straddle a boundary pole).
     tol : float
-        Largest ``|h|`` accepted at a refined root.
+        ``|h|`` to which a root is refined (Illinois steps, then bisection); a root whose
+        bracket reaches rounding first is kept (a sign change across adjacent doubles).
+    exact : callable, optional
+        Accurate response for the final refinement (a few points per root); ``resp``
+        (used for the grid and the shrinking) when omitted.
 
     Returns
     -------
@@ -268,29 +277,151 @@ def find_crossings(
         lo_arr, hi_arr, g0, g1 = _shrink(
             resp, tests, w_arr, np.array(a), np.array(b), np.array(ga), np.array(gb)
         )
-        # two regula-falsi steps: the first from the bracket, the second from the first
-        # point and the end of opposite sign (error ~ width^4 after both)
-        x = _secant(lo_arr, hi_arr, g0, g1)
-        gx = _rowwise(resp, x[:, None], w_arr, tests)[:, 0]
-        left = np.sign(gx) == np.sign(g0)
-        lo2, g02 = np.where(left, x, lo_arr), np.where(left, gx, g0)
-        hi2, g12 = np.where(left, hi_arr, x), np.where(left, g1, gx)
-        x = np.where(gx == 0, x, _secant(lo2, hi2, g02, g12))
-        gx = _rowwise(resp, x[:, None], w_arr, tests)[:, 0]
-        hard = np.abs(gx) > tol
-        if hard.any():  # a very sharp crossing (zeta ~ 1e-6): bisect to rounding
-            x[hard], gx[hard] = _bisect(
-                resp, tests, w_arr[hard], lo2[hard], hi2[hard], g02[hard], tol
-            )
+        x, gx = _finish(exact or resp, tests, w_arr, lo_arr, hi_arr, g0, g1, tol, exact is not None)
         for r, e, i in zip(x, gx, w_arr, strict=True):
             if abs(e) <= tol or np.isnan(e):
                 roots[i].append(float(r))
     return [sorted(set(r)) for r in roots]
 
 
+def _finish(
+    final: Response,
+    tests: list[Test],
+    which: np.ndarray,
+    a: np.ndarray,
+    b: np.ndarray,
+    ga: np.ndarray,
+    gb: np.ndarray,
+    tol: float,
+    recheck: bool,
+) -> tuple[np.ndarray, np.ndarray]:
+    """Roots in the shrunk brackets on the ``final`` response: Illinois steps to ``tol``,
+    bisection where they stall. Returns the roots and ``h`` there (NaN: a sign change
+    across adjacent doubles; inf: no sign change of ``final`` near the bracket).
+
+    With ``recheck`` (``final`` is not the response the brackets were shrunk on) the
+    bracket ends are evaluated again with the first secant point, in one call; a bracket
+    on which ``final`` does not change sign is moved beside it (:func:`_widen`)."""
+    br = _Brackets(a.copy(), b.copy(), ga.copy(), gb.copy(), np.zeros(a.size, dtype=int))
+    x, gx = _secant(a, b, ga, gb), np.full(a.size, np.inf)
+    found = np.ones(a.size, dtype=bool)
+    active = np.isfinite(ga + gb)
+    if recheck:
+        g = _rowwise(final, np.stack([a, b, x], axis=1), which, tests)
+        br.ga, br.gb = g[:, 0], g[:, 1]
+        ok = _changes_sign(br.ga, br.gb)
+        i = np.nonzero(ok)[0]
+        gx[i] = g[i, 2]
+        active[i] = br.step(i, x[i], gx[i], tol)
+        j = np.nonzero(~ok)[0]
+        if j.size:  # the fast response's rounding moved its root out of the bracket
+            br.a[j], br.b[j], br.ga[j], br.gb[j], found[j] = _widen(
+                final, tests, which[j], a[j], b[j], br.ga[j], br.gb[j]
+            )
+            x[j], active[j] = _secant(br.a[j], br.b[j], br.ga[j], br.gb[j]), found[j]
+    x, gx = _illinois(final, tests, which, br, x, gx, active, tol)
+    hard = ~(np.abs(gx) <= tol) & found
+    if hard.any():  # a very sharp crossing (zeta ~ 1e-6): bisect to rounding
+        i = np.nonzero(hard)[0]
+        x[i], gx[i] = _bisect(final, tests, which[i], br.a[i], br.b[i], br.ga[i], tol)
+    gx[~found] = np.inf
+    return x, gx
+
+
+def _changes_sign(ga: np.ndarray, gb: np.ndarray) -> np.ndarray:
+    return ((np.sign(ga) != np.sign(gb)) | (ga == 0) | (gb == 0)) & np.isfinite(ga + gb)
+
+
+@dataclass
+class _Brackets:
+    """Brackets ``[a, b]`` with the values at their ends and the end the last Illinois
+    step replaced (+1 left, -1 right, 0 none yet)."""
+
+    a: np.ndarray
+    b: np.ndarray
+    ga: np.ndarray
+    gb: np.ndarray
+    side: np.ndarray
+
+    def step(self, i: np.ndarray, x: np.ndarray, g: np.ndarray, tol: float) -> np.ndarray:
+        """Replace an end of brackets ``i`` by ``x`` (value ``g``); Illinois: an end kept
+        twice in a row has its value halved (superlinear convergence). Returns whether
+        each bracket still needs a step."""
+        fin = np.isfinite(g)
+        left = (np.sign(g) == np.sign(self.ga[i])) & fin  # the root is right of x
+        right = ~left & fin
+        self.gb[i] = np.where(left & (self.side[i] == 1), 0.5 * self.gb[i], self.gb[i])
+        self.ga[i] = np.where(right & (self.side[i] == -1), 0.5 * self.ga[i], self.ga[i])
+        self.a[i], self.ga[i] = np.where(left, x, self.a[i]), np.where(left, g, self.ga[i])
+        self.b[i], self.gb[i] = np.where(right, x, self.b[i]), np.where(right, g, self.gb[i])
+        self.side[i] = np.where(left, 1, -1)
+        wide = self.b[i] - self.a[i] > 4e-16 * np.abs(self.b[i])
+        return fin & (np.abs(g) > tol) & wide
+
+
+def _illinois(
+    final: Response,
+    tests: list[Test],
+    which: np.ndarray,
+    br: _Brackets,
+    x: np.ndarray,
+    gx: np.ndarray,
+    active: np.ndarray,
+    tol: float,
+    steps: int = 8,
+) -> tuple[np.ndarray, np.ndarray]:
+    """Illinois steps on the active brackets until ``|h| <= tol`` or rounding. Returns
+    the last point of each bracket and its value."""
+    for _ in range(steps):
+        i = np.nonzero(active)[0]
+        if i.size == 0:
+            break
+        xi = _secant(br.a[i], br.b[i], br.ga[i], br.gb[i])
+        gi = _rowwise(final, xi[:, None], which[i], tests)[:, 0]
+        x[i], gx[i] = xi, gi
+        active[i] = br.step(i, xi, gi, tol)
+    return x, gx
+
+
+def _widen(
+    final: Response,
+    tests: list[Test],
+    which: np.ndarray,
+    a: np.ndarray,
+    b: np.ndarray,
+    ga: np.ndarray,
+    gb: np.ndarray,
+) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+    """Brackets beside ``[a, b]`` (where ``final`` keeps its sign; values ``ga, gb``):
+    ``[a - kw, a]`` or ``[b, b + kw]`` for the smallest k of 1, 4, 16, 64 (w = b - a)
+    with a sign change, left first. Returns the brackets, their end values and whether
+    one was found (none: the fast response's crossing was a rounding artefact)."""
+    w = (b - a)[:, None]
+    k = np.array([1.0, 4.0, 16.0, 64.0])
+    pts = np.concatenate([a[:, None] - k * w, b[:, None] + k * w], axis=1)
+    g = _rowwise(final, pts, which, tests)
+    gl, gr = g[:, :4], g[:, 4:]
+    ok_l = (np.sign(gl) != np.sign(ga)[:, None]) & np.isfinite(gl)
+    ok_r = (np.sign(gr) != np.sign(gb)[:, None]) & np.isfinite(gr)
+    pick = np.argmax(np.stack([ok_l, ok_r], axis=2).reshape(a.size, -1), axis=1)
+    j, right = pick // 2, pick % 2 == 1
+    rows = np.arange(a.size)
+    found = ok_l.any(axis=1) | ok_r.any(axis=1)
+    new_a = np.where(right, b, pts[rows, j])
+    new_b = np.where(right, pts[rows, 4 + j], a)
+    new_ga = np.where(right, gb, gl[rows, j])
+    new_gb = np.where(right, gr[rows, j], ga)
+    return new_a, new_b, new_ga, new_gb, found
+
+
 def _bisect(
-    resp: Response, tests: list[Test], which: np.ndarray, a: np.ndarray, b: np.ndarray,
-    ga: np.ndarray, tol: float,
+    resp: Response,
+    tests: list[Test],
+    which: np.ndarray,
+    a: np.ndarray,
+    b: np.ndarray,
+    ga: np.ndarray,
+    tol: float,
 ) -> tuple[np.ndarray, np.ndarray]:
     """Bisect brackets with a verified sign change down to a few ulps. Returns the midpoint
     and its value, or NaN as value when the bracket reached rounding with ``|g| > tol``

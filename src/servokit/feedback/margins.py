@@ -44,6 +44,7 @@ from typing import Any
 import numpy as np
 
 from servokit.errors import ServokitValueError, check_count, check_finite
+from servokit.feedback.accurate_response import accurate_evaluator
 from servokit.feedback.crossings import MAX_POINTS, MAX_STEP, TINY, adapt_grid, cut_intervals
 from servokit.feedback.crossings import find_crossings as _find
 from servokit.feedback.factor_response import Factor, loop_evaluator, make_factor
@@ -290,9 +291,12 @@ def stability_margins(
     stable = None if bp is None else winding_verdict(f, L, bp, dt is not None)
     band = (f >= lo * (1 - 1e-12)) & (f <= hi * (1 + 1e-12))
     cut = cut_intervals(f, barriers)
-    wc, w180 = _crossings(resp, f, L, band, cut)
+    # the roots and the margins on the accurate response (cancelling partial fractions
+    # replaced; accurate_response): 1e-9 relative near clustered poles too
+    fine = accurate_evaluator(factors, tau, dt)
+    wc, w180, lc, l180 = _crossings(resp, fine, f, L, band, cut)
     mm, mm_f = _modulus_margin(resp, f, L, band, cut)
-    return _assemble(resp, wc, w180, stable, mm, mm_f)
+    return _assemble(wc, w180, lc, l180, stable, mm, mm_f)
 
 
 def _log_mag(L: np.ndarray) -> np.ndarray:
@@ -306,14 +310,22 @@ def _sin_phase(L: np.ndarray) -> np.ndarray:
 
 
 def _crossings(
-    resp: Response, f: np.ndarray, L: np.ndarray, band: np.ndarray, cut: np.ndarray
-) -> tuple[list[float], list[float]]:
+    resp: Response,
+    fine: Response,
+    f: np.ndarray,
+    L: np.ndarray,
+    band: np.ndarray,
+    cut: np.ndarray,
+) -> tuple[list[float], list[float], np.ndarray, np.ndarray]:
+    """Gain and phase crossovers [Hz] and the accurate response at them (one call)."""
     phase_ok = band & (np.abs(L) > TINY) & (L.real < 0)
-    wc, w180 = _find(resp, f, L, [(_log_mag, band), (_sin_phase, phase_ok)], cut)
-    # verify on the exact response: L real and negative at a phase crossover
-    if w180:
-        w180 = [x for x, v in zip(w180, resp(np.array(w180)), strict=True) if v.real < 0]
-    return wc, w180
+    tests = [(_log_mag, band), (_sin_phase, phase_ok)]
+    wc, w180 = _find(resp, f, L, tests, cut, exact=fine)
+    both = fine(np.array([*wc, *w180], dtype=float))
+    lc, l180 = both[: len(wc)], both[len(wc) :]
+    # verify: L real and negative at a phase crossover
+    keep = l180.real < 0
+    return wc, [x for x, k in zip(w180, keep, strict=True) if k], lc, l180[keep]
 
 
 def _modulus_margin(
@@ -340,15 +352,14 @@ def _modulus_margin(
 
 
 def _assemble(
-    resp: Response,
     wc: list[float],
     w180: list[float],
+    lc: np.ndarray,
+    l180: np.ndarray,
     stable: bool | None,
     mm: float,
     mm_f: float,
 ) -> Margins:
-    both = resp(np.array([*wc, *w180], dtype=float))  # one call for every crossing
-    lc, l180 = both[: len(wc)], both[len(wc) :]
     pms = _wrap_deg(180.0 + np.degrees(np.angle(lc)))
     gms = -20.0 * np.log10(np.abs(l180))
     # the delay that first turns crossover k onto -1: phase lost = PM_k mod 360
