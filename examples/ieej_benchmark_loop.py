@@ -23,11 +23,14 @@ from pathlib import Path
 
 import control
 import numpy as np
-from scipy.optimize import brentq, least_squares
+from scipy.optimize import brentq
 
 from servokit.feedback import stability_margins
 from servokit.models import (
     HDD_BENCHMARK_TS,
+    IEEJ_ISSUE_20_NUMBERS,
+    IeejLoopFit,
+    fit_ieej_loop,
     hdd_benchmark,
     ieej_benchmark_loop,
     ieej_benchmark_plant,
@@ -76,48 +79,41 @@ print(
 )
 
 # --- what the issue's numbers ask of the filters ----------------------------------------
-target = np.array([35.17, 4.11, 1626.0, 97.68])  # PM deg, GM dB, f180 Hz, DM us
+pm_target = IEEJ_ISSUE_20_NUMBERS["phase_margin_deg"]
+dm_target = IEEJ_ISSUE_20_NUMBERS["delay_margin_s"]
+f180 = IEEJ_ISSUE_20_NUMBERS["gm_freq_hz"]
 pid = control.tf([72.0, -141.95, 70.0], [1.0, -1.0, 0.0], ts)
 phase = {}
-for f in (1000.0, 1626.0):
+for f in (1000.0, f180):
     z = np.exp(2j * np.pi * f * ts)
     phase[f] = np.degrees(np.angle(complex(pd(z)) * complex(pid(z))))
-need_1k, need_f180 = -180 + target[0] - phase[1000.0], -180 - phase[1626.0]
+need_1k, need_f180 = -180 + pm_target - phase[1000.0], -180 - phase[f180]
 print(
-    f"with 0 dB at 1 kHz (PM/DM = {target[0] / 360 / target[3] * 1e6:.1f} Hz) the filters "
-    f"must lag {-need_1k:.2f} deg at 1 kHz and {-need_f180:.2f} deg at 1626 Hz "
-    f"(ratio {need_f180 / need_1k:.3f}; a lag growing linearly with f gives 1.626)"
+    f"with 0 dB at 1 kHz (PM/DM = {pm_target / 360 / dm_target:.1f} Hz) the filters "
+    f"must lag {-need_1k:.2f} deg at 1 kHz and {-need_f180:.2f} deg at {f180:.0f} Hz "
+    f"(ratio {need_f180 / need_1k:.3f}; a lag growing linearly with f gives {f180 / 1e3:.3f})"
 )
 
 
 # --- fits: the unknown filter data against the issue's numbers --------------------------
+# servokit.models.fit_ieej_loop (least squares on residuals scaled by the quoted digits):
 # (a) notch pole damping 0.5, low-pass damping and crossover fitted to the PM and the delay
-#     margin only; the gain margin and the phase crossover are then predictions.
+#     margin only; the gain margin and the phase crossover are then predictions (on the
+#     benchmark file's plant this is the library's IEEJ_FITTED_* constants).
 # (b) on the book's plant, all three dampings and the crossover fitted to all four numbers.
-scale = np.array([0.01, 0.01, 1.0, 0.01])  # the quoted precision of each number
 
 
-def numbers(p: np.ndarray, model, method: str = "tustin") -> np.ndarray:
-    """PM [deg], GM [dB], phase crossover [Hz], delay margin [us] of one candidate loop:
-    ``p`` = (low-pass damping, crossover Hz) or (notch 4.1 kHz, notch 5/7 kHz, low-pass
-    dampings, crossover Hz)."""
-    zn = (0.5, 0.5, 0.5) if p.size == 2 else (p[0], p[1], p[1])
-    c = ieej_example_controller(
-        notch_pole_damping=zn, lowpass_damping=p[-2], crossover_hz=p[-1], method=method, plant=model
+def show(label: str, fit: IeejLoopFit) -> None:
+    r, got = fit.residuals, fit.numbers
+    values = ", ".join(
+        f"{x:.4g}" for x in (*fit.notch_pole_damping[:2], fit.lowpass_damping, fit.crossover_hz)
     )
-    mm = stability_margins([model.discretize(ts), *c])
-    return np.array(
-        [mm.phase_margin_deg, mm.gain_margin_db, mm.gm_freq_hz, mm.delay_margin_s * 1e6]
-    )
-
-
-def show(label: str, p: np.ndarray, got: np.ndarray) -> None:
-    miss = got - target
-    values = ", ".join(f"{x:.4g}" for x in p)
     print(
-        f"{label}: parameters {values} -> PM {got[0]:.2f} deg, GM {got[1]:.3f} dB at "
-        f"{got[2]:.1f} Hz, DM {got[3]:.2f} us; unexplained {miss[0]:+.2f} deg, "
-        f"{miss[1]:+.3f} dB, {miss[2]:+.1f} Hz, {miss[3]:+.2f} us"
+        f"{label}: notch 4.1k, 5/7k, low-pass dampings, crossover {values} -> "
+        f"PM {got['phase_margin_deg']:.2f} deg, GM {got['gain_margin_db']:.3f} dB at "
+        f"{got['gm_freq_hz']:.1f} Hz, DM {got['delay_margin_s'] * 1e6:.2f} us; unexplained "
+        f"{r['phase_margin_deg']:+.2f} deg, {r['gain_margin_db']:+.3f} dB, "
+        f"{r['gm_freq_hz']:+.1f} Hz, {r['delay_margin_s'] * 1e6:+.2f} us"
     )
 
 
@@ -125,29 +121,22 @@ for label, model in (
     ("book plant (rigid body)", plant),
     ("benchmark file (90 Hz)", ieej_benchmark_plant()),
 ):
-    fit = least_squares(
-        lambda p, model=model: (numbers(p, model)[[0, 3]] - target[[0, 3]]) / scale[[0, 3]],
-        np.array([0.5, 1000.0]),
-        bounds=([0.05, 800.0], [3.0, 1200.0]),
-        diff_step=1e-6,
-    )
-    show(f"(a) fitted on the {label}", fit.x, numbers(fit.x, model))
+    show(f"(a) fitted on the {label}", fit_ieej_loop(plant=model))
 
-starts = [np.array([0.5, 0.5, 0.5, 1000.0])]
+starts = [(0.5, 0.5, 0.5, 1000.0)]
 if not SMALL:
-    starts += [np.array([1.0, 0.3, 0.3, 1000.0]), np.array([0.3, 1.0, 0.8, 1000.0])]
+    starts += [(1.0, 0.3, 0.3, 1000.0), (0.3, 1.0, 0.8, 1000.0)]
 for method in ("tustin",) if SMALL else ("tustin", "matched"):
-    best = None
-    for x0 in starts:
-        fit = least_squares(
-            lambda p, method=method: (numbers(p, plant, method) - target) / scale,
-            x0,
-            bounds=([0.02, 0.02, 0.05, 800.0], [5.0, 5.0, 3.0, 1200.0]),
-            diff_step=1e-4,
-            max_nfev=40 if SMALL else 200,
-        )
-        best = fit if best is None or fit.cost < best.cost else best
-    show(f"(b) fitted on the book plant, {method}", best.x, numbers(best.x, plant, method))
+    best = fit_ieej_loop(
+        plant=plant,
+        fit_to=tuple(IEEJ_ISSUE_20_NUMBERS),
+        fit_notches=True,
+        method=method,
+        starts=starts,
+        max_nfev=40 if SMALL else 200,
+        diff_step=1e-4,
+    )
+    show(f"(b) fitted on the book plant, {method}", best)
 
 loop = ieej_benchmark_loop()
 m = stability_margins(loop)

@@ -297,30 +297,27 @@ def test_issue_20_benchmark_loop_numbers():
 def test_issue_20_loop_fit_predicts_the_other_two_numbers():
     # fit the low-pass damping and the crossover (notch pole damping 0.5) to the PM and the
     # delay margin only: the gain margin and the phase crossover are then predictions
-    from scipy.optimize import least_squares
-
-    from servokit.models import HDD_BENCHMARK_TS, ieej_benchmark_plant, ieej_example_controller
+    from servokit.models import fit_ieej_loop, ieej_benchmark_loop
     from servokit.models.benchmark_controller import (
         IEEJ_FITTED_CROSSOVER_HZ,
         IEEJ_FITTED_LOWPASS_DAMPING,
     )
 
-    plant = ieej_benchmark_plant()
-    pd = plant.discretize(HDD_BENCHMARK_TS)
-
-    def margins(p):
-        c = ieej_example_controller(lowpass_damping=p[0], crossover_hz=p[1], plant=plant)
-        return stability_margins([pd, *c])
-
-    def resid(p):
-        m = margins(p)
-        return [(m.phase_margin_deg - 35.17) / 0.01, (m.delay_margin_s * 1e6 - 97.68) / 0.01]
-
-    fit = least_squares(resid, [0.5, 1000.0], diff_step=1e-6, xtol=1e-12)
-    assert fit.x == pytest.approx([IEEJ_FITTED_LOWPASS_DAMPING, IEEJ_FITTED_CROSSOVER_HZ], rel=1e-3)
-    m = margins(fit.x)
-    assert m.gain_margin_db == pytest.approx(4.11, abs=0.01)
-    assert m.gm_freq_hz == pytest.approx(1626.0, abs=1.0)
+    fit = fit_ieej_loop()
+    assert fit.fitted_to == ("phase_margin_deg", "delay_margin_s")
+    # the library's constants are this fit, rounded to their printed digits
+    assert IEEJ_FITTED_LOWPASS_DAMPING == pytest.approx(fit.lowpass_damping, abs=5e-5)
+    assert IEEJ_FITTED_CROSSOVER_HZ == pytest.approx(fit.crossover_hz, abs=5e-3)
+    assert fit.notch_pole_damping == (0.5, 0.5, 0.5)
+    assert fit.residuals["phase_margin_deg"] == pytest.approx(0.0, abs=1e-6)
+    assert fit.residuals["delay_margin_s"] == pytest.approx(0.0, abs=1e-12)
+    # predictions, within the issue's digits
+    assert fit.numbers["gain_margin_db"] == pytest.approx(4.11, abs=0.01)
+    assert fit.numbers["gm_freq_hz"] == pytest.approx(1626.0, abs=1.0)
+    # and the loop built from the rounded constants gives the issue's four numbers too
+    m = stability_margins(ieej_benchmark_loop())
+    assert m.phase_margin_deg == pytest.approx(35.17, abs=0.005)
+    assert m.delay_margin_s == pytest.approx(97.68e-6, abs=0.005e-6)
 
 
 def test_ieej_controller_options_crossover_and_matched_sections():
