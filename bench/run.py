@@ -33,6 +33,7 @@ import sys  # noqa: E402
 from pathlib import Path  # noqa: E402
 
 sys.path.insert(0, str(Path(__file__).parent))
+sys.path.insert(1, str(Path(__file__).parent.parent / "tests"))  # the mpmath references
 
 import admissible  # noqa: E402
 import demo  # noqa: E402
@@ -63,6 +64,7 @@ TARGETS = {
     "demo.total_cpu_s": ("<", 8.0),
     "demo.max_relative_difference": ("<=", 1e-12),
     "margins.speedup_vs_python_control": (">=", 1.0),
+    "margins_accuracy.worst_relative_error": ("<=", 1e-9),
     "admissible.speedup": (">=", 3.0),
 }
 
@@ -97,6 +99,7 @@ def main() -> None:
         "dask": lambda: sweep.dask_scaling(20_000 if q else 100_000, 1 if q else 3),
         "demo": lambda: demo.demo(1 if q else 2),
         "margins": lambda: margins.margins(7 if q else 25),
+        "margins_accuracy": margins.accuracy,
         "admissible": admissible.admissible,
     }
     wanted = args.only or list(sections)

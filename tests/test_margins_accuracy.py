@@ -13,6 +13,7 @@ import control
 import mpmath
 import numpy as np
 import pytest
+from _mp_reference import all_pole_reference, mp_loop, mp_root
 from hypothesis import HealthCheck, example, given, settings
 from hypothesis import strategies as st
 
@@ -30,88 +31,29 @@ REL = 1e-9  # the accuracy asked of every crossing and margin
 _SETTINGS = {"deadline": None, "suppress_health_check": [HealthCheck.too_slow]}
 
 
-def _mp_poly(c: np.ndarray, x: mpmath.mpc) -> mpmath.mpc:
-    return mpmath.polyval([mpmath.mpf(float(v)) for v in c], x)
-
-
-def _mp_loop(systems: list, f: mpmath.mpf) -> mpmath.mpc:
-    """The loop at ``f`` [Hz] in mpmath from each system's own (double) data."""
-    out = mpmath.mpc(1)
-    for sys in systems:
-        dt = sys.dt if sys.dt not in (None, 0, False, True) else None
-        x = mpmath.exp(2j * mpmath.pi * f * dt) if dt else 2j * mpmath.pi * f
-        if isinstance(sys, control.TransferFunction):
-            out *= _mp_poly(sys.num[0][0], x) / _mp_poly(sys.den[0][0], x)
-        else:
-            a, b, c = (mpmath.matrix(np.asarray(m, float).tolist()) for m in (sys.A, sys.B, sys.C))
-            y = mpmath.lu_solve(x * mpmath.eye(a.rows) - a, b)
-            out *= (c * y)[0] + float(np.asarray(sys.D).ravel()[0])
-    return out
-
-
-def _mp_root(systems: list, f0: float, kind: str) -> float:
-    """The true crossing nearest ``f0`` (secant at 40 digits on ``log|L|`` or ``Im L/|L|``)."""
-    with mpmath.workdps(40):
-
-        def h(f: mpmath.mpf) -> mpmath.mpf:
-            v = _mp_loop(systems, f)
-            return mpmath.log(abs(v)) if kind == "gain" else v.imag / abs(v)
-
-        return float(mpmath.findroot(h, (mpmath.mpf(f0), mpmath.mpf(f0) * (1 + 1e-7))))
-
-
-def _all_pole_reference(den: np.ndarray, k: float) -> tuple[list[float], list[float], list[float]]:
-    """Phase crossovers [Hz], their gain margins (linear) and gain crossovers [Hz] of
-    ``k / den(s)`` from polynomial roots in ω² at 50 digits."""
-    with mpmath.workdps(50):
-        n = den.size - 1
-        c = [mpmath.mpf(float(v)) for v in den]  # den(s) = Σ c[i] s^(n-i)
-        re = [mpmath.mpf(0)] * (n + 1)  # Re den(jω) and Im den(jω)/ω as polynomials in ω
-        im = [mpmath.mpf(0)] * (n + 1)
-        for i, ci in enumerate(c):
-            p = n - i  # (jω)^p = j^p ω^p
-            (re if p % 2 == 0 else im)[p] += ci * (1 if p % 4 in (0, 1) else -1)
-        # Im den(jω) = ω q(ω²), q from the odd coefficients
-        q = [im[p] for p in range(n if n % 2 else n - 1, 0, -2)]
-        # a phase crossover needs L = k/den real and negative: Re den(jω) < 0
-        w180 = [w for w in _positive_roots_in_w2(q) if mpmath.re(mpmath.polyval(c, 1j * w)) < 0]
-        gms = [abs(mpmath.polyval(c, 1j * w)) / k for w in w180]
-        # |den(jω)|² - k² as a polynomial in ω² (even by construction)
-        mag = [mpmath.mpf(0)] * (2 * n + 1)
-        for a in range(n + 1):
-            for b in range(n + 1):
-                mag[a + b] += re[a] * re[b] + im[a] * im[b]
-        mag[0] -= k * k
-        wc = _positive_roots_in_w2([mag[p] for p in range(2 * n, -1, -2)])
-        hz = [float(w / (2 * mpmath.pi)) for w in w180]
-        return hz, [float(g) for g in gms], [float(w / (2 * mpmath.pi)) for w in wc]
-
-
-def _positive_roots_in_w2(coeffs: list) -> list:
-    """Positive ω with ``Σ coeffs[i] (ω²)^(m-i) = 0`` (real positive roots in ω²)."""
-    while coeffs and coeffs[0] == 0:
-        coeffs = coeffs[1:]
-    if len(coeffs) < 2:
-        return []
-    roots = mpmath.polyroots(coeffs, maxsteps=400, extraprec=400)
-    scale = max(abs(r) for r in roots)
-    real = [mpmath.re(r) for r in roots if abs(mpmath.im(r)) <= 1e-30 * scale]
-    return sorted(mpmath.sqrt(r) for r in real if r > 0)
-
-
 def _sorted_close(ours, ref, rel=REL) -> None:
     assert len(ours) == len(ref), (ours, ref)
     assert np.array(sorted(ours)) == pytest.approx(sorted(ref), rel=rel)
 
 
+CLUSTERS = {
+    "p0": st.floats(-3.0, 5.0),  # log10 of the cluster's pole [rad/s]
+    "gaps": st.lists(st.floats(-6.0, -3.0), min_size=1, max_size=3),  # log10 rel. spacing
+    "others": st.lists(st.floats(-1.0, 1.0), max_size=2),  # log10 of other poles / p0
+    "k": st.floats(0.2, 5.0),  # |L| at half the cluster's frequency
+    "form": st.sampled_from(["tf", "ss"]),
+}
+LIGHTLY_DAMPED = {
+    "zeta": st.floats(-6.0, -1.0),
+    "scale": st.floats(-3.0, 3.0),
+    "rigid": st.booleans(),
+    "gain": st.floats(0.3, 3.0),
+    "form": st.sampled_from(["tf", "ss"]),
+}
+
+
 @settings(max_examples=25, **_SETTINGS)
-@given(
-    p0=st.floats(-3.0, 5.0),  # log10 of the cluster's pole [rad/s]
-    gaps=st.lists(st.floats(-6.0, -3.0), min_size=1, max_size=3),  # log10 relative spacing
-    others=st.lists(st.floats(-1.0, 1.0), max_size=2),  # log10 of other poles / p0
-    k=st.floats(0.2, 5.0),  # loop gain / the first gain crossover's
-    form=st.sampled_from(["tf", "ss"]),
-)
+@given(**CLUSTERS)
 @example(
     p0=np.log10(12.0),
     gaps=[np.log10(0.5 / 12), np.log10(0.046875 / 12.5)],
@@ -120,6 +62,17 @@ def _sorted_close(ours, ref, rel=REL) -> None:
     form="tf",
 )  # the nearly triple pole that gave 1.5e-6 (the root-locus test)
 def test_clustered_poles_all_crossings_to_1e_9(p0, gaps, others, k, form):
+    _check_cluster(p0, gaps, others, k, form)
+
+
+@pytest.mark.slow
+@settings(max_examples=300, **_SETTINGS)
+@given(**CLUSTERS)
+def test_many_clusters(p0, gaps, others, k, form):
+    _check_cluster(p0, gaps, others, k, form)
+
+
+def _check_cluster(p0, gaps, others, k, form) -> None:
     base = 10.0**p0
     poles = [base]
     for g in gaps:
@@ -129,7 +82,7 @@ def test_clustered_poles_all_crossings_to_1e_9(p0, gaps, others, k, form):
     k0 = k * abs(np.polyval(den, 1j * 0.5 * base))  # |L| = k at half the cluster frequency
     g = control.tf([k0], den)
     m = stability_margins(g if form == "tf" else control.ss(g))
-    w180, gms, wc = _all_pole_reference(den, k0)
+    w180, gms, wc = all_pole_reference(den, k0)
     _sorted_close(m.phase_crossovers_hz, w180)
     _sorted_close(10 ** (np.asarray(m.gain_margins_db) / 20), gms)
     _sorted_close(m.gain_crossovers_hz, wc)
@@ -152,24 +105,29 @@ def _lightly_damped_loop(zeta: float, scale: float, rigid: bool, gain: float, fo
 
 
 @settings(max_examples=20, **_SETTINGS)
-@given(
-    zeta=st.floats(-6.0, -1.0),
-    scale=st.floats(-3.0, 3.0),
-    rigid=st.booleans(),
-    gain=st.floats(0.3, 3.0),
-    form=st.sampled_from(["tf", "ss"]),
-)
+@given(**LIGHTLY_DAMPED)
 def test_lightly_damped_rigid_unstable_loops_against_mpmath(zeta, scale, rigid, gain, form):
+    _check_lightly_damped(zeta, scale, rigid, gain, form)
+
+
+@pytest.mark.slow
+@settings(max_examples=300, **_SETTINGS)
+@given(**LIGHTLY_DAMPED)
+def test_many_lightly_damped_loops(zeta, scale, rigid, gain, form):
+    _check_lightly_damped(zeta, scale, rigid, gain, form)
+
+
+def _check_lightly_damped(zeta, scale, rigid, gain, form) -> None:
     systems = _lightly_damped_loop(10.0**zeta, 10.0**scale, rigid, gain, form)
     m = stability_margins(systems)
     assert m.gain_crossovers_hz and m.phase_crossovers_hz
     for f in m.gain_crossovers_hz:
-        assert f == pytest.approx(_mp_root(systems, f, "gain"), rel=REL)
+        assert f == pytest.approx(mp_root(systems, f, "gain"), rel=REL)
     for f in m.phase_crossovers_hz:
-        assert f == pytest.approx(_mp_root(systems, f, "phase"), rel=REL)
+        assert f == pytest.approx(mp_root(systems, f, "phase"), rel=REL)
     with mpmath.workdps(40):
-        ref = [complex(_mp_loop(systems, mpmath.mpf(f))) for f in m.gain_crossovers_hz]
-        l180 = [complex(_mp_loop(systems, mpmath.mpf(f))) for f in m.phase_crossovers_hz]
+        ref = [complex(mp_loop(systems, mpmath.mpf(f))) for f in m.gain_crossovers_hz]
+        l180 = [complex(mp_loop(systems, mpmath.mpf(f))) for f in m.phase_crossovers_hz]
     pm = 180 + np.degrees(np.angle(ref))
     pm = 180.0 - np.mod(180.0 - pm, 360.0)
     assert np.array(m.phase_margins_deg) == pytest.approx(pm, abs=REL * 180)
@@ -185,9 +143,9 @@ def test_discrete_cluster_against_mpmath():
     m = stability_margins(gd)
     assert m.phase_crossovers_hz
     for f in m.phase_crossovers_hz:
-        assert f == pytest.approx(_mp_root([gd], f, "phase"), rel=REL)
+        assert f == pytest.approx(mp_root([gd], f, "phase"), rel=REL)
     for f in m.gain_crossovers_hz:
-        assert f == pytest.approx(_mp_root([gd], f, "gain"), rel=REL)
+        assert f == pytest.approx(mp_root([gd], f, "gain"), rel=REL)
 
 
 def test_cancelling_partial_fractions_are_not_used():
@@ -197,7 +155,7 @@ def test_cancelling_partial_fractions_are_not_used():
     num, den = g.num[0][0], g.den[0][0]
     f = np.array([3.403826930223387])
     with mpmath.workdps(40):
-        ref = complex(_mp_loop([g], mpmath.mpf(float(f[0]))))
+        ref = complex(mp_loop([g], mpmath.mpf(float(f[0]))))
     pf = _tf_partial_fractions(num, den, _poly_roots(den))
     fractions = _partial_fractions(*pf, lambda x: 2j * np.pi * x)(f)[0]
     assert abs(fractions - ref) > 1e-7 * abs(ref)
@@ -218,7 +176,7 @@ def test_accurate_evaluator_at_the_crossings_of_the_dual_stage_loop():
     fine = accurate_evaluator(factors, 0.0, dt)
     f = np.array([*m.gain_crossovers_hz, *m.phase_crossovers_hz])
     with mpmath.workdps(40):
-        ref = np.array([complex(_mp_loop(systems, mpmath.mpf(x))) for x in f])
+        ref = np.array([complex(mp_loop(systems, mpmath.mpf(x))) for x in f])
     assert np.abs(fine(f) - ref) == pytest.approx(0.0, abs=1e-13 * np.abs(ref).max())
     l180 = ref[len(m.gain_crossovers_hz) :]
     assert np.abs(np.angle(-l180)) == pytest.approx(0.0, abs=1e-12)

@@ -1,0 +1,82 @@
+"""Independent references for the margins core in mpmath (tests and bench/margins.py).
+
+Crossings as roots of polynomials in ω² at 50 digits (an all-pole loop ``K / den(s)``:
+``Im den(jω) = 0`` and ``|den(jω)|² = K²``, the generalised Routh-Hurwitz condition), or
+mpmath's secant root of the loop evaluated at 40 digits from the system's own (double)
+coefficients or matrices.
+"""
+
+from __future__ import annotations
+
+import control
+import mpmath
+import numpy as np
+
+
+def mp_poly(c: np.ndarray, x: mpmath.mpc) -> mpmath.mpc:
+    return mpmath.polyval([mpmath.mpf(float(v)) for v in c], x)
+
+
+def mp_loop(systems: list, f: mpmath.mpf) -> mpmath.mpc:
+    """The loop at ``f`` [Hz] in mpmath from each system's own (double) data."""
+    out = mpmath.mpc(1)
+    for sys in systems:
+        dt = sys.dt if sys.dt not in (None, 0, False, True) else None
+        x = mpmath.exp(2j * mpmath.pi * f * dt) if dt else 2j * mpmath.pi * f
+        if isinstance(sys, control.TransferFunction):
+            out *= mp_poly(sys.num[0][0], x) / mp_poly(sys.den[0][0], x)
+        else:
+            a, b, c = (mpmath.matrix(np.asarray(m, float).tolist()) for m in (sys.A, sys.B, sys.C))
+            y = mpmath.lu_solve(x * mpmath.eye(a.rows) - a, b)
+            out *= (c * y)[0] + float(np.asarray(sys.D).ravel()[0])
+    return out
+
+
+def mp_root(systems: list, f0: float, kind: str) -> float:
+    """The true crossing nearest ``f0`` (secant at 40 digits on ``log|L|`` or ``Im L/|L|``)."""
+    with mpmath.workdps(40):
+
+        def h(f: mpmath.mpf) -> mpmath.mpf:
+            v = mp_loop(systems, f)
+            return mpmath.log(abs(v)) if kind == "gain" else v.imag / abs(v)
+
+        return float(mpmath.findroot(h, (mpmath.mpf(f0), mpmath.mpf(f0) * (1 + 1e-7))))
+
+
+def all_pole_reference(den: np.ndarray, k: float) -> tuple[list[float], list[float], list[float]]:
+    """Phase crossovers [Hz], their gain margins (linear) and gain crossovers [Hz] of
+    ``k / den(s)`` from polynomial roots in ω² at 50 digits."""
+    with mpmath.workdps(50):
+        n = den.size - 1
+        c = [mpmath.mpf(float(v)) for v in den]  # den(s) = Σ c[i] s^(n-i)
+        re = [mpmath.mpf(0)] * (n + 1)  # Re den(jω) and Im den(jω)/ω as polynomials in ω
+        im = [mpmath.mpf(0)] * (n + 1)
+        for i, ci in enumerate(c):
+            p = n - i  # (jω)^p = j^p ω^p
+            (re if p % 2 == 0 else im)[p] += ci * (1 if p % 4 in (0, 1) else -1)
+        # Im den(jω) = ω q(ω²), q from the odd coefficients
+        q = [im[p] for p in range(n if n % 2 else n - 1, 0, -2)]
+        # a phase crossover needs L = k/den real and negative: Re den(jω) < 0
+        w180 = [w for w in positive_roots_in_w2(q) if mpmath.re(mpmath.polyval(c, 1j * w)) < 0]
+        gms = [abs(mpmath.polyval(c, 1j * w)) / k for w in w180]
+        # |den(jω)|² - k² as a polynomial in ω² (even by construction)
+        mag = [mpmath.mpf(0)] * (2 * n + 1)
+        for a in range(n + 1):
+            for b in range(n + 1):
+                mag[a + b] += re[a] * re[b] + im[a] * im[b]
+        mag[0] -= k * k
+        wc = positive_roots_in_w2([mag[p] for p in range(2 * n, -1, -2)])
+        hz = [float(w / (2 * mpmath.pi)) for w in w180]
+        return hz, [float(g) for g in gms], [float(w / (2 * mpmath.pi)) for w in wc]
+
+
+def positive_roots_in_w2(coeffs: list) -> list:
+    """Positive ω with ``Σ coeffs[i] (ω²)^(m-i) = 0`` (real positive roots in ω²)."""
+    while coeffs and coeffs[0] == 0:
+        coeffs = coeffs[1:]
+    if len(coeffs) < 2:
+        return []
+    roots = mpmath.polyroots(coeffs, maxsteps=400, extraprec=400)
+    scale = max(abs(r) for r in roots)
+    real = [mpmath.re(r) for r in roots if abs(mpmath.im(r)) <= 1e-30 * scale]
+    return sorted(mpmath.sqrt(r) for r in real if r > 0)
