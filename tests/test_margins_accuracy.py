@@ -120,7 +120,7 @@ def test_many_lightly_damped_loops(zeta, scale, rigid, gain, form):
 def _check_lightly_damped(zeta, scale, rigid, gain, form) -> None:
     systems = _lightly_damped_loop(10.0**zeta, 10.0**scale, rigid, gain, form)
     m = stability_margins(systems)
-    assert m.gain_crossovers_hz and m.phase_crossovers_hz
+    assert m.phase_crossovers_hz  # (a low gain with the unstable pole has no crossover)
     for f in m.gain_crossovers_hz:
         assert f == pytest.approx(mp_root(systems, f, "gain"), rel=REL)
     for f in m.phase_crossovers_hz:

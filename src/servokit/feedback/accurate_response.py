@@ -77,8 +77,8 @@ def accurate_evaluator(
                 better = ~(amp >= size[k, bad[k]] / np.abs(vals[k, bad[k]]))
                 vals[k, np.nonzero(bad[k])[0][better]] = v[better]
         out = out * np.prod(vals, axis=0)
-        for fa in others:
-            out = out * fa.response(flat)
+        for fa in others:  # no fractions: the exact form (long-double Horner, LU) if any
+            out = out * (fa.response(flat) if fa.exact is None else fa.exact(flat)[0])
         return out.reshape(f.shape)
 
     return resp

@@ -35,6 +35,9 @@ Response = Callable[[np.ndarray], np.ndarray]
 MAX_STEP = 0.35
 #: |L| below which nothing is resolved or reported (a gain margin above 160 dB).
 TINY = 1e-8
+#: ``|h|`` at which a root whose refinement stalled (at the response's own rounding) is
+#: accepted without bisection: 1e-9 relative in ``|L|``, 1e-9 rad of phase.
+ACCEPT = 1e-9
 #: Cap on grid points (a pathological black box must not hang the search).
 MAX_POINTS = 2_000_000
 
@@ -279,7 +282,7 @@ def find_crossings(
         )
         x, gx = _finish(exact or resp, tests, w_arr, lo_arr, hi_arr, g0, g1, tol, exact is not None)
         for r, e, i in zip(x, gx, w_arr, strict=True):
-            if abs(e) <= tol or np.isnan(e):
+            if abs(e) <= max(tol, ACCEPT) or np.isnan(e):
                 roots[i].append(float(r))
     return [sorted(set(r)) for r in roots]
 
@@ -320,8 +323,10 @@ def _finish(
             )
             x[j], active[j] = _secant(br.a[j], br.b[j], br.ga[j], br.gb[j]), found[j]
     x, gx = _illinois(final, tests, which, br, x, gx, active, tol)
-    hard = ~(np.abs(gx) <= tol) & found
-    if hard.any():  # a very sharp crossing (zeta ~ 1e-6): bisect to rounding
+    # Illinois stalls at the response's own noise (accepted below 1e-9); above it is a
+    # very sharp crossing (zeta ~ 1e-6): bisect to tol or rounding
+    hard = ~(np.abs(gx) <= max(tol, ACCEPT)) & found
+    if hard.any():
         i = np.nonzero(hard)[0]
         x[i], gx[i] = _bisect(final, tests, which[i], br.a[i], br.b[i], br.ga[i], tol)
     gx[~found] = np.inf

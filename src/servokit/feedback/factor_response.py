@@ -70,6 +70,10 @@ class Factor:
     exact: Callable[[np.ndarray], tuple[np.ndarray, np.ndarray]] | None = field(
         default=None, repr=False
     )
+    #: First-order error of each pole in ``pf`` (a TF's roots: their condition times the
+    #: rounding): near a pole the fractions are off by ``|r_i| δλ_i / |x − λ_i|²`` even
+    #: without cancelling (a discrete integrator at 0.7 Hz with dt = 1 ms: 1e-10).
+    pole_error: np.ndarray | None = field(default=None, repr=False)
 
 
 def _timebase(sys: Any) -> float | None:
@@ -106,6 +110,7 @@ def _tf_factor(sys: Any, dt: float | None) -> Factor:
     pf = _tf_partial_fractions(num, den, poles)
     if pf is not None and _faithful(pf, x_of, exact, dt):
         fa.pf = pf
+        fa.pole_error = _root_errors(den, pf[0])
     return fa
 
 
@@ -132,6 +137,15 @@ def _poly_roots(p: np.ndarray) -> np.ndarray:
     else:
         rest = np.roots(p[: k + 1]).astype(complex)
     return np.concatenate([rest, origin])
+
+
+def _root_errors(p: np.ndarray, roots: np.ndarray) -> np.ndarray:
+    """``ε Σ|p_j||λ|^j / |p'(λ)|``: the error of computed roots of a polynomial (their
+    condition number for a componentwise backward error ε)."""
+    with np.errstate(all="ignore"):
+        size = np.polyval(np.abs(p), np.abs(roots))
+        err = np.finfo(float).eps * size / np.abs(np.polyval(np.polyder(p), roots))
+    return np.where(np.isfinite(err), err, 0.0)
 
 
 #: Largest relative difference between a reduced form and the exact one at the probes.
@@ -288,7 +302,7 @@ def _ss_factor(sys: Any, dt: float | None) -> Factor:
 
     T, Z = scipy.linalg.schur(A.astype(complex), output="complex")
     resp = _triangular(T, Z.conj().T @ B[:, 0], C[0] @ Z, d, x_of)
-    return Factor(resp, dt, np.diag(T).copy(), dt is None, sys, zeros=zeros)
+    return Factor(resp, dt, np.diag(T).copy(), dt is None, sys, zeros=zeros, exact=exact)
 
 
 Exact = Callable[[np.ndarray], tuple[np.ndarray, np.ndarray]]
@@ -520,8 +534,9 @@ def merged_sums(merged: list[Factor]) -> Sums:
     -------
     callable
         ``(x, with_size) -> (values, sizes)``, both ``(len(merged), x.size)``: each
-        factor's ``d + Σ r_i/(x − λ_i)`` (plus its ``near`` part) and, if asked, the sum
-        of the magnitudes of those terms (None otherwise).
+        factor's ``d + Σ r_i/(x − λ_i)`` (plus its ``near`` part) and, if asked, a bound
+        of its error in units of the rounding, ``Σ |r_i/(x − λ_i)| (1 + δλ_i / (ε |x −
+        λ_i|)) + |d|`` (``δλ_i`` the factor's ``pole_error``; None otherwise).
     """
     if not merged:
         return lambda x, with_size: (np.ones((0, x.size), dtype=complex), None)
@@ -533,6 +548,11 @@ def merged_sums(merged: list[Factor]) -> Sums:
     starts = np.minimum(np.r_[0, np.cumsum(sizes)[:-1]], max(lam.size - 1, 0))
     empty = sizes == 0
     nears = [(k, fa.near) for k, fa in enumerate(merged) if fa.near is not None]
+    eps = np.finfo(float).eps
+    # pole errors in units of the rounding (0 where unknown)
+    weight = np.concatenate(
+        [np.zeros(fa.pf[0].size) if fa.pole_error is None else fa.pole_error / eps for fa in merged]
+    )
 
     def per_factor(terms: np.ndarray, n: int) -> np.ndarray:
         if not lam.size:
@@ -544,9 +564,14 @@ def merged_sums(merged: list[Factor]) -> Sums:
     def sums(x: np.ndarray, with_size: bool) -> tuple[np.ndarray, np.ndarray | None]:
         with np.errstate(all="ignore"):  # a pole on the grid gives inf
             # poles along the first axis: the per-factor sums reduce contiguous rows
-            terms = res[:, None] / (x[None, :] - lam[:, None])
+            diff = x[None, :] - lam[:, None]
+            terms = res[:, None] / diff
             vals = per_factor(terms, x.size) + d[:, None]
-            size = per_factor(np.abs(terms), x.size) + np.abs(d)[:, None] if with_size else None
+            size = None
+            if with_size:  # the error bound in units of the rounding: cancelling terms and
+                # the poles' own errors, |r| δλ / |x - λ|^2
+                mag = np.abs(terms) * (1.0 + weight[:, None] / np.abs(diff))
+                size = per_factor(mag, x.size) + np.abs(d)[:, None]
             for k, near in nears:
                 part = near(x)
                 vals[k] += part
