@@ -26,7 +26,7 @@ def test_third_order_critical_gain_is_the_routh_hurwitz_value(a, b, c):
     g = control.tf([1.0], np.poly([-a, -b, -c]))
     _, k = branch_gain_margins(g)
     routh = (a + b + c) * (a * b + b * c + c * a) - a * b * c
-    # crossings are refined to 1e-13 of phase on the accurate response (a cluster's
+    # crossings are refined to 1e-12 of phase on the accurate response (a cluster's
     # cancelling partial fractions made this 1.5e-6; tests/test_margins_accuracy.py)
     assert np.min(k) == pytest.approx(routh, rel=1e-9)
 

@@ -14,8 +14,8 @@
    one vectorised call of the fast response per pass) to a relative width of 1e-5, then
    finished on the accurate response (:mod:`~servokit.feedback.accurate_response`; its
    sign change re-checked at the bracket ends and, if the fast response's rounding moved
-   it, looked for beside the bracket) by Illinois steps to ``|h| <= 1e-13`` (``h`` the
-   log-magnitude or the sine of the phase: 1e-13 relative in ``|L|``, 1e-13 rad), with
+   it, looked for beside the bracket) by Illinois steps to ``|h| <= 1e-12`` (``h`` the
+   log-magnitude or the sine of the phase: 1e-12 relative in ``|L|``, 1e-12 rad), with
    bisection to rounding where they stall (a very sharp crossing). Hidden pairs are
    located the same way (257-point zooming, vectorised over all candidates).
 """
@@ -215,7 +215,7 @@ def find_crossings(
     L: np.ndarray,
     tests: list[Test],
     cut: np.ndarray | None = None,
-    tol: float = 1e-13,
+    tol: float = 1e-12,
     exact: Response | None = None,
 ) -> list[list[float]]:
     """Roots of ``h(L(f))`` for each test ``(h, ok)``, bracketed on the grid and verified.

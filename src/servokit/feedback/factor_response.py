@@ -553,6 +553,7 @@ def merged_sums(merged: list[Factor]) -> Sums:
     weight = np.concatenate(
         [np.zeros(fa.pf[0].size) if fa.pole_error is None else fa.pole_error / eps for fa in merged]
     )
+    weighted = bool(np.any(weight > 0))
 
     def per_factor(terms: np.ndarray, n: int) -> np.ndarray:
         if not lam.size:
@@ -570,7 +571,9 @@ def merged_sums(merged: list[Factor]) -> Sums:
             size = None
             if with_size:  # the error bound in units of the rounding: cancelling terms and
                 # the poles' own errors, |r| δλ / |x - λ|^2
-                mag = np.abs(terms) * (1.0 + weight[:, None] / np.abs(diff))
+                mag = np.abs(terms)
+                if weighted:
+                    mag = mag * (1.0 + weight[:, None] / np.abs(diff))
                 size = per_factor(mag, x.size) + np.abs(d)[:, None]
             for k, near in nears:
                 part = near(x)
