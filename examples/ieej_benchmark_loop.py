@@ -105,9 +105,8 @@ print(
 
 def show(label: str, fit: IeejLoopFit) -> None:
     r, got = fit.residuals, fit.numbers
-    values = ", ".join(
-        f"{x:.4g}" for x in (*fit.notch_pole_damping[:2], fit.lowpass_damping, fit.crossover_hz)
-    )
+    values = ", ".join(f"{x:.4g}" for x in (*fit.notch_pole_damping[:2], fit.lowpass_damping))
+    values += f", {fit.crossover_hz:.2f} Hz"
     print(
         f"{label}: notch 4.1k, 5/7k, low-pass dampings, crossover {values} -> "
         f"PM {got['phase_margin_deg']:.2f} deg, GM {got['gain_margin_db']:.3f} dB at "
