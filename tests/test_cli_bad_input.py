@@ -704,6 +704,9 @@ CASES: list[tuple[list[str], str]] = [
     (["srs", "--input", "polynomial", "--dt", "25e-6", "--duration", "1e-3"], "--duration"),
     (["srs", "--input", "half-sine", "--target", "2"], "--target"),
     (["srs", "--input", "u.txt", "--dt", "25e-6", "--n-samples", "30"], "--n-samples"),
+    # a quotient that underflows is refused, not printed as 0
+    (["limits", "dynamic-range", "--stroke-m", "1e300", "--accuracy-m", "1e-300"],
+     "--accuracy-m / --stroke-m"),
     # a file's own column names are quoted as written, never rewritten to a flag
     (["fit", "NOFREQ.csv", "--out", "o"], "'freq_hz'"),
     (["export", "table", "--input", "u.txt", "--out", "u.txt"], "--out"),
