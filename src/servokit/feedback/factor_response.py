@@ -30,6 +30,7 @@ from typing import Any
 import numpy as np
 
 from servokit.errors import ServokitTypeError, ServokitValueError
+from servokit.feedback.exact_forms import dense_exact, faithful, horner_exact, root_errors
 
 __all__ = ["Factor", "clear_factor_cache", "loop_evaluator", "make_factor"]
 
@@ -105,12 +106,12 @@ def _tf_factor(sys: Any, dt: float | None) -> Factor:
 
     zeros = _poly_roots(num) if num.size > 1 else np.zeros(0, complex)
     poles = _poly_roots(den)
-    exact = _horner_exact(num, den, x_of)
+    exact = horner_exact(num, den, x_of)
     fa = Factor(resp, dt, poles, dt is None, sys, zeros=zeros, exact=exact)
     pf = _tf_partial_fractions(num, den, poles)
-    if pf is not None and _faithful(pf, x_of, exact, dt):
+    if pf is not None and faithful(pf, x_of, exact, dt):
         fa.pf = pf
-        fa.pole_error = _root_errors(den, pf[0])
+        fa.pole_error = root_errors(den, pf[0])
     return fa
 
 
@@ -137,53 +138,6 @@ def _poly_roots(p: np.ndarray) -> np.ndarray:
     else:
         rest = np.roots(p[: k + 1]).astype(complex)
     return np.concatenate([rest, origin])
-
-
-def _root_errors(p: np.ndarray, roots: np.ndarray) -> np.ndarray:
-    """``ε Σ|p_j||λ|^j / |p'(λ)|``: the error of computed roots of a polynomial (their
-    condition number for a componentwise backward error ε)."""
-    with np.errstate(all="ignore"):
-        size = np.polyval(np.abs(p), np.abs(roots))
-        err = np.finfo(float).eps * size / np.abs(np.polyval(np.polyder(p), roots))
-    return np.where(np.isfinite(err), err, 0.0)
-
-
-#: Largest relative difference between a reduced form and the exact one at the probes.
-_FAITHFUL = 1e-10
-
-
-def _faithful(
-    pf: tuple[np.ndarray, np.ndarray, complex],
-    x_of: Callable[[np.ndarray], np.ndarray],
-    exact: Exact,
-    dt: float | None,
-) -> bool:
-    """Whether partial fractions ``pf`` agree with the factor's exact form to
-    :data:`_FAITHFUL` at half, once and twice every pole's frequency (where a loop turns).
-
-    Nearly repeated poles make the residues large and the fractions cancel: for
-    ``(s+1)^3 (s+1.001)`` the computed poles are split by 1e-4 and the fractions are
-    wrong in the first digit at ``s = j``, so no crossing there would be found; a
-    cluster of three poles 4e-3 apart is 7.6e-7 relative off. Such a factor keeps its
-    exact form on the whole grid. The exact form is evaluated only where the fractions
-    cancel by more than a factor 100 (cheap for the usual well separated poles)."""
-    lam, r, d = pf
-    with np.errstate(all="ignore"):
-        s = np.log(lam[lam != 0]) / dt if dt is not None else lam
-        f0 = np.abs(s[np.isfinite(s)]) / (2 * np.pi)
-        f = np.concatenate([0.5 * f0, f0, 2 * f0])
-        f = f[f > 0] if dt is None else f[(f > 0) & (f < 0.5 / dt * (1 - 1e-9))]
-        terms = r / (x_of(f)[:, None] - lam)
-        fast = terms.sum(axis=1) + d
-        kappa = (np.abs(terms).sum(axis=1) + abs(d)) / np.abs(fast)
-    check = ~(kappa <= 100.0)
-    if not check.any():
-        return True
-    ref, amp = exact(f[check])
-    with np.errstate(all="ignore"):
-        err = np.abs(fast[check] - ref) / np.abs(ref)
-    trusted = np.isfinite(err) & (amp * np.finfo(float).eps < 0.1 * _FAITHFUL)
-    return bool(np.all(err[trusted] <= _FAITHFUL))
 
 
 def _tf_partial_fractions(
@@ -265,11 +219,11 @@ def _ss_factor(sys: Any, dt: float | None) -> Factor:
     if A.shape[0] == 0:
         return Factor(lambda f: np.full(np.shape(f), d), dt, np.zeros(0, complex), dt is None)
     zeros = _zeros(sys)
-    exact = _dense_exact(A, B, C, d, x_of)
+    exact = dense_exact(A, B, C, d, x_of)
     A, B, C = _balanced(A, B, C)
     eig = np.linalg.eig(A)
     diag = _diagonal(A, B, C, eig) if _repeated(eig[0]).size == 0 else None
-    if diag is not None and not _faithful((*diag, d), x_of, exact, dt):
+    if diag is not None and not faithful((*diag, d), x_of, exact, dt):
         diag = None  # nearly repeated eigenvalues: their fractions cancel
     if diag is not None:
         lam, r = diag
@@ -303,69 +257,6 @@ def _ss_factor(sys: Any, dt: float | None) -> Factor:
     T, Z = scipy.linalg.schur(A.astype(complex), output="complex")
     resp = _triangular(T, Z.conj().T @ B[:, 0], C[0] @ Z, d, x_of)
     return Factor(resp, dt, np.diag(T).copy(), dt is None, sys, zeros=zeros, exact=exact)
-
-
-Exact = Callable[[np.ndarray], tuple[np.ndarray, np.ndarray]]
-
-#: Unit roundoff of the extended precision of the Horner evaluation relative to double
-#: (2^-11 on x86-64's 80-bit long double, 1 where long double is double).
-_LD_GAIN = float(np.finfo(np.longdouble).eps / np.finfo(float).eps)
-
-
-def _horner_exact(
-    num: np.ndarray, den: np.ndarray, x_of: Callable[[np.ndarray], np.ndarray]
-) -> Exact:
-    """Horner on the TF's coefficients in long double, with the error amplification
-    ``(deg + 1)(Σ|a_i||x|^i / |a(x)| + Σ|b_i||x|^i / |b(x)|)`` (in units of double
-    rounding): the classic running bound of Horner's rule."""
-    cn, cd = (c.astype(np.longdouble) for c in (num, den))
-
-    def resp(f: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-        x = x_of(f).astype(np.clongdouble)
-        ax = np.abs(x)
-        amp = np.zeros(x.shape, dtype=np.longdouble)
-        vals = []
-        for c in (cn, cd):
-            p = np.full(x.shape, c[0], dtype=np.clongdouble)
-            bound = np.full(x.shape, abs(c[0]), dtype=np.longdouble)
-            for ci in c[1:]:
-                p = p * x + ci
-                bound = bound * ax + abs(ci)
-            with np.errstate(all="ignore"):
-                amp += bound / np.abs(p)
-            vals.append(p)
-        with np.errstate(all="ignore"):  # a pole on the point gives inf, handled by callers
-            val = (vals[0] / vals[1]).astype(complex)
-        return val, (amp * max(cn.size, cd.size) * _LD_GAIN).astype(float)
-
-    return resp
-
-
-def _dense_exact(
-    A: np.ndarray,
-    B: np.ndarray,
-    C: np.ndarray,
-    d: complex,
-    x_of: Callable[[np.ndarray], np.ndarray],
-) -> Exact:
-    """``C (xI - A)^{-1} B + d`` by one LU solve per point on the system's own matrices
-    (python-control's evaluation). Unitary reductions (Schur, Hessenberg) mix the scales
-    of a badly scaled state (entries of a ZOH image from 1e-29 to 2e5) and lose up to
-    1e-8 relative; the LU solve keeps 1e-13. O(n^3) per point: for the few points of a
-    final refinement only. Its amplification is reported as 1 (no cheap estimate)."""
-    A, B, C = A.copy(), B.astype(complex), C[0].copy()  # the closure outlives the system
-    eye = np.eye(A.shape[0])
-
-    def resp(f: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-        x = x_of(f).ravel()
-        M = x[:, None, None] * eye - A
-        try:
-            y = np.linalg.solve(M, np.broadcast_to(B, (x.size, *B.shape)))[..., 0]
-        except np.linalg.LinAlgError:  # a pole exactly on a point
-            return np.full(x.shape, np.inf + 0j), np.ones(x.shape)
-        return (y @ C + d).reshape(np.shape(f)), np.ones(np.shape(f))
-
-    return resp
 
 
 def _zeros(sys: Any) -> np.ndarray:
