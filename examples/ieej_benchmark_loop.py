@@ -25,12 +25,14 @@ import control
 import numpy as np
 from scipy.optimize import brentq
 
-from servokit.feedback import stability_margins
-from servokit.models import (
-    HDD_BENCHMARK_TS,
+from servokit.feedback import (
     IEEJ_ISSUE_20_NUMBERS,
     IeejLoopFit,
     fit_ieej_loop,
+    stability_margins,
+)
+from servokit.models import (
+    HDD_BENCHMARK_TS,
     hdd_benchmark,
     ieej_benchmark_loop,
     ieej_benchmark_plant,
@@ -96,7 +98,7 @@ print(
 
 
 # --- fits: the unknown filter data against the issue's numbers --------------------------
-# servokit.models.fit_ieej_loop (least squares on residuals scaled by the quoted digits):
+# servokit.feedback.fit_ieej_loop (least squares on residuals scaled by the quoted digits):
 # (a) notch pole damping 0.5, low-pass damping and crossover fitted to the PM and the delay
 #     margin only; the gain margin and the phase crossover are then predictions (on the
 #     benchmark file's plant this is the library's IEEJ_FITTED_* constants).

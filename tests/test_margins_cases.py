@@ -297,7 +297,8 @@ def test_issue_20_benchmark_loop_numbers():
 def test_issue_20_loop_fit_predicts_the_other_two_numbers():
     # fit the low-pass damping and the crossover (notch pole damping 0.5) to the PM and the
     # delay margin only: the gain margin and the phase crossover are then predictions
-    from servokit.models import fit_ieej_loop, ieej_benchmark_loop
+    from servokit.feedback import fit_ieej_loop
+    from servokit.models import ieej_benchmark_loop
     from servokit.models.benchmark_controller import (
         IEEJ_FITTED_CROSSOVER_HZ,
         IEEJ_FITTED_LOWPASS_DAMPING,

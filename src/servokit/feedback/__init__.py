@@ -5,7 +5,8 @@
 * :mod:`~servokit.feedback.dual_stage`: parallel / CMS / DMS dual-stage loops (5.79)-(5.89).
 * :mod:`~servokit.feedback.margins`: every gain/phase/delay/modulus margin on the exact
   frequency response and a Nyquist stability verdict; :mod:`~servokit.feedback.margins_set`
-  the worst case over a plant set; :mod:`~servokit.models.frequency_grid` the
+  the worst case over a plant set; :mod:`~servokit.feedback.ieej_fit` the fit of issue
+  20's IEEJ loop; :mod:`~servokit.models.frequency_grid` the
   pole-aware grid every Bode/sensitivity figure uses.
 * :mod:`~servokit.feedback.loopshape_iterate`: fixed-structure controller design from the
   measured FRFs of a plant set (convex-concave iteration, stability certificate); set-up in
@@ -27,6 +28,13 @@ from servokit.feedback.filters import (
     pi_controller,
     pseudo_plant,
 )
+from servokit.feedback.ieej_fit import (
+    IEEJ_ISSUE_20_NUMBERS,
+    IEEJ_ISSUE_20_PRECISION,
+    IeejLoopFit,
+    fit_ieej_loop,
+    ieej_loop_numbers,
+)
 from servokit.feedback.loopshape_eval import LoopRow, LoopTable
 from servokit.feedback.loopshape_iterate import LoopshapeResult, certify_models, loopshape
 from servokit.feedback.loopshape_problem import (
@@ -40,6 +48,11 @@ from servokit.feedback.peak_filtered import PeakFilterSpec, peak_filtered_contro
 from servokit.models.frequency_grid import frequency_grid
 
 __all__ = [
+    "IEEJ_ISSUE_20_NUMBERS",
+    "IEEJ_ISSUE_20_PRECISION",
+    "IeejLoopFit",
+    "fit_ieej_loop",
+    "ieej_loop_numbers",
     "DualStageLoops",
     "LoopRow",
     "LoopTable",

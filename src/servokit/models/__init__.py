@@ -45,13 +45,6 @@ from servokit.models.files import (
 from servokit.models.fit import BandError, ModalFit, delay_from_phase, fit_modal
 from servokit.models.frf import FRF_MAX_BYTES, FrfFileError, read_frf, save_frf
 from servokit.models.hdd_box import hdd_benchmark_variants, hdd_benchmark_variation_set
-from servokit.models.ieej_fit import (
-    IEEJ_ISSUE_20_NUMBERS,
-    IEEJ_ISSUE_20_PRECISION,
-    IeejLoopFit,
-    fit_ieej_loop,
-    ieej_loop_numbers,
-)
 from servokit.models.lookup import get_discrete_controller, get_plant
 from servokit.models.modal import ModalPlant, Mode, modal_matrices, without_delay
 from servokit.models.plots import fit_plot
@@ -71,11 +64,6 @@ __all__ = [
     "disturbance_magnitude",
     "benchmark_controller",
     "ieej_benchmark_loop",
-    "IEEJ_ISSUE_20_NUMBERS",
-    "IEEJ_ISSUE_20_PRECISION",
-    "IeejLoopFit",
-    "fit_ieej_loop",
-    "ieej_loop_numbers",
     "ieej_benchmark_plant",
     "ieej_example_controller",
     "CATALOGUE",

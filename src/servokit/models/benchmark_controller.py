@@ -202,7 +202,8 @@ def ieej_example_controller(
 
 #: Low-pass damping and crossover [Hz] of issue 20's loop: FITTED (zeta_lp, fc) to its
 #: PM 35.17 deg and delay margin 97.68 us on :func:`ieej_benchmark_plant` with the notch
-#: pole damping 0.5 (``tests/test_margins_cases.py`` repeats the fit; its GM 4.11 dB and
+#: pole damping 0.5, rounded; :func:`servokit.feedback.fit_ieej_loop` is the fit and
+#: ``tests/test_margins_cases.py`` checks these values against it (its GM 4.11 dB and
 #: phase crossover 1626 Hz then follow, within the quoted digits).
 IEEJ_FITTED_LOWPASS_DAMPING = 0.6923
 IEEJ_FITTED_CROSSOVER_HZ = 1000.15

@@ -17,6 +17,9 @@ precision of each number (:data:`IEEJ_ISSUE_20_PRECISION`):
 * with ``fit_notches=True`` also the notch pole dampings (4.1 kHz; 5 and 7 kHz shared),
   e.g. to all four numbers on the book's rigid-body plant, which no choice explains
   (``examples/ieej_benchmark_loop.py``).
+
+It sits in :mod:`servokit.feedback` (not next to ``ieej_benchmark_loop`` in
+:mod:`servokit.models`) because it needs the margins: models must not import feedback.
 """
 
 from __future__ import annotations
@@ -27,6 +30,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from servokit.errors import ServokitValueError
+from servokit.feedback.margins import stability_margins
 from servokit.models.benchmark_controller import ieej_example_controller
 from servokit.models.catalogue import HDD_BENCHMARK_TS, ieej_benchmark_plant
 from servokit.models.modal import ModalPlant
@@ -110,8 +114,6 @@ def ieej_loop_numbers(
     dict
         Keys of :data:`IEEJ_ISSUE_20_NUMBERS`.
     """
-    from servokit.feedback.margins import stability_margins
-
     model = ieej_benchmark_plant() if plant is None else plant
     ctrl = ieej_example_controller(
         dt=dt,
