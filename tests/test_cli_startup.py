@@ -56,6 +56,9 @@ CHEAP = (
     ["filter", "peak", "--freq", "4449", "--damping", "0.015", "--gain", "0.1778", "--phi", "2.5"],
     ["filter", "lag", "--freq", "6900", "--damping", "0.1", "--phase", "1.1519", "--dt", "2e-5"],
     ["filter", "inverse", "--zero-freq", "4449", "--pole-freq", "4775"],
+    # book controllers as numpy coefficients, the plant's exact ZOH as numpy arrays
+    ["margins", "--plant", "hdd-sampled-data", "--controller", "eq-4.69"],
+    ["margins", "--plant", "vcm-dual-stage", "--controller", "table-5.2", "--json"],
 )
 
 _RUN = r"""

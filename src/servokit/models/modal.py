@@ -25,6 +25,7 @@ import numpy as np
 
 from servokit.errors import ServokitTypeError, ServokitValueError
 from servokit.models._zoh import delayed_zoh
+from servokit.models.rational import StateSpaceData
 
 if TYPE_CHECKING:
     import control
@@ -267,8 +268,21 @@ class ModalPlant:
         delay is a whole number of samples (see :func:`servokit.models._zoh.delayed_zoh`).
         The modal states come first, the delay states last.
         """
-        import control
+        return self.discretize_data(dt).to_control()
 
+    def discretize_data(self, dt: float) -> StateSpaceData:
+        """:meth:`discretize` as numpy arrays, python-control left unloaded (start-up).
+
+        Parameters
+        ----------
+        dt : float
+            Sampling period [s], > 0.
+
+        Returns
+        -------
+        StateSpaceData
+            The state space :meth:`discretize` returns (``.to_control()`` converts).
+        """
         dt = _finite("dt", dt)
         if dt <= 0:
             raise ServokitValueError(f"dt must be > 0 seconds (got {dt})")
@@ -278,7 +292,7 @@ class ModalPlant:
         n_del = d + 1 if has_old else d
         n = A.shape[0]
         if n_del == 0:
-            return control.ss(Phi, Gnew, C, np.zeros((1, 1)), dt)
+            return StateSpaceData(Phi, Gnew, C, np.zeros((1, 1)), dt)
         N = n + n_del
         Ad = np.zeros((N, N))
         Bd = np.zeros((N, 1))
@@ -296,7 +310,7 @@ class ModalPlant:
             Ad[:n, n + d : n + d + 1] = Gold
         Cd = np.zeros((1, N))
         Cd[:, :n] = C
-        return control.ss(Ad, Bd, Cd, np.zeros((1, 1)), dt)
+        return StateSpaceData(Ad, Bd, Cd, np.zeros((1, 1)), dt)
 
     def __str__(self) -> str:
         return self.name or f"ModalPlant({len(self.modes)} modes)"
