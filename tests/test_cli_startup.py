@@ -59,6 +59,8 @@ CHEAP = (
     # book controllers as numpy coefficients, the plant's exact ZOH as numpy arrays
     ["margins", "--plant", "hdd-sampled-data", "--controller", "eq-4.69"],
     ["margins", "--plant", "vcm-dual-stage", "--controller", "table-5.2", "--json"],
+    # fixed-point export: coefficients, numpy partial fractions (python-control unloaded)
+    "export controller --controller eq-4.69 --precision q15 --u-max 2 --out fw".split(),
 )
 
 _RUN = r"""
@@ -76,9 +78,10 @@ print("\nRESULT", codes, " ".join(m for m in %r if m in sys.modules))
 """
 
 
-def test_cheap_commands_run_without_heavy_libraries() -> None:
-    proc = subprocess.run(
+def test_cheap_commands_run_without_heavy_libraries(tmp_path) -> None:  # noqa: ANN001
+    proc = subprocess.run(  # in a scratch directory: the export writes files
         [sys.executable, "-c", _RUN % (CHEAP, HEAVY)],
+        cwd=tmp_path,
         capture_output=True,
         text=True,
         timeout=120,
