@@ -59,6 +59,8 @@ CHEAP = (
     # book controllers as numpy coefficients, the plant's exact ZOH as numpy arrays
     ["margins", "--plant", "hdd-sampled-data", "--controller", "eq-4.69"],
     ["margins", "--plant", "vcm-dual-stage", "--controller", "table-5.2", "--json"],
+    # the multirate filters of eq. (4.67)-(4.68) as numpy coefficients (Tustin in numpy)
+    ["sensitivity", "--plant", "hdd-sampled-data", "--controller", "eq-4.69", "--n-freq", "50"],
     # fixed-point export: coefficients, numpy partial fractions (python-control unloaded)
     "export controller --controller eq-4.69 --precision q15 --u-max 2 --out fw".split(),
 )

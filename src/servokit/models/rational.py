@@ -22,7 +22,7 @@ import numpy as np
 
 from servokit.errors import ServokitValueError
 
-__all__ = ["RationalTF", "StateSpaceData", "rational_zpk"]
+__all__ = ["RationalTF", "StateSpaceData", "as_state_space_data", "rational_zpk", "series"]
 
 
 def _timebase(dt: float | None) -> float:
@@ -182,6 +182,69 @@ class RationalTF:
 
     def __neg__(self) -> RationalTF:
         return RationalTF(-self.numerator, self.denominator, self.dt)
+
+    def __add__(self, other: Any) -> RationalTF:
+        """Parallel connection ``self + other`` (common denominator, not cancelled)."""
+        if isinstance(other, int | float | np.floating | np.integer):
+            other = RationalTF([float(other)], [1.0], self.dt)
+        if not isinstance(other, RationalTF):
+            return NotImplemented
+        dt = self._check_same_dt(other)
+        num = np.polyadd(
+            np.polymul(self.numerator, other.denominator),
+            np.polymul(other.numerator, self.denominator),
+        )
+        return RationalTF(num, np.polymul(self.denominator, other.denominator), dt)
+
+    __radd__ = __add__
+
+    def __sub__(self, other: Any) -> RationalTF:
+        return self + (-other)
+
+    def __rsub__(self, other: Any) -> RationalTF:
+        return (-self) + other
+
+    def tustin(self, dt: float, prewarp_rad_s: float | None = None) -> RationalTF:
+        """Bilinear (Tustin) discretisation of a continuous system, optionally prewarped.
+
+        The arithmetic of python-control's ``sample_system(sys, dt, "tustin",
+        prewarp_frequency)`` (SciPy's ``cont2discrete``): the companion realisation, the
+        generalised bilinear map with ``alpha = 1/2`` over the warped period
+        ``T = 2 tan(w dt / 2) / w`` (``T = dt`` unwarped), back to polynomials by
+        ``den = det(zI - Ad)``, ``num = det(zI - Ad + Bd Cd) + (Dd - 1) den``.
+
+        Parameters
+        ----------
+        dt : float
+            Sampling period [s], > 0.
+        prewarp_rad_s : float, optional
+            Frequency [rad/s] where the discrete response equals the continuous one.
+
+        Returns
+        -------
+        RationalTF
+            Discrete, period ``dt``.
+        """
+        if self.dt:
+            raise ServokitValueError("tustin: the system is already discrete")
+        dt = _timebase(dt)
+        if not dt:
+            raise ServokitValueError("tustin: dt must be > 0 s")
+        w = prewarp_rad_s
+        T = dt if w is None else 2.0 * np.tan(w * dt / 2.0) / w
+        ss = self.to_state_space()
+        n = ss.nstates
+        if n == 0:
+            return RationalTF(ss.D[0], [1.0], dt)
+        eye = np.eye(n)
+        ima = eye - 0.5 * T * ss.A
+        ad = np.linalg.solve(ima, eye + 0.5 * T * ss.A)
+        bd = np.linalg.solve(ima, T * ss.B)
+        cd = np.linalg.solve(ima.T, ss.C.T).T
+        dd = ss.D + 0.5 * (ss.C @ bd)
+        den = np.poly(ad)
+        num = np.poly(ad - bd @ cd) + (dd[0, 0] - 1.0) * den
+        return RationalTF(num, den, dt)
 
     def feedback(self, other: RationalTF | float = 1.0, sign: int = -1) -> RationalTF:
         """Closed loop ``G / (1 - sign G H)`` of ``G = self`` with ``H = other`` in the return.
@@ -354,6 +417,27 @@ class StateSpaceData:
             z = scipy.linalg.eigvals(M, N)
         return z[np.isfinite(z)].astype(complex)
 
+    def feedback(self, gain: float = 1.0, sign: int = -1) -> StateSpaceData:
+        """Closed loop with the static gain ``gain`` in the return path (python-control's
+        ``feedback(sys, gain, sign)`` state-space formulas, SISO).
+
+        Parameters
+        ----------
+        gain : float
+            Static feedback gain.
+        sign : int
+            -1 for negative feedback, +1 for positive.
+
+        Returns
+        -------
+        StateSpaceData
+        """
+        e = gain / (1.0 - sign * gain * self.D[0, 0])  # E D2 of python-control
+        t1 = 1.0 + sign * self.D[0, 0] * e
+        t2 = 1.0 + sign * e * self.D[0, 0]
+        A = self.A + sign * e * (self.B @ self.C)
+        return StateSpaceData(A, self.B * t2, t1 * self.C, self.D * t2, self.dt)
+
     def to_control(self) -> Any:
         """The same system as a python-control ``StateSpace`` (imports python-control).
 
@@ -394,3 +478,53 @@ def rational_zpk(
     if np.iscomplexobj(num) or np.iscomplexobj(den):
         raise ServokitValueError("zeros and poles must come in complex-conjugate pairs")
     return RationalTF(np.atleast_1d(num), np.atleast_1d(den), dt)
+
+
+def series(first: StateSpaceData, second: StateSpaceData) -> StateSpaceData:
+    """``second`` after ``first`` (python-control's ``series(first, second)`` block layout:
+    the states of ``first`` come first).
+
+    Parameters
+    ----------
+    first, second : StateSpaceData
+        SISO systems with one sampling period.
+
+    Returns
+    -------
+    StateSpaceData
+        ``A = [[A1, 0], [B2 C1, A2]]``, ``B = [B1; B2 D1]``, ``C = [D2 C1, C2]``,
+        ``D = D2 D1``.
+    """
+    if first.dt != second.dt:
+        raise ServokitValueError(
+            f"cannot connect systems with different sampling periods ({first.dt:g} s and "
+            f"{second.dt:g} s)"
+        )
+    n1, n2 = first.nstates, second.nstates
+    A = np.block([[first.A, np.zeros((n1, n2))], [second.B @ first.C, second.A]])
+    B = np.concatenate([first.B, second.B @ first.D], axis=0)
+    C = np.concatenate([second.D @ first.C, second.C], axis=1)
+    return StateSpaceData(A, B, C, second.D @ first.D, first.dt)
+
+
+def as_state_space_data(sys: Any) -> StateSpaceData:
+    """Any SISO system as :class:`StateSpaceData`: a RationalTF by its companion form, a
+    python-control system by ``control.ss`` (imported only then).
+
+    Parameters
+    ----------
+    sys : StateSpaceData, RationalTF or control.LTI
+        The system.
+
+    Returns
+    -------
+    StateSpaceData
+    """
+    if isinstance(sys, StateSpaceData):
+        return sys
+    if isinstance(sys, RationalTF):
+        return sys.to_state_space()
+    import control
+
+    ss = control.ss(sys)
+    return StateSpaceData(ss.A, ss.B, ss.C, ss.D, ss.dt)
