@@ -289,7 +289,7 @@ class Multirate:
         """
         return self.discretize_data(plant, dt).to_control()
 
-    def discretize_data(self, plant: ModalPlant, dt: float) -> StateSpaceData:
+    def discretize_data(self, plant: ModalPlant, dt: float, method: str = "expm") -> StateSpaceData:
         """:meth:`discretize` as numpy arrays (python-control unloaded for RationalTF parts).
 
         Parameters
@@ -298,6 +298,8 @@ class Multirate:
             Continuous plant with its input delay.
         dt : float
             Slow (controller) period [s].
+        method : {"expm", "modal"}
+            The plant's ZOH (:meth:`~servokit.models.ModalPlant.discretize_data`).
 
         Returns
         -------
@@ -305,7 +307,7 @@ class Multirate:
             The model :meth:`discretize` returns (``.to_control()`` converts).
         """
         h = self.fast_dt(dt)
-        fast = series(as_state_space_data(self._chain(dt)), plant.discretize_data(h))
+        fast = series(as_state_space_data(self._chain(dt)), plant.discretize_data(h, method))
         # m is a small integer (the multirate number): a few products, not a long loop
         Am1 = np.linalg.matrix_power(fast.A, self.m - 1)
         return StateSpaceData(Am1 @ fast.A, Am1 @ fast.B, fast.C, fast.D, dt)
