@@ -13,9 +13,9 @@ active set, with ``c = 1 + P K_k``:
 * complementary sensitivity ``|W_T P X| ≤ Re{c̄ (Y + P X)}/|c|`` (optional);
 * a trust region ``|X - K_k Y| ≤ ρ |K_k|`` on a frequency subsample, keeping the tangent
   bounds meaningful;
-* the integral-action sign ``x(1) x_k(1) > 0`` and ``τ ≤ 1`` (the row was written
-  ``τ ≤ 10`` before its scaling; the scaling made it ``τ ≤ 1``, kept as it is, far from
-  the τ of any step).
+* the integral-action sign ``x(1) x_k(1) > 0`` and ``τ ≤ 1`` (the code wrote ``τ ≤ 10``
+  before the row scaling, which made it ``τ ≤ 1``; kept as it acts: the HDD design's
+  steps have ``τ ≤ 0.1``; a step whose ``τ`` reaches 1 has no unique optimum).
 
 Each is one three-dimensional second-order cone ``t ≥ ‖(Re q, Im q)‖`` (rows scaled per
 point), solved by Clarabel (Goulart and Chen 2024) through its Python API.
@@ -25,13 +25,16 @@ which a few hundred bind (the valleys of ``1/|S|``, of the low-frequency floor a
 ``|L|`` below the target, per plant). :func:`solve_step` starts from the rows at the
 valleys of their slack at ``θ_k`` and the rows ``θ_k`` violates, solves, evaluates every
 row of the masks at the new ``θ`` (with ``r_j = |Y(ω_j)|``, its least feasible value),
-adds the valleys of the violated ones with their grid neighbours, and repeats until
-every row holds to ``GEN_TOL``. The program of the selected rows is a relaxation of the
-program of all rows whose optimum satisfies them all, so it is that program's optimum;
-on the 54-loop HDD design it takes 3-9 small programs of 300-2300 rows per step instead
-of one of 13k-43k rows (about 10x less CPU). The small programs are solved to 1e-8 /
-1e-9 instead of 1e-6 / 1e-7. ``solve_step(..., generate=False)`` solves the one
-program of every row (the matrices of the earlier implementation, bit for bit).
+adds the valleys of the violated ones with three grid neighbours each side, and repeats
+until every row holds to ``GEN_TOL``. The program of the selected rows is a relaxation
+of the program of all rows and its optimum satisfies them all, so it is an optimum of
+that program (the same ``τ``; ``θ`` itself is unique only where enough rows bind, an
+interior-point method returns the analytic centre of the optimal set). On the 54-loop
+HDD design a step takes 3-7 programs of 300-2300 rows instead of one of 13k-43k rows.
+The generated programs are solved to 1e-8 / 1e-9 (1e-6 / 1e-7 where Clarabel stalls);
+a program that is not "Solved" sends the step back to the one program of every row at
+1e-6 / 1e-7, as before (``solve_step(..., generate=False)``: the earlier matrices, bit
+for bit, checked on the 12 programs of the HDD design).
 """
 
 from __future__ import annotations
@@ -398,12 +401,17 @@ def _valleys(v: np.ndarray, seg: np.ndarray, keep: np.ndarray) -> np.ndarray:
     return keep & left & right
 
 
+#: grid neighbours (each side) that join with a violated valley
+GEN_WIDEN = 3
+
+
 def _widen(rows: np.ndarray, seg: np.ndarray) -> np.ndarray:
-    """``rows`` and their neighbours in the same segment."""
+    """``rows`` and their ``GEN_WIDEN`` neighbours on each side in the same segment."""
     out = rows.copy()
-    same = seg[1:] == seg[:-1]
-    out[1:] |= rows[:-1] & same
-    out[:-1] |= rows[1:] & same
+    for k in range(1, GEN_WIDEN + 1):
+        same = seg[k:] == seg[:-k]
+        out[k:] |= rows[:-k] & same
+        out[:-k] |= rows[k:] & same
     return out
 
 
@@ -412,9 +420,10 @@ def _generate(d: StepData, F, K, lin: _Lin, t_cones: _Soc | None, stats: dict | 
 
     Starts from every valley of the rows' slack at the linearisation point (the bottoms of
     ``1/|S|`` and ``|L|`` along frequency, per plant) and the rows it already violates
-    (``τ = 0``); after each solve the valleys of the violated rows and their neighbours
-    join. It ends when every row of the masks holds within ``GEN_TOL``: the optimum of
-    the program of all rows. None when a program is not "Solved" or the rounds run out.
+    (``τ = 0``); after each solve the valleys of the violated rows and their
+    ``GEN_WIDEN`` neighbours join. It ends when every row of the masks holds within
+    ``GEN_TOL``: an optimum of the program of all rows. None when a program is not
+    "Solved" (at either tolerance) or the rounds run out.
     """
     nt = d.theta_k.size
     v = _lin_slack(lin, d.theta_k, 0.0, np.abs(d.basis.polys(d.theta_k)[1] / F))
