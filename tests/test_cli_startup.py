@@ -56,6 +56,13 @@ CHEAP = (
     ["filter", "peak", "--freq", "4449", "--damping", "0.015", "--gain", "0.1778", "--phi", "2.5"],
     ["filter", "lag", "--freq", "6900", "--damping", "0.1", "--phase", "1.1519", "--dt", "2e-5"],
     ["filter", "inverse", "--zero-freq", "4449", "--pole-freq", "4775"],
+    # book controllers as numpy coefficients, the plant's exact ZOH as numpy arrays
+    ["margins", "--plant", "hdd-sampled-data", "--controller", "eq-4.69"],
+    ["margins", "--plant", "vcm-dual-stage", "--controller", "table-5.2", "--json"],
+    # the multirate filters of eq. (4.67)-(4.68) as numpy coefficients (Tustin in numpy)
+    ["sensitivity", "--plant", "hdd-sampled-data", "--controller", "eq-4.69", "--n-freq", "50"],
+    # fixed-point export: coefficients, numpy partial fractions (python-control unloaded)
+    "export controller --controller eq-4.69 --precision q15 --u-max 2 --out fw".split(),
 )
 
 _RUN = r"""
@@ -73,9 +80,10 @@ print("\nRESULT", codes, " ".join(m for m in %r if m in sys.modules))
 """
 
 
-def test_cheap_commands_run_without_heavy_libraries() -> None:
-    proc = subprocess.run(
+def test_cheap_commands_run_without_heavy_libraries(tmp_path) -> None:  # noqa: ANN001
+    proc = subprocess.run(  # in a scratch directory: the export writes files
         [sys.executable, "-c", _RUN % (CHEAP, HEAVY)],
+        cwd=tmp_path,
         capture_output=True,
         text=True,
         timeout=120,

@@ -29,7 +29,7 @@ from servokit.export import (
 )
 from servokit.export.fixed_format import QFormat
 from servokit.export.fixed_model import shr, store
-from servokit.export.fixed_network import l1_matrix, split_integrator
+from servokit.export.fixed_network import _residue, l1_matrix, split_integrator
 from servokit.models.lookup import get_discrete_controller
 
 GCC = shutil.which("gcc")
@@ -382,3 +382,25 @@ def test_a_short_word_that_puts_a_double_pole_on_the_unit_circle_is_refused() ->
     z, p, k = signal.tf2zpk(tf.num[0][0], tf.den[0][0])
     ref = signal.sosfilt(signal.zpk2sos(z, p, k), x * d.input_lsb)
     assert np.max(np.abs(fixed_point_response(d, x) * d.output_lsb - ref)) <= d.error_bound(400)
+
+
+@settings(max_examples=60, deadline=None, suppress_health_check=[HealthCheck.too_slow])
+@given(st.data())
+def test_residue_without_scipy_signal_is_scipys(data: st.DataObject) -> None:
+    # distinct poles: the same arithmetic as scipy.signal.residue (bit for bit); close or
+    # repeated ones (SciPy groups them within 1e-3) are handed to SciPy
+    n = data.draw(st.integers(1, 8))
+    radius = st.floats(1e-6, 1.5)
+    angle = st.floats(0.0, np.pi)
+    poles: list[complex] = []
+    while len(poles) < n:
+        r, a = data.draw(radius), data.draw(angle)
+        poles += [r * np.exp(1j * a), r * np.exp(-1j * a)] if a > 1e-3 else [r]
+    den = np.real(np.poly(poles)) * data.draw(st.floats(0.1, 10.0))
+    m = data.draw(st.integers(0, len(poles)))
+    num = np.array(data.draw(st.lists(st.floats(-1e3, 1e3), min_size=m + 1, max_size=m + 1)))
+    r, p, k = _residue(num, den)
+    want = signal.residue(num, den)
+    assert np.array_equal(p, want[1])
+    assert np.allclose(r, want[0], rtol=1e-12, atol=0)
+    assert np.array_equal(np.atleast_1d(k), np.atleast_1d(want[2]))

@@ -202,7 +202,6 @@ class Output:
         return cls(plot_target(plot), json_out)
 
 
-
 def plot_target(path: Path | None) -> Path | None:
     """Validate a ``--plot`` path before any work (directory/extension refused)."""
     from servokit.errors import check_plot_path
@@ -243,6 +242,16 @@ def load_controller(value: str, dt: float | None = None, flag: str = "--controll
 
     with flag_names({}, prefix=f"{flag}: "):
         return get_discrete_controller(value, dt)
+
+
+def load_controller_data(value: str, dt: float | None = None, flag: str = "--controller") -> Any:
+    """:func:`load_controller` as a numpy-only
+    :class:`~servokit.models.rational.RationalTF` (python-control left unloaded)."""
+    _check_named_file(value, flag, "book name or a .toml controller file")
+    from servokit.models import get_discrete_rational
+
+    with flag_names({}, prefix=f"{flag}: "):
+        return get_discrete_rational(value, dt)
 
 
 @contextmanager
@@ -355,8 +364,6 @@ def _metavar(param: Any) -> None:
         param.metavar = METAVAR["plant"]
     elif ann is not None and "Path" in str(ann):
         param.metavar = METAVAR["dir"] if param.name == "out" else METAVAR["file"]
-
-
 
 
 def old_name(flag: str, annotation: Any = float) -> Any:

@@ -244,7 +244,7 @@ def controller_cmd(
     """
     from servokit.errors import ServokitValueError
     from servokit.export import sos_tables, statespace_tables
-    from servokit.models.lookup import get_discrete_controller
+    from servokit.models.lookup import get_discrete_rational
 
     out_dir = _check_common(out, name, fmt, precision, qmn=True)
     if realization not in ("ss", "sos"):
@@ -255,14 +255,15 @@ def controller_cmd(
             f"--controller {controller!r}: give a book name or a .toml controller file"
         )
     try:
-        ctrl = get_discrete_controller(controller)
+        ctrl = get_discrete_rational(controller)  # numpy coefficients: python-control unloaded
     except ServokitValueError as exc:
         raise ServokitValueError(f"--controller {exc}") from None
     if fixed is not None:
         _finish_fixed(ctrl, realization, fixed, out_dir, name, f"controller {controller}", json_out)
         return
     make = statespace_tables if realization == "ss" else sos_tables
-    tables = make(ctrl, "ss" if realization == "ss" else "sos")
+    # python-control's realisation (the float tables as they always were)
+    tables = make(ctrl.to_control(), "ss" if realization == "ss" else "sos")
     step = realization if fmt == "c" and precision in ("float", "double") else None
     if u_max is not None:
         tables.append(_antiwindup_table(tables, realization, fmt))

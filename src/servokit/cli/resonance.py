@@ -21,7 +21,6 @@ from servokit.cli._app import (
     emit_json,
     example,
     flag_names,
-    load_controller,
     load_plant,
     plot_target,
     sub_app,
@@ -31,6 +30,7 @@ from servokit.cli._options import (
     check_state_size,
     controller_states,
     discrete_states,
+    load_controller_data,
     old_name,
     renamed,
 )
@@ -351,7 +351,7 @@ def margins_cmd(
     delay, delay_flag = _loop_delay(delay, delay_old)
     check_count("--n-freq", n_freq, lo=16, hi=_MARGINS_MAX_FREQ)
     p = load_plant(plant)
-    ctrl = load_controller(controller)
+    ctrl = load_controller_data(controller)
     dt = float(ctrl.dt)
     _check_delay(delay, dt, delay_flag)
     chain = [ctrl, *_filter_chain(filters, dt)]
@@ -359,7 +359,7 @@ def margins_cmd(
     if variations is not None:
         _margins_over_file(p, chain, variations, delay, n_freq, json_out, controller, dt)
         return
-    loop: list[Any] = [p.discretize(dt), *chain]
+    loop: list[Any] = [p.discretize_data(dt), *chain]
     m = stability_margins(loop, delay, n_freq=n_freq)
     if target is not None:
         _margins_plot(loop, m, dt, target)

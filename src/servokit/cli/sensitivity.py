@@ -19,13 +19,17 @@ from servokit.cli._app import (
     emit_json,
     example,
     flag_names,
-    load_controller,
     load_plant,
     plot_target,
     progress,
     wrote,
 )
-from servokit.cli._options import check_state_size, controller_states, discrete_states
+from servokit.cli._options import (
+    check_state_size,
+    controller_states,
+    discrete_states,
+    load_controller_data,
+)
 from servokit.errors import (
     DEFAULT_MAX_MEMORY_MB,
     ServokitValueError,
@@ -130,7 +134,7 @@ def _loop(plant: str, controller: str, multirate: bool, m: int, max_memory_mb: f
     """Plant, controller and the multirate setting; the plant's discrete model (at Ts/m with
     --multirate) is estimated before anything is built."""
     p = load_plant(plant)
-    ctrl = load_controller(controller)
+    ctrl = load_controller_data(controller)  # numpy coefficients: python-control unloaded
     dt = float(ctrl.dt)
     m = check_count("--m", m, lo=1, hi=_MAX_MULTIRATE) if multirate else 1
     n_states = discrete_states(p, dt / m, controller_states(ctrl))

@@ -193,12 +193,10 @@ def modal_realization(num: np.ndarray, den: np.ndarray) -> tuple[np.ndarray, ...
     A, B, C, D : ndarray
         The realisation (one dummy zero state for a constant).
     """
-    from scipy import signal
-
     nx = den.size - 1
     if nx == 0:
         return np.zeros((1, 1)), np.zeros((1, 1)), np.zeros((1, 1)), np.array([[num[-1] / den[0]]])
-    res, poles, direct = signal.residue(num, den)
+    res, poles, direct = _residue(num, den)
     a, b, c = np.zeros((nx, nx)), np.zeros((nx, 1)), np.zeros((1, nx))
     i = 0
     for rk, pk in zip(res, poles, strict=True):
@@ -220,6 +218,43 @@ def modal_realization(num: np.ndarray, den: np.ndarray) -> tuple[np.ndarray, ...
             "form; use --realization sos"
         )
     return a, b, c, np.array([[dd]])
+
+
+#: ``scipy.signal.residue``'s default grouping distance: closer poles count as repeated.
+_RESIDUE_TOL = 1e-3
+
+
+def _residue(num: np.ndarray, den: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """``scipy.signal.residue(num, den)`` without importing scipy.signal (start-up).
+
+    For poles farther apart than its grouping distance the same arithmetic in the same
+    order: roots sorted by magnitude, residue ``num(p_i) / prod_{j != i} (p_i - p_j) / den0``
+    with the product built as SciPy builds it, direct term by ``np.polydiv``. Closer
+    (grouped, repeated) poles go to SciPy itself.
+    """
+    poles = np.roots(den)
+    gaps = np.abs(poles[:, None] - poles[None, :])
+    np.fill_diagonal(gaps, np.inf)
+    if poles.size > 1 and np.min(gaps) <= _RESIDUE_TOL:
+        from scipy import signal
+
+        return signal.residue(num, den)
+    b = np.trim_zeros(np.asarray(num, dtype=float), "f")
+    k = np.empty(0)
+    if b.size >= den.size:
+        k, b = np.polydiv(b, den)
+    poles = poles[np.argsort(np.abs(poles))]
+    res = np.empty(poles.size, dtype=poles.dtype)
+    for i, p in enumerate(poles):
+        # SciPy's factor: prefix (poles before i) times suffix (poles after i), in that order
+        prefix = np.array([1])
+        for q in poles[:i]:
+            prefix = np.polymul(prefix, np.array([1, -q]))
+        suffix = np.array([1])
+        for q in poles[:i:-1]:
+            suffix = np.polymul(suffix, np.array([1, -q]))
+        res[i] = np.polyval(b.astype(poles.dtype), p) / np.polyval(np.polymul(prefix, suffix), p)
+    return res / den[0], poles, k
 
 
 def node_impulse_responses(design: FixedPointDesign, n_samples: int) -> np.ndarray:

@@ -294,7 +294,7 @@ def design_fixed_point(
 
     Parameters
     ----------
-    ctrl : control.TransferFunction or control.StateSpace
+    ctrl : control.TransferFunction, control.StateSpace or RationalTF
         Discrete SISO controller: stable poles and at most one pole at ``z = 1``.
     precision : str or QFormat
         ``"q15"``, ``"q31"`` or ``"qM.N"``.
@@ -318,8 +318,11 @@ def design_fixed_point(
     fmt = precision if isinstance(precision, QFormat) else parse_qformat(precision)
     _check_choices(realization, rounding, overflow)
     x_max = check_positive("--input-max", input_max)
-    tf = control.tf(ctrl)
-    if tf.ninputs != 1 or tf.noutputs != 1 or not tf.isdtime(strict=True):
+    from servokit.models.rational import RationalTF
+
+    # coefficients only: a RationalTF as it is (python-control left unloaded)
+    tf = ctrl if isinstance(ctrl, RationalTF) else control.tf(ctrl)
+    if tf.ninputs != 1 or tf.noutputs != 1 or not (tf.dt and tf.dt is not True):
         raise ServokitValueError("fixed-point export needs a discrete SISO controller")
     r, num_r, den_r = split_integrator(np.asarray(tf.num[0][0], float),
                                        np.asarray(tf.den[0][0], float))  # fmt: skip

@@ -387,8 +387,9 @@ def make_factor(item: Any) -> Factor:
 
     Parameters
     ----------
-    item : LTI, ModalPlant or callable
-        A SISO python-control system, a :class:`~servokit.models.ModalPlant` (continuous,
+    item : LTI, RationalTF, StateSpaceData, ModalPlant or callable
+        A SISO python-control system or its numpy-only form
+        (:mod:`servokit.models.rational`), a :class:`~servokit.models.ModalPlant` (continuous,
         delay included) or a callable ``freq_hz -> complex`` (its ``dt`` attribute, if any,
         marks it discrete; its ``poles`` attribute, if any, enables the stability verdict).
 
@@ -396,6 +397,13 @@ def make_factor(item: Any) -> Factor:
     -------
     Factor
     """
+    from servokit.models.rational import RationalTF, StateSpaceData
+
+    if isinstance(item, RationalTF | StateSpaceData):  # numpy-only data: python-control unloaded
+        if not (item.ninputs == 1 and item.noutputs == 1):
+            raise ServokitValueError("loop must be single-input single-output")
+        build = _tf_factor if isinstance(item, RationalTF) else _ss_factor
+        return build(item, _timebase(item))
     import control
 
     if isinstance(item, control.LTI):

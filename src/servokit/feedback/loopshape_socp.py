@@ -13,10 +13,28 @@ active set, with ``c = 1 + P K_k``:
 * complementary sensitivity ``|W_T P X| ≤ Re{c̄ (Y + P X)}/|c|`` (optional);
 * a trust region ``|X - K_k Y| ≤ ρ |K_k|`` on a frequency subsample, keeping the tangent
   bounds meaningful;
-* the integral-action sign ``x(1) x_k(1) > 0``.
+* the integral-action sign ``x(1) x_k(1) > 0`` and ``τ ≤ 1`` (the code wrote ``τ ≤ 10``
+  before the row scaling, which made it ``τ ≤ 1``; kept as it acts: the HDD design's
+  steps have ``τ ≤ 0.1``; a step whose ``τ`` reaches 1 has no unique optimum).
 
 Each is one three-dimensional second-order cone ``t ≥ ‖(Re q, Im q)‖`` (rows scaled per
 point), solved by Clarabel (Goulart and Chen 2024) through its Python API.
+
+Constraint generation (issue 24). The masks of a step hold 10^4-4·10^4 linear rows, of
+which a few hundred bind (the valleys of ``1/|S|``, of the low-frequency floor and of
+``|L|`` below the target, per plant). :func:`solve_step` starts from the rows at the
+valleys of their slack at ``θ_k`` and the rows ``θ_k`` violates, solves, evaluates every
+row of the masks at the new ``θ`` (with ``r_j = |Y(ω_j)|``, its least feasible value),
+adds the valleys of the violated ones with three grid neighbours each side, and repeats
+until every row holds to ``GEN_TOL``. The program of the selected rows is a relaxation
+of the program of all rows and its optimum satisfies them all, so it is an optimum of
+that program (the same ``τ``; ``θ`` itself is unique only where enough rows bind, an
+interior-point method returns the analytic centre of the optimal set). On the 54-loop
+HDD design a step takes 3-7 programs of 300-2300 rows instead of one of 13k-43k rows.
+The generated programs are solved to 1e-8 / 1e-9 (1e-6 / 1e-7 where Clarabel stalls);
+a program that is not "Solved" sends the step back to the one program of every row at
+1e-6 / 1e-7, as before (``solve_step(..., generate=False)``: the earlier matrices, bit
+for bit, checked on the 12 programs of the HDD design).
 """
 
 from __future__ import annotations
@@ -99,59 +117,62 @@ class StepData:
     floor_w: np.ndarray | None = None  # (M, len(floor_idx)) floor of |L| there
 
 
-def _scaled(A: sp.spmatrix, b: np.ndarray, group: int = 1) -> tuple[sp.csr_matrix, np.ndarray]:
-    """Scale rows (in groups of ``group`` rows, one cone each) by their largest entry."""
-    A = sp.csr_matrix(A)
-    mag = np.maximum(abs(A).max(axis=1).toarray().ravel(), np.abs(b))
-    mag = np.maximum(mag.reshape(-1, group).max(axis=1), 1e-300)
-    inv = np.repeat(1.0 / mag, group)
-    return sp.diags(inv) @ A, b * inv
+@dataclass
+class _Lin:
+    """Linear rows ``b + G θ + g_τ τ - w r_j ≥ 0`` at frequency index ``j``.
 
-
-class _Rows:
-    """Accumulates clarabel rows ``s = b - A z`` for z = [θ, τ, r]: linear ones and 3-D cones.
-
-    ``r_j ≥ |Y(ω_j)|`` (one cone per active frequency) is shared by every plant, so the
-    sensitivity and crossover constraints of all plants at ``ω_j`` are linear rows in r_j.
-    With a fixed denominator ``Y = y / y_k = 1`` and there is no r at all.
+    ``r_j ≥ |Y(ω_j)|`` is a variable only when the denominator is free; with ``Y = 1`` the
+    term ``w |Y_j|`` is folded into ``b`` and ``w`` is zero. ``pt`` numbers the
+    plant-frequency point a row belongs to: the rows of one point enter the program together.
     """
 
-    def __init__(self, n_theta: int, n_r: int) -> None:
-        self.nt, self.nr = n_theta, n_r
-        self.lin: list[tuple[sp.csr_matrix, np.ndarray]] = []
-        self.soc: list[tuple[sp.csr_matrix, np.ndarray]] = []
+    b: np.ndarray
+    G: np.ndarray
+    gtau: np.ndarray
+    w: np.ndarray
+    j: np.ndarray
+    pt: np.ndarray
+    seg: np.ndarray
 
-    @property
-    def nz(self) -> int:
-        return self.nt + 1 + self.nr
+    @classmethod
+    def cat(cls, parts: list[_Lin]) -> _Lin:
+        """Rows of ``parts`` one after the other."""
+        return cls(*(np.concatenate([getattr(p, k) for p in parts]) for k in _FIELDS_LIN))
 
-    def linear(self, t0, tth, ttau: float, rcoef, ridx) -> None:
-        """Rows ``t0 + tth θ + ttau τ - rcoef r[ridx] ≥ 0`` (ridx None: no r)."""
-        k = t0.size
-        dense = np.hstack([tth, np.full((k, 1), ttau)])
-        A = sp.hstack([sp.csr_matrix(-dense), sp.csr_matrix((k, self.nr))], format="lil")
-        if ridx is not None:
-            A = sp.csr_matrix(A)
-            A = A + sp.csr_matrix(
-                (np.broadcast_to(rcoef, (k,)), (np.arange(k), self.nt + 1 + ridx)),
-                shape=(k, self.nz),
-            )
-        self.lin.append(_scaled(A, t0))
+    def take(self, rows: np.ndarray) -> _Lin:
+        """The rows ``rows`` (indices or mask)."""
+        return _Lin(*(getattr(self, k)[rows] for k in _FIELDS_LIN))
 
-    def cone(self, t0, tz, q0, qz) -> None:
-        """Cones ``t0 + tz z ≥ |q0 + qz z|`` (``tz``, ``qz`` over the full z)."""
-        k = t0.size
-        A = np.empty((3 * k, self.nz))
-        b = np.empty(3 * k)
-        A[0::3], b[0::3] = -tz, t0
-        A[1::3], b[1::3] = -qz.real, q0.real
-        A[2::3], b[2::3] = -qz.imag, q0.imag
-        self.soc.append(_scaled(sp.csr_matrix(A), b, group=3))
+    def scale(self) -> np.ndarray:
+        """Largest entry of each row (the program divides each row by it)."""
+        parts = [np.abs(self.G).max(axis=1, initial=0.0), np.abs(self.gtau), np.abs(self.w)]
+        return np.maximum(np.maximum.reduce(parts + [np.abs(self.b)]), 1e-300)
 
-    def full(self, gth: np.ndarray, gtau: float = 0.0) -> np.ndarray:
-        """A θ-gradient widened to all of z."""
-        k = gth.shape[0]
-        return np.hstack([gth, np.full((k, 1), gtau), np.zeros((k, self.nr))])
+
+@dataclass
+class _Soc:
+    """3-D cones ``t0 + t_G θ (+ r_j) ≥ |q0 + q_G θ|`` (``r_j`` where ``j ≥ 0``)."""
+
+    t0: np.ndarray
+    tG: np.ndarray
+    q0: np.ndarray
+    qG: np.ndarray
+    j: np.ndarray
+    pt: np.ndarray
+
+    def take(self, rows: np.ndarray) -> _Soc:
+        """The cones ``rows`` (indices or mask)."""
+        return _Soc(*(getattr(self, k)[rows] for k in _FIELDS_SOC))
+
+    def scale(self) -> np.ndarray:
+        """Largest entry of each cone's three rows (cones without ``r``)."""
+        parts = [np.abs(m).max(axis=1, initial=0.0) for m in (self.tG, self.qG.real, self.qG.imag)]
+        parts += [np.abs(self.t0), np.abs(self.q0.real), np.abs(self.q0.imag)]
+        return np.maximum(np.maximum.reduce(parts), 1e-300)
+
+
+_FIELDS_LIN = ("b", "G", "gtau", "w", "j", "pt", "seg")
+_FIELDS_SOC = ("t0", "tG", "q0", "qG", "j", "pt")
 
 
 def _affine(basis: Basis, P: np.ndarray, idx: tuple[np.ndarray, np.ndarray], F: np.ndarray):
@@ -169,123 +190,300 @@ def _tangent(u: np.ndarray, g0: np.ndarray, gz: np.ndarray) -> tuple[np.ndarray,
     return (uh * g0).real, (uh[:, None] * gz).real
 
 
-def _build(d: StepData, rows: _Rows, F: np.ndarray, K: np.ndarray, r_of: np.ndarray | None):
-    """Sensitivity, objective, complementary-sensitivity and crossover rows of the step."""
+def _lin(t0, G, gtau: float, w, idx, pt: np.ndarray, seg0: int, d: StepData, F, free) -> _Lin:
+    """Rows ``t0 + G θ + gtau τ ≥ w |Y_j|`` (``|Y_j|`` a variable when ``free``)."""
+    k, j = t0.size, idx[1]
+    w = np.broadcast_to(np.asarray(w, dtype=float), (k,))
+    seg = seg0 + idx[0]
+    if free:
+        return _Lin(t0, G, np.full(k, gtau), w.copy(), j, pt, seg)
+    y_abs = np.abs(d.basis.Y0[j] / F[j])  # |Y| when the denominator is fixed
+    return _Lin(t0 - w * y_abs, G, np.full(k, gtau), np.zeros(k), j, pt, seg)
+
+
+def _loop_gain_rows(d: StepData, F, K, idx, gtau: float, w, pt0: int, seg0: int, free: bool):
+    """``|P X| ≥ w |Y| - gtau τ`` at points ``idx`` (tangent bound on ``|P X|``)."""
+    _, _, gx = _affine(d.basis, d.P, idx, F)
+    m0, mz = _tangent(d.P[idx] * K[idx[1]], np.zeros(len(idx[0]), dtype=complex), gx)
+    return _lin(m0, mz, gtau, w, idx, pt0 + np.arange(m0.size), seg0, d, F, free)
+
+
+def _candidates(d: StepData, F: np.ndarray, K: np.ndarray) -> tuple[_Lin, _Soc | None]:
+    """Every linear row of the step's masks and the ``‖T‖∞`` cones (same order as the program).
+
+    Sensitivity (and phase-1 objective, ``‖T‖∞``) rows at ``s_mask``, the low-frequency
+    floor ``|P X| ≥ w_floor |Y|``, the crossover rows ``|P X| ≥ |Y| + τ`` at ``c_mask``.
+    """
+    free = d.basis.Vy.shape[1] > 0
     c = 1.0 + d.P * K[None, :]
     idx = np.nonzero(d.s_mask)
-    ridx = None if r_of is None else r_of[idx[1]]
-    y_abs = np.abs(d.basis.Y0[idx[1]] / F[idx[1]])  # |Y| when the denominator is fixed
+    n_s = idx[0].size
+    pt = np.arange(n_s)
     g0, gz, gx = _affine(d.basis, d.P, idx, F)
     l0, lz = _tangent(c[idx], g0, gz)
-
-    def lin(t0, tth, ttau, w, r_index, yabs):
-        if r_index is None:
-            rows.linear(t0 - w * yabs, tth, ttau, 0.0, None)
-        else:
-            rows.linear(t0, tth, ttau, w, r_index)
-
-    lin(l0, lz, 0.0, d.w_s, ridx, y_abs)
+    m = d.P.shape[0]
+    parts = [_lin(l0, lz, 0.0, d.w_s, idx, pt, 0, d, F, free)]
     if d.w_obj_s is not None:
-        lin(l0, lz, -1.0, d.w_obj_s, ridx, y_abs)
+        parts.append(_lin(l0, lz, -1.0, d.w_obj_s, idx, pt, m, d, F, free))
+    t_cones = None
     if d.w_t is not None:
-        rows.cone(l0, rows.full(lz), np.zeros(l0.size, dtype=complex), rows.full(d.w_t * gx))
+        none = np.full(n_s, -1)
+        t_cones = _Soc(l0, lz, np.zeros(n_s, dtype=complex), d.w_t * gx, none, pt)
+    n_pt = n_s
     if d.floor_idx is not None:  # |P X| >= w_floor |Y|: no loss of low-frequency gain
-        m = d.P.shape[0]
-        idx = (np.repeat(np.arange(m), d.floor_idx.size), np.tile(d.floor_idx, m))
-        _, _, gx = _affine(d.basis, d.P, idx, F)
-        m0, mz = _tangent(d.P[idx] * K[idx[1]], np.zeros(len(idx[0]), dtype=complex), gx)
-        y_abs = np.abs(d.basis.Y0[idx[1]] / F[idx[1]])
-        lin(m0, mz, 0.0, d.floor_w.ravel(), None if r_of is None else r_of[idx[1]], y_abs)
+        fidx = (np.repeat(np.arange(m), d.floor_idx.size), np.tile(d.floor_idx, m))
+        parts.append(_loop_gain_rows(d, F, K, fidx, 0.0, d.floor_w.ravel(), n_pt, 2 * m, free))
+        n_pt += fidx[0].size
     if d.c_mask is not None and d.c_mask.any():
-        idx = np.nonzero(d.c_mask)
-        _, _, gx = _affine(d.basis, d.P, idx, F)
-        m0, mz = _tangent(d.P[idx] * K[idx[1]], np.zeros(len(idx[0]), dtype=complex), gx)
-        y_abs = np.abs(d.basis.Y0[idx[1]] / F[idx[1]])
-        lin(m0, mz, -1.0, 1.0, None if r_of is None else r_of[idx[1]], y_abs)
+        cidx = np.nonzero(d.c_mask)
+        parts.append(_loop_gain_rows(d, F, K, cidx, -1.0, 1.0, n_pt, 3 * m, free))
+    return _Lin.cat(parts), t_cones
 
 
-def _r_cones(d: StepData, rows: _Rows, F: np.ndarray, freqs: np.ndarray) -> None:
-    """``r_j ≥ |Y(ω_j)|`` at the active frequencies."""
-    na = d.basis.Vx.shape[1]
-    k = freqs.size
-    tz = np.zeros((k, rows.nz))
-    tz[np.arange(k), rows.nt + 1 + np.arange(k)] = 1.0
+def _r_cones(d: StepData, F: np.ndarray, freqs: np.ndarray) -> _Soc:
+    """``r_j ≥ |Y(ω_j)|`` at the frequencies ``freqs``."""
+    k, na = freqs.size, d.basis.Vx.shape[1]
     qth = np.hstack([np.zeros((k, na)), d.basis.Vy[freqs] / F[freqs][:, None]])
-    rows.cone(np.zeros(k), tz, d.basis.Y0[freqs] / F[freqs], rows.full(qth))
+    zero = np.zeros((k, qth.shape[1]))
+    return _Soc(np.zeros(k), zero, d.basis.Y0[freqs] / F[freqs], qth, freqs, np.full(k, -1))
 
 
-def _trust(d: StepData, rows: _Rows, F: np.ndarray, K: np.ndarray) -> None:
+def _trust(d: StepData, F: np.ndarray, K: np.ndarray) -> _Soc:
     """``|X - K_k Y| ≤ ρ |K_k|`` on the trust-region frequencies."""
     j = d.tr_idx
     scale = (F[j] * K[j])[:, None]
     qth = np.hstack([d.basis.Vx[j], -K[j][:, None] * d.basis.Vy[j]]) / scale
     q0 = -K[j] * d.basis.Y0[j] / scale[:, 0]
-    rows.cone(np.full(j.size, d.rho), np.zeros((j.size, rows.nz)), q0, rows.full(qth))
+    none = np.full(j.size, -1)
+    return _Soc(np.full(j.size, d.rho), np.zeros_like(qth, dtype=float), q0, qth, none, none)
 
 
-def _signs(d: StepData, rows: _Rows) -> None:
-    """Integral-action sign ``σ x(1) ≥ 0.1 |x_k(1)|`` and ``τ ≤ 10`` (keeps it bounded)."""
+def _triplets(M: np.ndarray, row0: int = 0) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Nonzero entries of a dense block as (row, column, value), rows offset by ``row0``."""
+    r, c = np.nonzero(M)
+    return r + row0, c, M[r, c]
+
+
+class _Program:
+    """Clarabel data ``s = b - A z ∈ K`` for ``z = [θ, τ, r]`` from selected rows and cones.
+
+    Rows are scaled by their largest entry (a cone's three rows together). Order: the two
+    sign rows, the linear rows, then the cones (``‖T‖∞``, ``r_j ≥ |Y_j|``, trust region).
+    """
+
+    def __init__(self, d: StepData, lin: _Lin, cones: list[_Soc], freqs: np.ndarray) -> None:
+        self.nt = d.theta_k.size
+        r_of = np.full(d.P.shape[1], -1)
+        r_of[freqs] = np.arange(freqs.size)
+        self.nz = self.nt + 1 + freqs.size
+        blocks = [_sign_rows(d, self.nt), self._linear(lin, r_of)]
+        soc = [c for c in cones if c.t0.size]
+        blocks += [self._cones(c, r_of) for c in soc]
+        rows, cols, vals, b = [], [], [], []
+        row0 = 0
+        for r, c, v, bb in blocks:
+            rows.append(r + row0)
+            cols.append(c)
+            vals.append(v)
+            b.append(bb)
+            row0 += bb.size
+        self.b = np.concatenate(b)
+        self.A = sp.csc_matrix(
+            (np.concatenate(vals), (np.concatenate(rows), np.concatenate(cols))),
+            shape=(self.b.size, self.nz),
+        )
+        self.n_lin = 2 + lin.b.size
+        self.n_soc = sum(c.t0.size for c in soc)
+
+    def _linear(self, lin: _Lin, r_of: np.ndarray):
+        r, c, v = _triplets(np.hstack([-lin.G, -lin.gtau[:, None]]))
+        has_r = lin.w != 0
+        r = np.concatenate([r, np.nonzero(has_r)[0]])
+        c = np.concatenate([c, self.nt + 1 + r_of[lin.j[has_r]]])
+        v = np.concatenate([v, lin.w[has_r]])
+        return _scale(r, c, v, lin.b, lin.scale()[:, None])
+
+    def _cones(self, cone: _Soc, r_of: np.ndarray):
+        k = cone.t0.size
+        M = np.empty((3 * k, self.nt))
+        M[0::3], M[1::3], M[2::3] = -cone.tG, -cone.qG.real, -cone.qG.imag
+        b = np.empty(3 * k)
+        b[0::3], b[1::3], b[2::3] = cone.t0, cone.q0.real, cone.q0.imag
+        r, c, v = _triplets(M)
+        has_r = cone.j >= 0
+        r = np.concatenate([r, 3 * np.nonzero(has_r)[0]])
+        c = np.concatenate([c, self.nt + 1 + r_of[cone.j[has_r]]])
+        v = np.concatenate([v, np.full(int(has_r.sum()), -1.0)])
+        mag = np.abs(M).max(axis=1)
+        mag[3 * np.nonzero(has_r)[0]] = np.maximum(mag[3 * np.nonzero(has_r)[0]], 1.0)
+        return _scale(r, c, v, b, np.maximum(mag, np.abs(b)).reshape(k, 3))
+
+
+def _scale(r, c, v, b, mag: np.ndarray):
+    """Divide each row group (a row of ``mag``) by its largest entry."""
+    inv = np.repeat(1.0 / np.maximum(mag.max(axis=1), 1e-300), mag.shape[1])
+    return r, c, v * inv[r], b * inv
+
+
+def _sign_rows(d: StepData, nt: int):
+    """Integral-action sign ``σ x(1) ≥ 0.1 |x_k(1)|`` and ``τ ≤ 1`` (keeps it bounded)."""
     na = d.basis.Vx.shape[1]
     x1 = float(np.sum(d.theta_k[:na]))
     sigma = np.sign(x1) or 1.0
-    tth = np.zeros((2, rows.nt))
-    tth[0, :na] = sigma
-    rows.linear(np.array([-0.1 * abs(x1), 10.0]), tth, 0.0, 0.0, None)
-    rows.lin[-1] = (rows.lin[-1][0].tolil(), rows.lin[-1][1])
-    A, b = rows.lin[-1]
-    A[1, rows.nt] = 1.0  # 10 - τ ≥ 0
-    rows.lin[-1] = (sp.csr_matrix(A), b)
+    inv = 1.0 / max(1.0, 0.1 * abs(x1))
+    r = np.concatenate([np.zeros(na, dtype=int), [1]])
+    c = np.concatenate([np.arange(na), [nt]])
+    v = np.concatenate([np.full(na, -sigma * inv), [1.0]])
+    return r, c, v, np.array([-0.1 * abs(x1) * inv, 1.0])
 
 
-def solve_step(d: StepData) -> tuple[np.ndarray, float] | None:
+#: Clarabel's (gap, feasibility) tolerances of the one program of every row (as before
+#: constraint generation: each accepted step is re-checked exactly)
+TOL_ONE = (1e-6, 1e-7)
+#: the generated programs are small: their optimum is taken 100x tighter, and only a
+#: "Solved" status is taken (a badly scaled step falls back to the one program)
+TOL_GEN = (1e-8, 1e-9)
+#: a left-out row joins the program when violated by more than this (scaled)
+GEN_TOL = TOL_GEN[1]
+#: rounds of constraint generation before falling back to the one program
+GEN_ROUNDS = 50
+
+
+def _solve(prog: _Program, tol: tuple[float, float], ok: tuple[str, ...]) -> np.ndarray | None:
+    """Clarabel on one program (maximise ``τ``): ``z`` if its status is in ``ok``, else None."""
+    import clarabel
+
+    cones = [clarabel.NonnegativeConeT(prog.n_lin)] + [clarabel.SecondOrderConeT(3)] * prog.n_soc
+    q = np.zeros(prog.nz)
+    q[prog.nt] = -1.0
+    settings = clarabel.DefaultSettings()
+    settings.verbose = False
+    settings.tol_gap_abs = settings.tol_gap_rel = tol[0]
+    settings.tol_feas = tol[1]
+    P = sp.csc_matrix((prog.nz, prog.nz))
+    sol = clarabel.DefaultSolver(P, q, prog.A, prog.b, cones, settings).solve()
+    if str(sol.status) not in ok:
+        return None
+    z = np.asarray(sol.x)
+    if not np.all(np.isfinite(z)):
+        raise ServokitValueError("loop-shaping step returned non-finite parameters")
+    return z
+
+
+def _program(d: StepData, F, K, lin: _Lin, t_cones: _Soc | None) -> _Program:
+    """The program of the rows ``lin`` and cones ``t_cones`` (``r_j`` at their frequencies)."""
+    free = d.basis.Vy.shape[1] > 0
+    freqs = np.unique(lin.j) if free else np.empty(0, dtype=int)
+    cones = [] if t_cones is None else [t_cones]
+    if free:
+        cones.append(_r_cones(d, F, freqs))
+    cones.append(_trust(d, F, K))
+    return _Program(d, lin, cones, freqs)
+
+
+def _lin_slack(lin: _Lin, theta: np.ndarray, tau: float, y_abs: np.ndarray) -> np.ndarray:
+    """Row values at ``(θ, τ)`` with ``r_j = |Y_j(θ)|`` (its least value), scaled."""
+    return (lin.b + lin.G @ theta + lin.gtau * tau - lin.w * y_abs[lin.j]) / lin.scale()
+
+
+def _soc_slack(c: _Soc, theta: np.ndarray) -> np.ndarray:
+    """``t - |q|`` of cones without ``r`` at ``θ``, scaled as in the program."""
+    return (c.t0 + c.tG @ theta - np.abs(c.q0 + c.qG @ theta)) / c.scale()
+
+
+def _valleys(v: np.ndarray, seg: np.ndarray, keep: np.ndarray) -> np.ndarray:
+    """Rows of ``keep`` where ``v`` has a local minimum along its segment (plant and kind)."""
+    left = np.ones(v.size, dtype=bool)
+    right = np.ones(v.size, dtype=bool)
+    same = seg[1:] == seg[:-1]
+    left[1:] = ~same | (v[1:] < v[:-1]) | ~keep[:-1]
+    right[:-1] = ~same | (v[:-1] <= v[1:]) | ~keep[1:]
+    return keep & left & right
+
+
+#: grid neighbours (each side) that join with a violated valley
+GEN_WIDEN = 3
+
+
+def _widen(rows: np.ndarray, seg: np.ndarray) -> np.ndarray:
+    """``rows`` and their ``GEN_WIDEN`` neighbours on each side in the same segment."""
+    out = rows.copy()
+    for k in range(1, GEN_WIDEN + 1):
+        same = seg[k:] == seg[:-k]
+        out[k:] |= rows[:-k] & same
+        out[:-k] |= rows[k:] & same
+    return out
+
+
+def _generate(d: StepData, F, K, lin: _Lin, t_cones: _Soc | None, stats: dict | None):
+    """Constraint generation over the rows of the masks (module doc); ``z`` or None.
+
+    Starts from every valley of the rows' slack at the linearisation point (the bottoms of
+    ``1/|S|`` and ``|L|`` along frequency, per plant) and the rows it already violates
+    (``τ = 0``); after each solve the valleys of the violated rows and their
+    ``GEN_WIDEN`` neighbours join. It ends when every row of the masks holds within
+    ``GEN_TOL``: an optimum of the program of all rows. None when a program is not
+    "Solved" (at either tolerance) or the rounds run out.
+    """
+    nt = d.theta_k.size
+    v = _lin_slack(lin, d.theta_k, 0.0, np.abs(d.basis.polys(d.theta_k)[1] / F))
+    n_pt = int(lin.pt.max()) + 1 if lin.pt.size else 0
+    inp = np.zeros(n_pt, dtype=bool)  # points in the program
+    inp[lin.pt[_valleys(v, lin.seg, np.ones(v.size, dtype=bool)) | (v <= 0)]] = True
+    for _ in range(GEN_ROUNDS):
+        sel = inp[lin.pt]
+        t_sel = None if t_cones is None else t_cones.take(inp[t_cones.pt])
+        prog = _program(d, F, K, lin.take(sel), t_sel)
+        z = _solve(prog, TOL_GEN, ("Solved",))
+        if stats is not None:
+            stats.setdefault("rows", []).append(int(sel.sum()))
+            stats["loose"] = stats.get("loose", 0) + (z is None)
+        if z is None:  # Clarabel stalled short of 1e-8 / 1e-9
+            z = _solve(prog, TOL_ONE, ("Solved",))
+        if z is None:
+            return None
+        theta, tau = z[:nt], float(z[nt])
+        v = _lin_slack(lin, theta, tau, np.abs(d.basis.polys(theta)[1] / F))
+        bad = (v < -GEN_TOL) & ~sel
+        new = np.zeros(n_pt, dtype=bool)
+        new[lin.pt[_widen(_valleys(v, lin.seg, bad), lin.seg) & ~sel]] = True
+        if t_cones is not None:
+            new[t_cones.pt[(_soc_slack(t_cones, theta) < -GEN_TOL) & ~inp[t_cones.pt]]] = True
+        if not new.any():
+            return z
+        inp |= new
+    return None
+
+
+def solve_step(
+    d: StepData, *, generate: bool = True, stats: dict | None = None
+) -> tuple[np.ndarray, float] | None:
     """Solve one convex step; ``None`` if Clarabel does not reach an optimum.
 
     Parameters
     ----------
     d : StepData
         Linearisation point, active sets, bounds and trust radius.
+    generate : bool
+        Constraint generation over the rows of the masks (the same optimum, a fraction of
+        the rows); False, and where a generated program is not "Solved", one program
+        with every row of the masks (1e-6 / 1e-7, as before).
+    stats : dict, optional
+        Receives ``"rows"``: the linear rows of each program solved, and
+        ``"one_program": True`` when the program of every row was solved.
 
     Returns
     -------
     tuple of (ndarray, float) or None
         New parameters ``θ`` and the optimal ``τ``.
     """
-    import clarabel
-
     xk, F = d.basis.polys(d.theta_k)
     K = xk / F
-    free = d.basis.Vy.shape[1] > 0
-    active = d.s_mask.any(axis=0) | (d.c_mask.any(axis=0) if d.c_mask is not None else False)
-    if d.floor_idx is not None:
-        active[d.floor_idx] = True
-    freqs = np.nonzero(active)[0] if free else np.empty(0, dtype=int)
-    r_of = None
-    if free:
-        r_of = np.full(F.size, -1)
-        r_of[freqs] = np.arange(freqs.size)
-    rows = _Rows(d.theta_k.size, freqs.size)
-    _signs(d, rows)
-    _build(d, rows, F, K, r_of)
-    if free:
-        _r_cones(d, rows, F, freqs)
-    _trust(d, rows, F, K)
-    A = sp.vstack([a for a, _ in rows.lin + rows.soc], format="csc")
-    b = np.concatenate([bb for _, bb in rows.lin + rows.soc])
-    n_lin = sum(bb.size for _, bb in rows.lin)
-    n_soc = sum(bb.size // 3 for _, bb in rows.soc)
-    cones = [clarabel.NonnegativeConeT(n_lin)] + [clarabel.SecondOrderConeT(3)] * n_soc
-    q = np.zeros(rows.nz)
-    q[rows.nt] = -1.0
-    settings = clarabel.DefaultSettings()
-    settings.verbose = False
-    # each accepted step is re-checked exactly, so a 1e-6 optimum is plenty
-    settings.tol_gap_abs = settings.tol_gap_rel = 1e-6
-    settings.tol_feas = 1e-7
-    solver = clarabel.DefaultSolver(sp.csc_matrix((rows.nz, rows.nz)), q, A, b, cones, settings)
-    sol = solver.solve()
-    if str(sol.status) not in ("Solved", "AlmostSolved"):
-        return None
-    z = np.asarray(sol.x)
-    if not np.all(np.isfinite(z)):
-        raise ServokitValueError("loop-shaping step returned non-finite parameters")
-    return z[: rows.nt], float(z[rows.nt])
+    lin, t_cones = _candidates(d, F, K)
+    z = _generate(d, F, K, lin, t_cones, stats) if generate else None
+    if z is None:  # one program of every row, as before constraint generation
+        z = _solve(_program(d, F, K, lin, t_cones), TOL_ONE, ("Solved", "AlmostSolved"))
+        if stats is not None:
+            stats.setdefault("rows", []).append(lin.b.size)
+            stats["one_program"] = True
+    return None if z is None else (z[: d.theta_k.size], float(z[d.theta_k.size]))

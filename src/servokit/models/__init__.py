@@ -45,9 +45,10 @@ from servokit.models.files import (
 from servokit.models.fit import BandError, ModalFit, delay_from_phase, fit_modal
 from servokit.models.frf import FRF_MAX_BYTES, FrfFileError, read_frf, save_frf
 from servokit.models.hdd_box import hdd_benchmark_variants, hdd_benchmark_variation_set
-from servokit.models.lookup import get_discrete_controller, get_plant
+from servokit.models.lookup import get_discrete_controller, get_discrete_rational, get_plant
 from servokit.models.modal import ModalPlant, Mode, modal_matrices, without_delay
 from servokit.models.plots import fit_plot
+from servokit.models.rational import RationalTF, StateSpaceData, rational_zpk
 from servokit.models.tf import require_proper, zpk
 from servokit.models.variation_file import (
     HDD_BENCHMARK_VARIATIONS,
@@ -69,6 +70,10 @@ __all__ = [
     "CATALOGUE",
     "CONTROLLERS",
     "get_discrete_controller",
+    "get_discrete_rational",
+    "RationalTF",
+    "StateSpaceData",
+    "rational_zpk",
     "require_proper",
     "HDD_BENCHMARK_TS",
     "HDD_SAMPLED_DATA_TS",

@@ -10,6 +10,7 @@ from __future__ import annotations
 
 from servokit._lazy import control
 from servokit.models.catalogue import HDD_SAMPLED_DATA_TS
+from servokit.models.rational import RationalTF, rational_zpk
 from servokit.models.tf import require_proper, zpk
 
 __all__ = [
@@ -21,6 +22,7 @@ __all__ = [
     "vcm_controller_table_5_2",
     "VCM_PES_TS",
     "CONTROLLERS",
+    "RATIONAL_CONTROLLERS",
     "require_proper",
 ]
 
@@ -38,7 +40,11 @@ def controller_eq_4_69() -> control.TransferFunction:
     control.TransferFunction
         Discrete ``C(z)`` with ``dt = HDD_SAMPLED_DATA_TS`` (153.5 us).
     """
-    return zpk([0.490, 0.865, 0.908], [0.0182, 0.409, 1.0], 0.872, HDD_SAMPLED_DATA_TS)
+    return _eq_4_69_rational().to_control()
+
+
+def _eq_4_69_rational() -> RationalTF:
+    return rational_zpk([0.490, 0.865, 0.908], [0.0182, 0.409, 1.0], 0.872, HDD_SAMPLED_DATA_TS)
 
 
 def cpc_eq_4_72() -> control.TransferFunction:
@@ -99,6 +105,10 @@ def vcm_controller_table_5_2(dt: float = VCM_PES_TS) -> control.TransferFunction
     control.TransferFunction
         Discrete 10th-order ``C(z)`` (an integrator at ``z = 1``) with period ``dt``.
     """
+    return _table_5_2_rational(dt).to_control()
+
+
+def _table_5_2_rational(dt: float = VCM_PES_TS) -> RationalTF:
     zeros = [
         -0.2199 + 0.9392j,
         -0.2199 - 0.9392j,
@@ -123,7 +133,7 @@ def vcm_controller_table_5_2(dt: float = VCM_PES_TS) -> control.TransferFunction
         0.5467 + 0.7287j,
         0.5467 - 0.7287j,
     ]
-    return zpk(zeros, poles, 0.1365, dt)
+    return rational_zpk(zeros, poles, 0.1365, dt)
 
 
 def _hdd_benchmark_controller() -> control.TransferFunction:
@@ -139,6 +149,15 @@ CONTROLLERS = {
     "fig-4.57": controller_fig_4_57,
     "table-5.2": vcm_controller_table_5_2,
     "hdd-benchmark": _hdd_benchmark_controller,
+}
+
+
+#: The controllers of :data:`CONTROLLERS` that are zeros, poles and a gain, as numpy-only
+#: :class:`~servokit.models.rational.RationalTF` (no python-control import: a command's
+#: start-up); the same systems as ``CONTROLLERS[name]()`` (``.to_control()``).
+RATIONAL_CONTROLLERS = {
+    "eq-4.69": _eq_4_69_rational,
+    "table-5.2": _table_5_2_rational,
 }
 
 

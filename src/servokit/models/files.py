@@ -37,9 +37,16 @@ import tomli_w
 from servokit._lazy import control
 from servokit.errors import ServokitValueError
 from servokit.models.modal import ModalPlant, Mode
-from servokit.models.tf import zpk
+from servokit.models.rational import RationalTF, rational_zpk
 
-__all__ = ["PlantFileError", "load_plant", "save_plant", "load_controller", "save_controller"]
+__all__ = [
+    "PlantFileError",
+    "load_plant",
+    "save_plant",
+    "load_controller",
+    "load_controller_rational",
+    "save_controller",
+]
 
 _PLANT_KEYS = {"name", "gain", "delay", "source", "modes", "kind"}
 _MODE_KEYS = {"freq_hz", "damping", "residue"}
@@ -203,6 +210,28 @@ def load_controller(path: str | Path) -> control.TransferFunction:
         If the file is missing or not TOML, has an unknown or malformed field, a
         ``dt <= 0``, only one of ``num``/``den``, or neither those nor ``gain``.
     """
+    return load_controller_rational(path).to_control()
+
+
+def load_controller_rational(path: str | Path) -> RationalTF:
+    """:func:`load_controller` without python-control: the same file as coefficients.
+
+    Parameters
+    ----------
+    path : str or Path
+        A controller file (format in the module docstring).
+
+    Returns
+    -------
+    RationalTF
+        The controller :func:`load_controller` returns, as a
+        :class:`~servokit.models.rational.RationalTF` (``.to_control()`` converts).
+
+    Raises
+    ------
+    PlantFileError
+        As :func:`load_controller`.
+    """
     path = Path(path)
     data = _read(path)
     _unknown(path, "", set(data), _CTRL_KEYS)
@@ -221,13 +250,13 @@ def load_controller(path: str | Path) -> control.TransferFunction:
         den = [_number(path, f"den[{i}]", v) for i, v in enumerate(data["den"])]
         if not any(den):
             raise PlantFileError(f"{path}: field 'den' must not be all zeros")
-        return control.tf(num, den) if dt is None else control.tf(num, den, dt)
+        return RationalTF(num, den, dt)
     if "gain" not in data:
         raise PlantFileError(f"{path}: missing field 'gain' (or give 'num' and 'den')")
     gain = _number(path, "gain", data["gain"])
     zeros = _roots(path, "zeros", data.get("zeros", []))
     poles = _roots(path, "poles", data.get("poles", []))
-    return zpk(zeros, poles, gain, dt)
+    return rational_zpk(zeros, poles, gain, dt)
 
 
 def save_controller(ctrl: control.TransferFunction, path: str | Path) -> None:

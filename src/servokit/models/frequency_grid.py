@@ -35,6 +35,10 @@ def _dt(sys: Any) -> float | None:
 
 def _roots_of(sys: Any) -> np.ndarray:
     """Poles and zeros of an LTI or ModalPlant factor (empty for anything else)."""
+    from servokit.models.rational import RationalTF, StateSpaceData
+
+    if isinstance(sys, RationalTF | StateSpaceData):  # numpy-only: python-control unloaded
+        return np.r_[sys.poles(), _zeros(sys)].astype(complex)
     import control
 
     if isinstance(sys, control.LTI):
@@ -61,8 +65,8 @@ def critical_frequencies(system: Any) -> tuple[np.ndarray, np.ndarray]:
 
     Parameters
     ----------
-    system : LTI or ModalPlant
-        A python-control system (continuous or discrete) or a
+    system : LTI, RationalTF, StateSpaceData or ModalPlant
+        A python-control system (continuous or discrete) or its numpy-only form, or a
         :class:`~servokit.models.ModalPlant`; anything else has no known critical points.
 
     Returns

@@ -8,15 +8,17 @@ catalogue -> files -> controllers -> catalogue is gone).
 from __future__ import annotations
 
 from pathlib import Path
+from typing import Any
 
 from servokit._lazy import control
 from servokit.errors import ServokitValueError
 from servokit.models.catalogue import CATALOGUE
-from servokit.models.controllers import CONTROLLERS
-from servokit.models.files import load_controller, load_plant
+from servokit.models.controllers import CONTROLLERS, RATIONAL_CONTROLLERS
+from servokit.models.files import load_controller, load_controller_rational, load_plant
 from servokit.models.modal import ModalPlant
+from servokit.models.rational import RationalTF
 
-__all__ = ["get_plant", "get_discrete_controller"]
+__all__ = ["get_plant", "get_discrete_controller", "get_discrete_rational"]
 
 
 def get_plant(name_or_file: str | Path) -> ModalPlant:
@@ -81,6 +83,45 @@ def get_discrete_controller(name_or_file: str, dt: float | None = None) -> contr
         ctrl = CONTROLLERS[name_or_file]()
     else:
         ctrl = load_controller(name_or_file)
+    return _checked_discrete(name_or_file, ctrl, dt)
+
+
+def get_discrete_rational(name_or_file: str, dt: float | None = None) -> RationalTF:
+    """:func:`get_discrete_controller` as numpy coefficients, python-control left unloaded.
+
+    A controller file and the zeros/poles/gain book controllers
+    (:data:`~servokit.models.controllers.RATIONAL_CONTROLLERS`) are read without importing
+    python-control (a command's start-up, issue 23); the others are built by python-control
+    and converted.
+
+    Parameters
+    ----------
+    name_or_file : str
+        As :func:`get_discrete_controller`.
+    dt : float, optional
+        Required sampling period [s], as :func:`get_discrete_controller`.
+
+    Returns
+    -------
+    RationalTF
+        The controller :func:`get_discrete_controller` returns (``.to_control()``).
+
+    Raises
+    ------
+    ServokitValueError
+        As :func:`get_discrete_controller`.
+    """
+    if name_or_file in RATIONAL_CONTROLLERS:
+        ctrl = RATIONAL_CONTROLLERS[name_or_file]()
+    elif name_or_file in CONTROLLERS:
+        ctrl = RationalTF.from_control(CONTROLLERS[name_or_file]())
+    else:
+        ctrl = load_controller_rational(name_or_file)
+    return _checked_discrete(name_or_file, ctrl, dt)
+
+
+def _checked_discrete(name_or_file: str, ctrl: Any, dt: float | None) -> Any:
+    """``ctrl`` if discrete and (with ``dt``) at that period, else a one-line error."""
     if ctrl.dt is None or ctrl.dt is True or not ctrl.dt:
         raise ServokitValueError(
             f"controller {name_or_file} is continuous; give a discrete one (a 'dt' field), "

@@ -24,7 +24,8 @@ from typing import TYPE_CHECKING, Literal
 import numpy as np
 
 from servokit.errors import ServokitTypeError, ServokitValueError
-from servokit.models._zoh import delayed_zoh
+from servokit.models._zoh import delayed_zoh, modal_delayed_zoh
+from servokit.models.rational import StateSpaceData
 
 if TYPE_CHECKING:
     import control
@@ -267,39 +268,76 @@ class ModalPlant:
         delay is a whole number of samples (see :func:`servokit.models._zoh.delayed_zoh`).
         The modal states come first, the delay states last.
         """
-        import control
+        return self.discretize_data(dt).to_control()
 
+    def discretize_data(self, dt: float, method: str = "expm") -> StateSpaceData:
+        """:meth:`discretize` as numpy arrays, python-control left unloaded (start-up).
+
+        Parameters
+        ----------
+        dt : float
+            Sampling period [s], > 0.
+        method : {"expm", "modal"}
+            ``"expm"``: ``scipy.linalg.expm`` of the augmented matrix (what
+            :meth:`discretize` returns, bit for bit); ``"modal"``: each mode's ZOH in
+            closed form (:func:`~servokit.models._zoh.modal_delayed_zoh`, the same states
+            within ~1e-13 of the norm) without importing scipy.linalg, whose import alone
+            costs a command's start-up a fifth of a second (issue 23).
+
+        Returns
+        -------
+        StateSpaceData
+            The exact ZOH state space with the delay line (``.to_control()`` converts).
+        """
         dt = _finite("dt", dt)
         if dt <= 0:
             raise ServokitValueError(f"dt must be > 0 seconds (got {dt})")
-        A, B, C = modal_matrices(*self.arrays())
-        Phi, Gnew, Gold, d = delayed_zoh(A, B, dt, self.delay)
-        has_old = bool(np.any(Gold != 0.0))
-        n_del = d + 1 if has_old else d
-        n = A.shape[0]
-        if n_del == 0:
-            return control.ss(Phi, Gnew, C, np.zeros((1, 1)), dt)
-        N = n + n_del
-        Ad = np.zeros((N, N))
-        Bd = np.zeros((N, 1))
-        Ad[:n, :n] = Phi
-        # delay line: state n + j holds u[k-1-j]
-        Bd[n, 0] = 1.0
-        for j in range(1, n_del):
-            Ad[n + j, n + j - 1] = 1.0
-        # u[k-d] enters with Gnew, u[k-d-1] with Gold
-        if d == 0:
-            Bd[:n] = Gnew
-        else:
-            Ad[:n, n + d - 1 : n + d] = Gnew
-        if has_old:
-            Ad[:n, n + d : n + d + 1] = Gold
-        Cd = np.zeros((1, N))
-        Cd[:, :n] = C
-        return control.ss(Ad, Bd, Cd, np.zeros((1, 1)), dt)
+        w, z, r = self.arrays()
+        A, B, C = modal_matrices(w, z, r)
+        if method == "expm":
+            Phi, Gnew, Gold, d = delayed_zoh(A, B, dt, self.delay)
+            return _with_delay_line(Phi, Gnew, Gold, d, C, dt)
+        if method != "modal":
+            raise ServokitValueError(f"method must be 'expm' or 'modal' (got {method!r})")
+        Phis, Gns, Gos, d = modal_delayed_zoh(w, z, r, dt, self.delay)
+        n = 2 * w.size
+        Phi = np.zeros((n, n))
+        for i in range(w.size):  # block diagonal, one 2x2 block per mode
+            Phi[2 * i : 2 * i + 2, 2 * i : 2 * i + 2] = Phis[i]
+        return _with_delay_line(Phi, Gns.reshape(n, 1), Gos.reshape(n, 1), d, C, dt)
 
     def __str__(self) -> str:
         return self.name or f"ModalPlant({len(self.modes)} modes)"
+
+
+def _with_delay_line(
+    Phi: np.ndarray, Gnew: np.ndarray, Gold: np.ndarray, d: int, C: np.ndarray, dt: float
+) -> StateSpaceData:
+    """The delayed ZOH model ``x+ = Phi x + Gnew u[k-d] + Gold u[k-d-1]`` with the past
+    inputs it needs as extra states (``d + 1`` with a fractional delay, else ``d``)."""
+    has_old = bool(np.any(Gold != 0.0))
+    n_del = d + 1 if has_old else d
+    n = Phi.shape[0]
+    if n_del == 0:
+        return StateSpaceData(Phi, Gnew, C, np.zeros((1, 1)), dt)
+    N = n + n_del
+    Ad = np.zeros((N, N))
+    Bd = np.zeros((N, 1))
+    Ad[:n, :n] = Phi
+    # delay line: state n + j holds u[k-1-j]
+    Bd[n, 0] = 1.0
+    for j in range(1, n_del):
+        Ad[n + j, n + j - 1] = 1.0
+    # u[k-d] enters with Gnew, u[k-d-1] with Gold
+    if d == 0:
+        Bd[:n] = Gnew
+    else:
+        Ad[:n, n + d - 1 : n + d] = Gnew
+    if has_old:
+        Ad[:n, n + d : n + d + 1] = Gold
+    Cd = np.zeros((1, N))
+    Cd[:, :n] = C
+    return StateSpaceData(Ad, Bd, Cd, np.zeros((1, 1)), dt)
 
 
 def modal_matrices(

@@ -42,15 +42,9 @@ def zpk(
     ServokitValueError
         If the zeros or poles are not closed under conjugation (complex coefficients).
     """
-    num = gain * np.real_if_close(np.poly(np.asarray(zeros, dtype=complex)), tol=1e6)
-    den = np.real_if_close(np.poly(np.asarray(poles, dtype=complex)), tol=1e6)
-    if np.iscomplexobj(num) or np.iscomplexobj(den):
-        raise ServokitValueError("zeros and poles must come in complex-conjugate pairs")
-    num = np.atleast_1d(num).astype(float)
-    den = np.atleast_1d(den).astype(float)
-    if dt is None:
-        return control.tf(num, den)
-    return control.tf(num, den, dt)
+    from servokit.models.rational import rational_zpk
+
+    return rational_zpk(zeros, poles, gain, dt).to_control()
 
 
 def require_proper(name: str, sys: control.LTI) -> None:
@@ -60,8 +54,8 @@ def require_proper(name: str, sys: control.LTI) -> None:
     ----------
     name : str
         The system's name in the error message.
-    sys : control.LTI
-        SISO system; a ``TransferFunction`` is checked (numerator degree, after leading
+    sys : control.LTI or RationalTF
+        SISO system; a transfer function is checked (numerator degree, after leading
         zeros are trimmed, at most the denominator's), a ``StateSpace`` is always proper.
 
     Raises
@@ -69,7 +63,8 @@ def require_proper(name: str, sys: control.LTI) -> None:
     ServokitValueError
         If ``sys`` has more zeros than poles.
     """
-    if isinstance(sys, control.TransferFunction):
+    # a transfer function: python-control's or a RationalTF (no python-control import)
+    if getattr(sys, "den", None) is not None:
         num = np.trim_zeros(np.atleast_1d(np.asarray(sys.num[0][0], dtype=float)), "f")
         den = np.trim_zeros(np.atleast_1d(np.asarray(sys.den[0][0], dtype=float)), "f")
         if len(num) > len(den):

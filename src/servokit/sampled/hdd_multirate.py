@@ -11,6 +11,7 @@ import numpy as np
 
 from servokit._lazy import control
 from servokit.models.catalogue import HDD_SAMPLED_DATA_TS
+from servokit.models.rational import RationalTF
 from servokit.sampled.multirate import Multirate
 
 __all__ = ["FILTER_HZ", "M", "hdd_multirate", "multirate_filter_4_68"]
@@ -40,9 +41,14 @@ def multirate_filter_4_68(dt: float = HDD_SAMPLED_DATA_TS, m: int = M) -> contro
         resonant peak ``|1 + 0.1 j / 0.006|`` (about +24 dB) at 3.6 kHz and 0.9 (-0.9 dB)
         above it.
     """
+    return _filter_4_68(dt, m).to_control()
+
+
+def _filter_4_68(dt: float, m: int) -> RationalTF:
+    """Fm of eq. (4.68) as numpy coefficients: python-control's Tustin arithmetic."""
     wf = 2.0 * np.pi * FILTER_HZ
-    fmc = 1 - control.tf([0.1, 0.0, 0.0], [1.0, 2 * 0.003 * wf, wf**2])
-    return control.sample_system(fmc, dt / m, method="tustin", prewarp_frequency=wf)
+    fmc = 1 - RationalTF([0.1, 0.0, 0.0], [1.0, 2 * 0.003 * wf, wf**2])
+    return fmc.tustin(dt / m, prewarp_rad_s=wf)
 
 
 def hdd_multirate(dt: float = HDD_SAMPLED_DATA_TS, m: int = M) -> Multirate:
@@ -58,8 +64,10 @@ def hdd_multirate(dt: float = HDD_SAMPLED_DATA_TS, m: int = M) -> Multirate:
     Returns
     -------
     Multirate
-        ``m``, ``Ip`` and ``Fm`` (:func:`multirate_filter_4_68`) at ``dt/m``, fast
+        ``m``, ``Ip`` and ``Fm`` (:func:`multirate_filter_4_68`) at ``dt/m`` as numpy-only
+        :class:`~servokit.models.rational.RationalTF` (python-control left unloaded; its
+        ``chain`` and ``discretize`` still return python-control objects), fast
         zero-order hold (4.66).
     """
-    ip = control.tf(np.ones(m), np.r_[1.0, np.zeros(m - 1)], dt / m)
-    return Multirate(m, interpolator=ip, filter=multirate_filter_4_68(dt, m))
+    ip = RationalTF(np.ones(m), np.r_[1.0, np.zeros(m - 1)], dt / m)
+    return Multirate(m, interpolator=ip, filter=_filter_4_68(dt, m))

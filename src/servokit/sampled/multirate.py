@@ -25,6 +25,12 @@ import numpy as np
 from servokit._lazy import control
 from servokit.errors import ServokitTypeError, ServokitValueError, check_positive
 from servokit.models.modal import ModalPlant
+from servokit.models.rational import (
+    RationalTF,
+    StateSpaceData,
+    as_state_space_data,
+    series,
+)
 from servokit.models.tf import require_proper
 
 __all__ = ["Multirate", "zoh_response", "eval_discrete", "check_discrete"]
@@ -54,11 +60,28 @@ def zoh_response(freq_hz: np.ndarray, hold_time: float) -> np.ndarray:
     return hold_time * np.exp(-0.5j * x) * np.sinc(x / (2.0 * np.pi))
 
 
+def _is_lti(sys: object) -> bool:
+    """A python-control LTI or its numpy-only form (no python-control import for those)."""
+    if isinstance(sys, RationalTF | StateSpaceData):
+        return True
+    return isinstance(sys, control.TransferFunction | control.StateSpace)
+
+
+def _is_tf(sys: object) -> bool:
+    if isinstance(sys, RationalTF | StateSpaceData):
+        return isinstance(sys, RationalTF)
+    return isinstance(sys, control.TransferFunction)
+
+
+def _to_control(sys: object) -> control.LTI:
+    return sys.to_control() if isinstance(sys, RationalTF | StateSpaceData) else sys
+
+
 def _lti(name: str, sys: object) -> control.LTI:
-    if not isinstance(sys, control.TransferFunction | control.StateSpace):
+    if not _is_lti(sys):
         raise ServokitTypeError(
-            f"{name} must be a discrete python-control TransferFunction or StateSpace, "
-            f"got {type(sys).__name__}"
+            f"{name} must be a discrete python-control TransferFunction or StateSpace "
+            f"(or servokit RationalTF/StateSpaceData), got {type(sys).__name__}"
         )
     if sys.ninputs != 1 or sys.noutputs != 1:
         raise ServokitValueError(f"{name} must be SISO (got {sys.noutputs}x{sys.ninputs})")
@@ -80,7 +103,7 @@ def check_discrete(name: str, sys: object, dt: float) -> control.LTI:
     ----------
     name : str
         The system's name in the error messages (``"controller"``, ``"filter"``).
-    sys : control.TransferFunction or control.StateSpace
+    sys : control.TransferFunction, control.StateSpace, RationalTF or StateSpaceData
         System to check; it must also be proper.
     dt : float
         Required sampling period [s] (matched to a relative 1e-9).
@@ -125,7 +148,7 @@ def eval_discrete(sys: control.LTI, z: np.ndarray) -> np.ndarray:
 
     Parameters
     ----------
-    sys : control.TransferFunction or control.StateSpace
+    sys : control.TransferFunction, control.StateSpace, RationalTF or StateSpaceData
         SISO discrete system (not checked; see :func:`check_discrete`).
     z : array_like of complex
         Points of the z-plane, any shape (``exp(j 2 pi f dt)`` for a frequency response).
@@ -137,7 +160,7 @@ def eval_discrete(sys: control.LTI, z: np.ndarray) -> np.ndarray:
         for a state-space model.
     """
     z = np.asarray(z, dtype=complex)
-    if isinstance(sys, control.TransferFunction):
+    if _is_tf(sys):
         num = np.asarray(sys.num[0][0], dtype=float)
         den = np.asarray(sys.den[0][0], dtype=float)
         return np.polyval(num, z) / np.polyval(den, z)
@@ -169,12 +192,12 @@ class Multirate:
     ----------
     m : int
         Multirate number (>= 1): the fast rate is ``m`` times the controller rate.
-    interpolator : control.TransferFunction or control.StateSpace, optional
+    interpolator : control.TransferFunction, control.StateSpace or RationalTF, optional
         Interpolation filter ``Ip`` at ``dt/m`` (eq. 4.67).  ``None`` means the hold
         interpolator ``1 + z^-1 + ... + z^-(m-1)``, which with no ``filter`` makes the
         path an ordinary zero-order hold at ``dt``.  There is no ``1/m`` gain: the
         up-sampler inserts zeros, the interpolator repeats the sample.
-    filter : control.TransferFunction or control.StateSpace, optional
+    filter : control.TransferFunction, control.StateSpace or RationalTF, optional
         Multirate filter ``Fm`` at ``dt/m`` (e.g. eq. (4.68) discretised); ``None`` = 1.
     hold : {"zoh"}
         The fast hold ``Hm`` (eq. 4.66).  Only the zero-order hold is implemented.
@@ -216,19 +239,30 @@ class Multirate:
         return h
 
     def interpolator_tf(self, dt: float) -> control.LTI:
-        """``Ip`` at ``dt/m`` (the hold interpolator when none was given)."""
+        """``Ip`` at ``dt/m`` (the hold interpolator when none was given), python-control."""
+        return _to_control(self._interpolator(dt))
+
+    def _interpolator(self, dt: float) -> object:
         h = self.fast_dt(dt)
         if self.interpolator is not None:
             return self.interpolator
-        return control.tf(np.ones(self.m), np.r_[1.0, np.zeros(self.m - 1)], h)
+        return RationalTF(np.ones(self.m), np.r_[1.0, np.zeros(self.m - 1)], h)
 
     def chain(self, dt: float) -> control.LTI:
         """The fast-rate filter ``Ip Fm`` at ``dt/m`` (what follows the zero insertion).
 
         This is the ``F`` of ``servokit.simulate.simulate(..., multirate=(m, F))``.
         """
-        ip = self.interpolator_tf(dt)
-        return ip if self.filter is None else control.series(ip, self.filter)
+        return _to_control(self._chain(dt))
+
+    def _chain(self, dt: float) -> object:
+        """:meth:`chain` as given: numpy-only when ``Ip`` and ``Fm`` are RationalTF."""
+        ip = self._interpolator(dt)
+        if self.filter is None:
+            return ip
+        if isinstance(ip, RationalTF) and isinstance(self.filter, RationalTF):
+            return self.filter * ip  # python-control's series(ip, filter) = filter * ip
+        return control.series(_to_control(ip), _to_control(self.filter))
 
     # --------------------------------------------------------------- responses
     def filter_response(self, freq_hz: np.ndarray, dt: float) -> np.ndarray:
@@ -236,7 +270,7 @@ class Multirate:
         h = self.fast_dt(dt)
         f = np.asarray(freq_hz, dtype=float)
         z = np.exp(2j * np.pi * f * h)
-        out = eval_discrete(self.interpolator_tf(dt), z)
+        out = eval_discrete(self._interpolator(dt), z)
         if self.filter is not None:
             out = out * eval_discrete(self.filter, z)
         return out
@@ -253,9 +287,27 @@ class Multirate:
         with zero insertion only the first of the ``m`` fast inputs is non-zero, so
         ``x[n+1] = A^m x[n] + A^(m-1) B ud[n]`` and ``yd[n] = C x[n] + D ud[n]``.
         """
+        return self.discretize_data(plant, dt).to_control()
+
+    def discretize_data(self, plant: ModalPlant, dt: float, method: str = "expm") -> StateSpaceData:
+        """:meth:`discretize` as numpy arrays (python-control unloaded for RationalTF parts).
+
+        Parameters
+        ----------
+        plant : ModalPlant
+            Continuous plant with its input delay.
+        dt : float
+            Slow (controller) period [s].
+        method : {"expm", "modal"}
+            The plant's ZOH (:meth:`~servokit.models.ModalPlant.discretize_data`).
+
+        Returns
+        -------
+        StateSpaceData
+            The model :meth:`discretize` returns (``.to_control()`` converts).
+        """
         h = self.fast_dt(dt)
-        fast = control.series(control.ss(self.chain(dt)), plant.discretize(h))
-        A, B, C, D = (np.asarray(x, dtype=float) for x in (fast.A, fast.B, fast.C, fast.D))
+        fast = series(as_state_space_data(self._chain(dt)), plant.discretize_data(h, method))
         # m is a small integer (the multirate number): a few products, not a long loop
-        Am1 = np.linalg.matrix_power(A, self.m - 1)
-        return control.ss(Am1 @ A, Am1 @ B, C, D, dt)
+        Am1 = np.linalg.matrix_power(fast.A, self.m - 1)
+        return StateSpaceData(Am1 @ fast.A, Am1 @ fast.B, fast.C, fast.D, dt)
