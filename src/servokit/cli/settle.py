@@ -103,12 +103,14 @@ def _check_seek_memory(n_seeks: int, what: str, max_memory_mb: float) -> None:
 
 
 def _simulate(seeks: list[tuple[float, int]], what: str):
-    from servokit.learn import simulate_seeks
+    from servokit.learn import iter_seeks
 
+    # one discretisation and one set of free-run powers for all seeks (a list of
+    # one-seek calls redid both per seek: 100 validation seeks took seconds)
     with progress(len(seeks), what) as advance:
         out = []
-        for s in seeks:
-            out.extend(simulate_seeks([s]))
+        for r in iter_seeks(seeks):
+            out.append(r)
             advance()
     return out
 
