@@ -47,6 +47,7 @@ from servokit.cli._render import (  # noqa: F401
     emit_json,
     fail,
     progress,
+    started,
     warn,
     wrote,
 )
