@@ -116,11 +116,15 @@ def _check_seek_memory(n_seeks: int, what: str, max_memory_mb: float) -> None:
 
 
 def _simulate(seeks: list[tuple[float, int]], what: str):
+    from threadpoolctl import threadpool_limits
+
     from servokit.learn import iter_seeks
 
     # one discretisation and one set of free-run powers for all seeks (a list of
-    # one-seek calls redid both per seek: 100 validation seeks took seconds)
-    with progress(len(seeks), what) as advance:
+    # one-seek calls redid both per seek); one BLAS thread: on 6 x 6 products and the
+    # FSC designs' small expm, OpenBLAS threads spin instead of working (100 validation
+    # seeks: 1.5 s with two threads on the shared 2-core machine, 0.45 s with one)
+    with progress(len(seeks), what) as advance, threadpool_limits(limits=1):
         out = []
         for r in iter_seeks(seeks):
             out.append(r)
