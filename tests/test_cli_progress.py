@@ -117,3 +117,42 @@ def test_a_refused_request_prints_no_start_line(args, flag, tmp_path, monkeypatc
     assert code == 2, (out, err)
     lines = err.strip().splitlines()
     assert len(lines) == 1 and flag in lines[0], err
+
+
+@pytest.mark.slow
+def test_report_says_what_it_builds_and_stdout_keeps_its_answer(tmp_path, monkeypatch, capsys):
+    monkeypatch.chdir(tmp_path)
+    monkeypatch.setenv(PROGRESS_ENV, "1")
+    args = ["report", "--plant", "hdd-sampled-data", "--controller", "eq-4.69", "--out", "d"]
+    code, out, err, _ = run_cli(args, HANG_S, monkeypatch, capsys)
+    assert code == 0, err
+    assert err.splitlines()[0] == "report: 2 section(s) -> d/report.html"
+    assert out == "2 section(s)\n"
+
+
+def test_loopshape_step_lines_are_throttled(monkeypatch, capsys) -> None:
+    from servokit.cli.loopshape import _step_lines
+
+    monkeypatch.setenv(PROGRESS_ENV, "1")
+    entry = {"iteration": 2, "phase": 2, "min_crossover_hz": 812.44, "worst_s_peak_db": 5.991}
+    _step_lines(every_s=0.0)(entry)
+    quiet = _step_lines(every_s=3600.0)
+    quiet(entry)
+    quiet(entry)
+    assert capsys.readouterr().err == (
+        "loopshape: step 3 (phase 2): lowest crossover 812.4 Hz, worst |S| 5.99 dB\n"
+    )
+
+
+@pytest.mark.slow
+def test_reproduce_start_line_and_pure_json(tmp_path) -> None:
+    proc = subprocess.run(
+        [sys.executable, "-c", _ENTRY, "reproduce", "--case", "resonance-filters", "--out",
+         "o", "--json"],
+        capture_output=True, text=True, cwd=tmp_path, env=_env(PROGRESS_ENV, "1"), timeout=600,
+    )  # fmt: skip
+    assert proc.returncode == 0, proc.stderr
+    assert json.loads(proc.stdout)["rows"]
+    lines = proc.stderr.splitlines()
+    assert lines[0] == "reproduce: 1 case(s) on up to 1 process(es) -> o/", lines
+    assert lines[1].startswith("[1/1] resonance-filters done")

@@ -68,6 +68,19 @@ def started(command: str, message: str) -> None:
     message : str
         What is being done, with the sizes and the output, e.g. ``"25 cases -> out/"``.
     """
+    progress_line(command, message)
+
+
+def progress_line(command: str, message: str) -> None:
+    """One line of progress on stderr, as :func:`started` (same rule for when it prints).
+
+    Parameters
+    ----------
+    command : str
+        The command as typed, e.g. ``"loopshape"``.
+    message : str
+        Where the work is, e.g. ``"step 3: lowest crossover 812.4 Hz"``.
+    """
     if progress_wanted():
         typer.echo(f"{command}: {message}", err=True)
 

@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+from collections.abc import Callable
 from pathlib import Path
 from typing import Annotated, Any
 
@@ -19,6 +20,8 @@ from servokit.cli._app import (
     load_controller,
     load_plant,
     plot_target,
+    progress_line,
+    progress_wanted,
     started,
     warn,
     wrote,
@@ -257,6 +260,7 @@ def loopshape_cmd(
             f, P, dt, s_max_db=s_max_db, structure=structure, order=order, notches=notches,
             lowpass_hz=lp, t_max_db=t_max_db, initial=init, time_limit_s=time_limit,
             keep_low_gain=keep_low_gain or None, names=names,
+            progress=_step_lines() if progress_wanted() else None,
         )  # fmt: skip
     outdir.mkdir(parents=True, exist_ok=True)
     path = outdir / CONTROLLER_FILE
@@ -272,6 +276,25 @@ def loopshape_cmd(
     _print_certificate(radii, models or [])
     for note in res.notes:
         console.print(f"note: {note}")
+
+
+def _step_lines(every_s: float = 1.0) -> Callable[[dict], None]:
+    """A progress line per accepted step of the iteration, at most one per ``every_s``."""
+    import time
+
+    last = [time.monotonic()]
+
+    def line(entry: dict) -> None:
+        if time.monotonic() - last[0] < every_s:
+            return
+        last[0] = time.monotonic()
+        progress_line(
+            "loopshape",
+            f"step {entry['iteration'] + 1} (phase {entry['phase']}): lowest crossover "
+            f"{entry['min_crossover_hz']:.1f} Hz, worst |S| {entry['worst_s_peak_db']:.2f} dB",
+        )
+
+    return line
 
 
 def _plot(res: Any, f: np.ndarray, P: np.ndarray, dt: float, s_max_db: float, plot: Path):
