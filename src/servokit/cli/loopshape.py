@@ -233,7 +233,6 @@ def loopshape_cmd(
     """Maximise the lowest crossover over the FRFs under ||S||inf <= --s-max-db, stability
     certified on every FRF (convex-concave iteration, Karimi & Kammer 2017)."""
     from servokit.feedback import loopshape
-    from servokit.feedback.loopshape_problem import check_frf_set
     from servokit.models import save_controller
 
     plot = plot_target(plot)
@@ -247,14 +246,7 @@ def loopshape_cmd(
     plants = [load_plant(m) for m in models or []]
     f, P = _read_set(frf_files)
     names = tuple(Path(n).stem for n in frf_files)
-    with flag_names(_FLAGS):  # the grid's checks before the start line (one error line)
-        check_frf_set(f, P, dt)
-    started(
-        "loopshape",
-        f"{structure if order is None else f'order-{order}'} controller for {P.shape[0]} "
-        f"FRF(s) of {P.shape[-1]} points, at most {time_limit:g} s "
-        f"-> {outdir / CONTROLLER_FILE}",
-    )
+    _announce(f, P, dt, order, time_limit, outdir / CONTROLLER_FILE)
     with flag_names(_FLAGS):
         res = loopshape(
             f, P, dt, s_max_db=s_max_db, structure=structure, order=order, notches=notches,
@@ -276,6 +268,21 @@ def loopshape_cmd(
     _print_certificate(radii, models or [])
     for note in res.notes:
         console.print(f"note: {note}")
+
+
+def _announce(
+    f: np.ndarray, P: np.ndarray, dt: float, order: int | None, time_limit: float, path: Path
+) -> None:
+    """The FRF grid's checks, then the start line (a refused grid prints one error line)."""
+    from servokit.feedback.loopshape_problem import check_frf_set
+
+    with flag_names(_FLAGS):
+        check_frf_set(f, P, dt)
+    started(
+        "loopshape",
+        f"{'pid-notch' if order is None else f'order-{order}'} controller for {P.shape[0]} "
+        f"FRF(s) of {P.shape[-1]} points, at most {time_limit:g} s -> {path}",
+    )
 
 
 def _step_lines(every_s: float = 1.0) -> Callable[[dict], None]:
