@@ -206,8 +206,11 @@ def _run(usage: tuple[type[BaseException], ...]) -> int:
         return 2
     except (ServokitError, ValueError, TypeError, OverflowError, ZeroDivisionError,
             FloatingPointError, np.linalg.LinAlgError) as exc:  # fmt: skip
+        from servokit.cli._hints import with_input_hint
+
         msg = str(exc).splitlines()[0] if str(exc) else type(exc).__name__
-        typer.echo(f"servokit: error: {internal_names_to_flags(msg)}", err=True)
+        msg = with_input_hint(internal_names_to_flags(msg), sys.argv[1:])
+        typer.echo(f"servokit: error: {msg}", err=True)
         return 2
     except usage as exc:
         text = exc.format_message() if hasattr(exc, "format_message") else str(exc)
@@ -224,7 +227,8 @@ def internal_names_to_flags(message: str) -> str:
     """Rewrite library parameter names that escaped a command's own translation.
 
     Only names that cannot be English words are replaced (those with an underscore or a
-    capital, e.g. ``n_samples``, ``N_range``); a plain word such as "target" is left alone.
+    capital, e.g. ``n_samples``, ``N_range``); a plain word such as "target" is left alone,
+    and so is a quoted name: ``'freq_hz'`` is a column of the user's file, not a parameter.
     """
     import re
 
@@ -232,7 +236,7 @@ def internal_names_to_flags(message: str) -> str:
 
     for name in sorted(PARAM_FLAGS, key=len, reverse=True):
         if "_" in name or name != name.lower() or name in ("workers", "substeps"):
-            message = re.sub(rf"(?<![\w-]){re.escape(name)}(?![\w-])", PARAM_FLAGS[name], message)
+            message = re.sub(rf"(?<![\w'-]){re.escape(name)}(?![\w'-])", PARAM_FLAGS[name], message)
     return message
 
 

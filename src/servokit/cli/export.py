@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import io
 import json
 from pathlib import Path
 from typing import Annotated
@@ -18,7 +19,7 @@ from servokit.cli._app import (
     sub_app,
     wrote,
 )
-from servokit.cli._options import given_on_command_line, old_name, renamed
+from servokit.cli._options import given_on_command_line, old_name, refuse_inapplicable, renamed
 from servokit.errors import (
     DEFAULT_MAX_MEMORY_MB,
     ServokitValueError,
@@ -376,6 +377,7 @@ def ivc_cmd(
     from servokit.export.designs import book_ivc_gain
 
     out_dir = _check_common(out, name, fmt, precision)
+    refuse_inapplicable("--method", method, {"velocity_weight": ("--velocity-weight", ("jmin",))})
     K, desc = book_ivc_gain(method, velocity_weight)
     tables = [FirmwareTable("K", K, f"xc[0] = K xp[0]: {desc}")]
     _finish(tables, out_dir, name, fmt, precision, None, desc, json_out)
@@ -407,13 +409,16 @@ def table_cmd(
 def _read_tables(path: Path) -> list:
     import numpy as np  # here, not at the top: `servokit --help` stays fast
 
+    from servokit._io import read_input_text
     from servokit.errors import ServokitValueError, check_input_file
     from servokit.export import FirmwareTable
 
     path = check_input_file(path, "--input")
+    # size cap, encoding and nesting depth are checked before parsing
+    text = read_input_text(path, "--input")
     if path.suffix.lower() == ".json":
         try:
-            data = json.loads(path.read_text(encoding="utf-8"))
+            data = json.loads(text)
         except json.JSONDecodeError as exc:
             raise ServokitValueError(f"--input {path}: not valid JSON ({exc.msg})") from None
         if not isinstance(data, dict) or not data:
@@ -421,7 +426,8 @@ def _read_tables(path: Path) -> list:
         items = list(data.items())
     elif path.suffix.lower() == ".csv":
         try:
-            items = [(path.stem.replace("-", "_"), np.loadtxt(path, delimiter=",", ndmin=2))]
+            table = np.loadtxt(io.StringIO(text), delimiter=",", ndmin=2)
+            items = [(path.stem.replace("-", "_"), table)]
         except ValueError:
             raise ServokitValueError(f"--input {path}: the CSV must hold numbers only") from None
     else:

@@ -323,4 +323,10 @@ def dynamic_range(stroke_m: float, accuracy_m: float) -> float:
     a = check_positive("accuracy_m", accuracy_m, "m")
     if a > s:
         raise ServokitValueError(f"accuracy_m ({a:g}) must not exceed stroke_m ({s:g})")
-    return a / s
+    ratio = a / s
+    if ratio < np.finfo(float).tiny:  # 0.0 or subnormal: the quotient lost its digits
+        raise ServokitValueError(
+            f"accuracy_m / stroke_m = {a:g} / {s:g} underflows double precision (below "
+            f"{np.finfo(float).tiny:.3g}); give both in metres (an HDD: 3e-9 / 0.03)"
+        )
+    return ratio
