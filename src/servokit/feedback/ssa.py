@@ -50,6 +50,7 @@ import numpy as np
 
 from servokit._lazy import control
 from servokit.errors import ServokitValueError, check_positive
+from servokit.models.lti_response import lti_response
 
 __all__ = [
     "DDSSABridge",
@@ -302,7 +303,7 @@ def mode_damping(
     for f in centres:
         grid = np.linspace((1 - band) * f, (1 + band) * f, 2001)
         s = 2j * np.pi * grid
-        p, c = np.asarray(plant(s)).ravel(), np.asarray(cd(s)).ravel()
+        p, c = lti_response(plant, s).ravel(), lti_response(cd, s).ravel()
         rows.append(
             (np.abs(p).max(), np.abs(p / (1 + c * p)).max(), 1 / abs(complex(cd(2j * np.pi * f))))
         )

@@ -74,14 +74,18 @@ class VarianceBound:
 
 def _response(system: object, dt: float | None) -> Response:
     """``w [rad/s] -> complex response`` of an LTI object or a ``freq_hz`` callable."""
+    from servokit.models.lti_response import lti_response  # sys(x) vectorised, same values
+
     if isinstance(system, control.TransferFunction | control.StateSpace):
         if system.isdtime() != (dt is not None):
             raise ServokitValueError(
                 "disturbance and loop must both be continuous or both discrete (same dt)"
             )
         if dt is None:
-            return lambda w: np.asarray(system(1j * np.asarray(w)), dtype=complex)
-        return lambda w: np.asarray(system(np.exp(1j * np.asarray(w) * dt)), dtype=complex)
+            return lambda w: np.asarray(lti_response(system, 1j * np.asarray(w)), dtype=complex)
+        return lambda w: np.asarray(
+            lti_response(system, np.exp(1j * np.asarray(w) * dt)), dtype=complex
+        )
     if callable(system):
         return lambda w: np.asarray(system(np.asarray(w) / (2 * np.pi)), dtype=complex)
     raise ServokitTypeError(

@@ -189,7 +189,9 @@ def discrete_bode_integral(
     z = np.exp(1j * (-np.pi + 2.0 * np.pi * (np.arange(n) + 0.5) / n))
     # evaluate the object as given: a state space near its integrators is far more
     # accurate than the expanded polynomial of its transfer function
-    ln_s = np.log(np.abs(1.0 / (1.0 + np.asarray(loop(z)).ravel())))
+    from servokit.models.lti_response import lti_response
+
+    ln_s = np.log(np.abs(1.0 / (1.0 + np.asarray(lti_response(loop, z)).ravel())))
     # open-loop poles on the unit circle are zeros of S: ln|S| has log singularities there.
     # Remove them: the mean of ln|z - p| over the circle is ln max(1, |p|) = 0 for |p| = 1
     # (Jensen), so subtracting them leaves a smooth periodic integrand with the same integral.
