@@ -15,6 +15,7 @@ from servokit.learn import (
     SettlingJudge,
     conventional_judgement,
     evaluate_judgements,
+    iter_seeks,
     settled_index,
     simulate_seeks,
     training_seeks,
@@ -36,6 +37,19 @@ def test_seek_matches_python_control_and_ends_on_target():
     np.testing.assert_allclose(r.output[:240], resp.outputs[:240], atol=1e-9)
     # FSC on the rigid body: position and velocity of the rigid body exactly on target
     assert abs(r.states[40, 0]) < 1e-9 and abs(r.states[40, 1]) < 1e-6
+
+
+def test_seeks_in_one_pass_equal_seeks_one_at_a_time():
+    """The shared discretisation, powers and unit inputs change no bit (the CLI used to
+    call simulate_seeks once per seek), and a plant with an input delay is refused."""
+    seeks = [(50.0, 40), (7.5, 24), (900.0, 40), (-3.0, 130)]
+    together = list(iter_seeks(seeks, horizon=300))
+    for r, s in zip(together, seeks, strict=True):
+        (alone,) = simulate_seeks([s], horizon=300)
+        np.testing.assert_array_equal(r.states, alone.states)
+        np.testing.assert_array_equal(r.output, alone.output)
+    with pytest.raises(ServokitError, match="no input delay"):
+        list(iter_seeks(seeks, plant=svm_head_plant().replace(delay=1e-6)))
 
 
 @settings(max_examples=10, deadline=None)

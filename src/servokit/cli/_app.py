@@ -47,6 +47,9 @@ from servokit.cli._render import (  # noqa: F401
     emit_json,
     fail,
     progress,
+    progress_line,
+    progress_wanted,
+    started,
     warn,
     wrote,
 )

@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+from collections.abc import Callable
 from pathlib import Path
 from typing import Annotated, Any
 
@@ -19,6 +20,9 @@ from servokit.cli._app import (
     load_controller,
     load_plant,
     plot_target,
+    progress_line,
+    progress_wanted,
+    started,
     warn,
     wrote,
 )
@@ -255,11 +259,13 @@ def loopshape_cmd(
     plants = [load_plant(m) for m in models or []]
     f, P = _read_set(frf_files)
     names = tuple(Path(n).stem for n in frf_files)
+    _announce(f, P, dt, order, time_limit, outdir / CONTROLLER_FILE)
     with flag_names(_FLAGS):
         res = loopshape(
             f, P, dt, s_max_db=s_max_db, structure=structure, order=order, notches=notches,
             lowpass_hz=lp, t_max_db=t_max_db, initial=init, time_limit_s=time_limit,
             keep_low_gain=keep_low_gain or None, names=names,
+            progress=_step_lines() if progress_wanted() else None,
         )  # fmt: skip
     outdir.mkdir(parents=True, exist_ok=True)
     path = outdir / CONTROLLER_FILE
@@ -275,6 +281,40 @@ def loopshape_cmd(
     _print_certificate(radii, models or [])
     for note in res.notes:
         console.print(f"note: {note}")
+
+
+def _announce(
+    f: np.ndarray, P: np.ndarray, dt: float, order: int | None, time_limit: float, path: Path
+) -> None:
+    """The FRF grid's checks, then the start line (a refused grid prints one error line)."""
+    from servokit.feedback.loopshape_problem import check_frf_set
+
+    with flag_names(_FLAGS):
+        check_frf_set(f, P, dt)
+    started(
+        "loopshape",
+        f"{'pid-notch' if order is None else f'order-{order}'} controller for {P.shape[0]} "
+        f"FRF(s) of {P.shape[-1]} points, at most {time_limit:g} s -> {path}",
+    )
+
+
+def _step_lines(every_s: float = 1.0) -> Callable[[dict], None]:
+    """A progress line per accepted step of the iteration, at most one per ``every_s``."""
+    import time
+
+    last = [time.monotonic()]
+
+    def line(entry: dict) -> None:
+        if time.monotonic() - last[0] < every_s:
+            return
+        last[0] = time.monotonic()
+        progress_line(
+            "loopshape",
+            f"step {entry['iteration'] + 1} (phase {entry['phase']}): lowest crossover "
+            f"{entry['min_crossover_hz']:.1f} Hz, worst |S| {entry['worst_s_peak_db']:.2f} dB",
+        )
+
+    return line
 
 
 def _plot(res: Any, f: np.ndarray, P: np.ndarray, dt: float, s_max_db: float, plot: Path):

@@ -8,7 +8,15 @@ from typing import Annotated, Any
 
 import typer
 
-from servokit.cli._app import app, console, example, load_controller, load_plant, wrote
+from servokit.cli._app import (
+    app,
+    console,
+    example,
+    load_controller,
+    load_plant,
+    started,
+    wrote,
+)
 from servokit.errors import ServokitValueError, check_count
 
 #: largest ``--seek`` JSON read [bytes] (a seek result with 10^6 seek times is ~20 MB)
@@ -125,6 +133,7 @@ def report_cmd(
     if seek is not None:
         sections.append(_seek_section(seek))
         notes.append(f"Seek times: {seek}.")
+    started("report", f"{len(sections)} section(s) -> {out}")
     out.parent.mkdir(parents=True, exist_ok=True)
     design_report(out, sections, title=title, notes=notes)
     console.print(f"{len(sections)} section(s)")

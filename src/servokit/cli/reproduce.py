@@ -11,7 +11,7 @@ from rich.markup import escape
 from rich.table import Table
 
 from servokit.cases.registry import case_names
-from servokit.cli._app import app, console, emit_json, example, progress, wrote
+from servokit.cli._app import app, console, emit_json, example, progress, started, wrote
 from servokit.errors import check_out_dir
 
 
@@ -69,11 +69,14 @@ def _run_cases(out_dir: Path, names: list[str], svg: bool) -> tuple[list, dict]:
     previous report intact; a concurrent run on the same ``--out`` is refused.
     """
     from servokit._io import staged_output
-    from servokit.cases.runner import iter_cases
+    from servokit.cases.runner import default_workers, iter_cases
     from servokit.report.files import write_report
 
     results, runtimes = [], {}
     with staged_output(out_dir) as stage:
+        # after the lock: a refused second writer prints its one error line only
+        workers = min(default_workers(), len(names))
+        started("reproduce", f"{len(names)} case(s) on up to {workers} process(es) -> {out_dir}/")
         with progress(len(names), "reproducing") as advance:
             # cases in parallel processes when there are cores; one line per case as it is
             # collected, in run order (stderr: --json output stays clean)

@@ -15,13 +15,15 @@ long enough for the residual vibration to decay far below the bound (checked).
 
 from __future__ import annotations
 
-from collections.abc import Iterable, Sequence
+from collections.abc import Iterable, Iterator, Sequence
 from dataclasses import dataclass
 
 import numpy as np
 
 from servokit.errors import ServokitValueError, check_count, check_positive
 from servokit.models import ModalPlant, svm_head_plant
+from servokit.models._zoh import delayed_zoh
+from servokit.models.modal import modal_matrices
 
 __all__ = [
     "SVM_TS",
@@ -30,6 +32,7 @@ __all__ = [
     "TrainingSet",
     "settled_index",
     "simulate_seeks",
+    "iter_seeks",
     "training_set",
     "seek_grid",
     "training_seeks",
@@ -196,19 +199,52 @@ def simulate_seeks(
     list of SeekResponse
         One per seek, ``n_input + horizon + 1`` samples each.
     """
+    return list(iter_seeks(seeks, plant=plant, dt=dt, horizon=horizon))
+
+
+def iter_seeks(
+    seeks: Iterable[tuple[float, int]],
+    *,
+    plant: ModalPlant | None = None,
+    dt: float = SVM_TS,
+    horizon: int = 3000,
+) -> Iterator[SeekResponse]:
+    """:func:`simulate_seeks` one seek at a time (a caller can report progress).
+
+    The discretisation, the free-run powers ``A^j`` and one unit FSC input per length are
+    computed once for all seeks (they do not depend on the distance).
+
+    Parameters
+    ----------
+    seeks : iterable of (float, int)
+        Seek distance [track] and FSC input length N [samples] (N >= 4).
+    plant : ModalPlant, optional
+        Plant with a rigid-body mode (default: eq. 6.7).
+    dt : float
+        Sampling (hold) period [s].
+    horizon : int
+        Free-run samples after the input ends.
+
+    Returns
+    -------
+    iterator of SeekResponse
+        One per seek, in order.
+    """
     from servokit.feedforward import fsc_input
 
     plant = svm_head_plant() if plant is None else plant
     dt = check_positive("dt", dt, "s")
     horizon = check_count("horizon", horizon, lo=10, hi=1_000_000)
-    sd = plant.discretize(dt)
-    a, b, c = np.asarray(sd.A), np.asarray(sd.B)[:, 0], np.asarray(sd.C)[0]
-    if a.shape[0] != plant.order:
+    if plant.delay != 0.0:
         raise ServokitValueError("plant must have no input delay for the settling study")
+    # ModalPlant.discretize's matrices without its python-control wrapper (no delay: the
+    # delay states are absent), so that a seek does not import python-control
+    a_c, b_c, c_c = modal_matrices(*plant.arrays())
+    a, gamma, _, _ = delayed_zoh(a_c, b_c, dt, 0.0)
+    b, c = gamma[:, 0], c_c[0]
     rigid = [2 * i for i, m in enumerate(plant.modes) if m.freq_hz == 0.0]
     powers = _free_powers(a, horizon)
     unit_inputs: dict[int, np.ndarray] = {}
-    responses = []
     for distance, n in seeks:
         n = check_count("N", n, lo=4, hi=100_000)
         d = float(distance)
@@ -221,8 +257,7 @@ def simulate_seeks(
         for k in range(n):
             x[k + 1] = a @ x[k] + b * u[k]
         x[n:] = powers @ x[n]
-        responses.append(SeekResponse(d, n, x, x @ c))
-    return responses
+        yield SeekResponse(d, n, x, x @ c)
 
 
 def training_set(
