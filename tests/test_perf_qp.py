@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
-from hypothesis import given, settings
+from hypothesis import example, given, settings
 from hypothesis import strategies as st
 
 from servokit.feedforward import (
@@ -177,6 +177,9 @@ def test_compressed_band_rows_keep_the_cost(N, m, seed, log_rho):
 
 @settings(max_examples=4, deadline=None)
 @given(N=st.integers(200, 230), q=st.floats(1.0, 1e3), umax=st.floats(0.9, 1.3))
+# an inactive limit: the interior point stopped 1.2e-6 (jerk) from the optimum before the
+# active-set polish; the dense path and the free closed form agree to 2e-11
+@example(N=228, q=689.5, umax=1.146159295094329)
 def test_banded_equals_dense_with_random_bands(N, q, umax):
     """Default (banded: few band rows) vs dense with a flexible mode and a band on it."""
     with pytest.MonkeyPatch.context() as mp:
@@ -186,3 +189,42 @@ def test_banded_equals_dense_with_random_bands(N, q, umax):
             band_weights=[(2.7, 3.3, q, 5)],
         )  # fmt: skip
     assert _rel(fast.jerk, dense.jerk) < 1e-6
+
+
+@settings(max_examples=30, deadline=None)
+@given(seed=st.integers(0, 2**31 - 1))
+def test_polish_reaches_the_optimum_found_by_enumerating_active_sets(seed):
+    """Clarabel's answer at its default tolerance, polished, is the exact optimum: the one
+    active set whose KKT solution is feasible with signed multipliers (enumerated)."""
+    import itertools
+
+    import scipy.sparse as sp
+    from qpsolvers import Problem, solve_problem
+
+    rng = np.random.default_rng(seed)
+    n, p, m = 6, 2, 4
+    L = rng.standard_normal((n, n))
+    P = L @ L.T + 0.1 * np.eye(n)
+    E, b = rng.standard_normal((p, n)), rng.standard_normal(p)
+    # feasible by construction: a point of E x = b strictly inside every inequality
+    null = np.linalg.svd(E)[2][p:].T
+    x_in = np.linalg.lstsq(E, b, rcond=None)[0] + null @ rng.standard_normal(n - p)
+    G = rng.standard_normal((m, n))
+    h = G @ x_in + rng.uniform(0.1, 1.0, m)
+    best = None
+    for k in range(m + 1):
+        for act in itertools.combinations(range(m), k):
+            A = np.vstack([E, G[list(act)]])
+            kkt = np.block([[P, A.T], [A, np.zeros((A.shape[0], A.shape[0]))]])
+            try:
+                sol = np.linalg.solve(kkt, np.r_[np.zeros(n), b, h[list(act)]])
+            except np.linalg.LinAlgError:
+                continue
+            x, y = sol[:n], sol[n + p :]
+            if np.all(G @ x <= h + 1e-9) and np.all(y >= -1e-9):
+                best = x
+    assert best is not None  # a strictly convex feasible problem has one optimum
+    Ps, Gs, Es = sp.csc_matrix(P), sp.csc_matrix(G), sp.csc_matrix(E)
+    v = solve_problem(Problem(Ps, np.zeros(n), Gs, h, Es, b), solver="clarabel").x
+    out = sparse_qp.polish_active_set(Ps, Gs, h, Es, b, v)
+    np.testing.assert_allclose(out, best, rtol=1e-9, atol=1e-11)
