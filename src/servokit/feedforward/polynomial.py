@@ -21,11 +21,14 @@ from __future__ import annotations
 
 import functools
 from collections.abc import Callable
+from typing import TYPE_CHECKING
 
 import numpy as np
-import sympy as sp
 
 from servokit.errors import ServokitTypeError, ServokitValueError, check_finite
+
+if TYPE_CHECKING:
+    import sympy as sp
 
 __all__ = [
     "POLYNOMIAL_ORDERS",
@@ -38,7 +41,15 @@ __all__ = [
 #: Orders of Table 2.1 (3 is eq. (2.24)).
 POLYNOMIAL_ORDERS = (3, 4, 5, 6, 7, 8)
 
-_n, _N, _i = sp.symbols("n N i", integer=True, positive=True)
+
+
+@functools.cache
+def _symbols() -> tuple[sp.Symbol, sp.Symbol, sp.Symbol]:
+    """The symbols ``n, N, i``; sympy is imported here, on first use (it costs about half
+    a second: ``rigid_body_zoh_states`` and the minimum-jerk module never need it)."""
+    import sympy as sp
+
+    return sp.symbols("n N i", integer=True, positive=True)
 
 
 def _check_order(order: object) -> int:
@@ -89,7 +100,10 @@ def polynomial_formula(order: int) -> sp.Expr:
     sympy.Expr
         Factored rational function of the sympy symbols ``n`` and ``N`` (positive integers).
     """
+    import sympy as sp
+
     k = _check_order(order)
+    _n, _N, _i = _symbols()
     coeffs = sp.symbols(f"c0:{k + 1}")
     u = sum(c * _n**j for j, c in enumerate(coeffs))
     n_start, n_end = boundary_condition_split(k)
@@ -111,7 +125,10 @@ def polynomial_formula(order: int) -> sp.Expr:
 
 @functools.cache
 def _numeric_formula(order: int) -> tuple[Callable[..., np.ndarray], sp.Expr]:
+    import sympy as sp
+
     expr = polynomial_formula(order)
+    _n, _N, _ = _symbols()
     return sp.lambdify((_n, _N), expr, modules="numpy"), sp.denom(expr)
 
 
@@ -172,7 +189,7 @@ def sampled_polynomial(order: int, N: int, dt: float, target: float) -> np.ndarr
     if dt <= 0:
         raise ServokitValueError(f"dt must be > 0 seconds (got {dt})")
     fn, denominator = _numeric_formula(k)
-    if N < 3 or denominator.subs(_N, N) == 0:
+    if N < 3 or denominator.subs(_symbols()[1], N) == 0:
         raise ServokitValueError(
             f"N = {N} makes the order-{k} boundary conditions singular; use N >= 3"
         )
