@@ -56,6 +56,11 @@ CHEAP = (
     ["filter", "peak", "--freq", "4449", "--damping", "0.015", "--gain", "0.1778", "--phi", "2.5"],
     ["filter", "lag", "--freq", "6900", "--damping", "0.1", "--phase", "1.1519", "--dt", "2e-5"],
     ["filter", "inverse", "--zero-freq", "4449", "--pole-freq", "4775"],
+    # the loop as numpy coefficients (servokit.limits.RationalLoop); variance adds quad
+    ["limits", "bode-integral", "--num", "0.5,0.1", "--den", "1,-0.5,0.1", "--dt", "1e-4"],
+    ["limits", "variance", "--num", "40000", "--den", "1,300,0", "--dist-num", "1",
+     "--dist-den", "0.01,1"],
+    ["feedforward", "minimum-jerk", "--move-time", "1", "--dt", "0.1"],
 )
 
 _RUN = r"""
