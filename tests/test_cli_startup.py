@@ -61,6 +61,10 @@ CHEAP = (
     ["limits", "variance", "--num", "40000", "--den", "1,300,0", "--dist-num", "1",
      "--dist-den", "0.01,1"],
     ["feedforward", "minimum-jerk", "--move-time", "1", "--dt", "0.1"],
+    # the bridges and the AMD loop evaluated with numpy (servokit.feedback.ssa *_response)
+    ["ssa", "ddssa", "--c-pzt", "2e-9", "--c1", "2e-9", "--c2", "2e-9", "--c3", "2e-9"],
+    ["ssa", "idssa", "--c", "1e-9", "--r", "10e3", "--k", "2"],
+    ["ssa", "amd", "--mode", "5461:2:10", "--mode", "9103:2:10"],
 )
 
 _RUN = r"""
