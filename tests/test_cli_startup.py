@@ -129,3 +129,18 @@ def test_lazy_module_loads_on_first_use_and_then_holds_the_namespace() -> None:
     import colorsys
 
     assert lazy.hsv_to_rgb is colorsys.hsv_to_rgb
+
+
+def test_lazy_exports_import_a_name_on_first_use() -> None:
+    code = (
+        "import sys, servokit.feedback as f\n"
+        "assert 'servokit.feedback.margins' not in sys.modules\n"
+        "assert 'stability_margins' in dir(f) and 'stability_margins' not in vars(f)\n"
+        "g = f.stability_margins\n"
+        "assert 'servokit.feedback.margins' in sys.modules and vars(f)['stability_margins'] is g\n"
+        "try:\n    f.no_such_name\nexcept AttributeError as e:\n    print('ok', e)\n"
+    )
+    out = subprocess.run(
+        [sys.executable, "-c", code], capture_output=True, text=True, timeout=120, check=True
+    ).stdout
+    assert out.startswith("ok") and "no_such_name" in out
