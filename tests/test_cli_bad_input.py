@@ -680,6 +680,17 @@ CASES: list[tuple[list[str], str]] = [
     (["export", "table", "--input", "EMPTY.txt"], "--input"),
     (["export", "table", "--input", "BAD.json"], "--input"),
     (["export", "table", "--input", "NAN.csv"], "--input"),
+    # hostile table and seek files: checked for size, encoding and nesting before parsing
+    *[
+        (args, f)
+        for f in ("FIFO.json", "ZERO.json", "DEEP.json", "BINARY.json")
+        for args in (
+            ["export", "table", "--input", f],
+            ["report", "--plant", "hdd-benchmark", "--seek", f],
+        )
+    ],
+    # a file's own column names are quoted as written, never rewritten to a flag
+    (["fit", "NOFREQ.csv", "--out", "o"], "'freq_hz'"),
     (["export", "table", "--input", "u.txt", "--out", "u.txt"], "--out"),
     (["export", "table", "--input", "u.txt", "--out", "RO"], "--out"),
     # ---- wrong types and missing plot directories across the newer commands
@@ -805,6 +816,7 @@ def _materialise(args: list[str], where: Path, monkeypatch: pytest.MonkeyPatch) 
         "freq_hz,re,im\n" + "".join(f"{x!r},{-1 / (6.2832 * x) ** 2!r},1e-9\n" for x in f)
     )
     (where / "BADFRF.csv").write_text("freq_hz,re,im\n10,1,2\n20,x,3\n")
+    (where / "NOFREQ.csv").write_text("f,re,im\n10,1,2\n20,1,3\n")
     (where / "VAR.toml").write_text(
         'kind = "variations"\nplant = "galvano-scanner"\ngain_rel = 0.1\n'
     )

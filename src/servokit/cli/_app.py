@@ -221,7 +221,8 @@ def internal_names_to_flags(message: str) -> str:
     """Rewrite library parameter names that escaped a command's own translation.
 
     Only names that cannot be English words are replaced (those with an underscore or a
-    capital, e.g. ``n_samples``, ``N_range``); a plain word such as "target" is left alone.
+    capital, e.g. ``n_samples``, ``N_range``); a plain word such as "target" is left alone,
+    and so is a quoted name: ``'freq_hz'`` is a column of the user's file, not a parameter.
     """
     import re
 
@@ -229,7 +230,7 @@ def internal_names_to_flags(message: str) -> str:
 
     for name in sorted(PARAM_FLAGS, key=len, reverse=True):
         if "_" in name or name != name.lower() or name in ("workers", "substeps"):
-            message = re.sub(rf"(?<![\w-]){re.escape(name)}(?![\w-])", PARAM_FLAGS[name], message)
+            message = re.sub(rf"(?<![\w'-]){re.escape(name)}(?![\w'-])", PARAM_FLAGS[name], message)
     return message
 
 

@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import io
 import json
 from pathlib import Path
 from typing import Annotated
@@ -407,13 +408,16 @@ def table_cmd(
 def _read_tables(path: Path) -> list:
     import numpy as np  # here, not at the top: `servokit --help` stays fast
 
+    from servokit._io import read_input_text
     from servokit.errors import ServokitValueError, check_input_file
     from servokit.export import FirmwareTable
 
     path = check_input_file(path, "--input")
+    # size cap, encoding and nesting depth are checked before parsing
+    text = read_input_text(path, "--input")
     if path.suffix.lower() == ".json":
         try:
-            data = json.loads(path.read_text(encoding="utf-8"))
+            data = json.loads(text)
         except json.JSONDecodeError as exc:
             raise ServokitValueError(f"--input {path}: not valid JSON ({exc.msg})") from None
         if not isinstance(data, dict) or not data:
@@ -421,7 +425,8 @@ def _read_tables(path: Path) -> list:
         items = list(data.items())
     elif path.suffix.lower() == ".csv":
         try:
-            items = [(path.stem.replace("-", "_"), np.loadtxt(path, delimiter=",", ndmin=2))]
+            table = np.loadtxt(io.StringIO(text), delimiter=",", ndmin=2)
+            items = [(path.stem.replace("-", "_"), table)]
         except ValueError:
             raise ServokitValueError(f"--input {path}: the CSV must hold numbers only") from None
     else:

@@ -24,7 +24,7 @@ def _out_path(out: str) -> Path:
 
 def _seek_section(path: Path) -> Any:
     """A seek-time section from the JSON of ``servokit seek --json``."""
-    from servokit._io import check_data_file
+    from servokit._io import check_data_file, read_input_text
     from servokit.report.design import SeekSection
 
     check_data_file(
@@ -33,8 +33,9 @@ def _seek_section(path: Path) -> Any:
         what="--seek (a seek --json file)",
         error=ServokitValueError,
     )
+    text = read_input_text(path, "--seek", max_bytes=_SEEK_MAX_BYTES)
     try:
-        data = json.loads(path.read_text(encoding="utf-8"))
+        data = json.loads(text)
         times = [float(t) for t in data["seek_times_s"]]
         worst = float(data["seek_time_s"])
     except (ValueError, KeyError, TypeError, UnicodeDecodeError):

@@ -157,7 +157,7 @@ def _frequencies(path: Path, cols: Mapping[str, np.ndarray]) -> np.ndarray:
     elif "omega" in cols:  # a python-control FRD's own field, rad/s
         f = _column(path, cols, "omega").astype(float) / (2.0 * np.pi)
     else:
-        raise FrfFileError(f"{path}: no 'freq_hz' column; name the frequency column freq_hz [Hz]")
+        raise FrfFileError(f"{path}: no 'freq_hz' column; name the frequency column 'freq_hz' [Hz]")
     rows = cols["__rows__"]
     name = "freq_hz" if "freq_hz" in cols else "omega"
     if np.any(f < 0):
