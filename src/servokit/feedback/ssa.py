@@ -40,6 +40,13 @@ Active mode damping (AMD, eqs. 5.67-5.69)
     read "kappa determines the amount of phase lift".  The loop
     (5.68) ``yM/uM = PM / (1 + CD PM)`` attenuates mode ``i`` by about ``1/|CD(j wn)|``
     when ``|CD PM| >> 1`` (5.69).
+
+numpy evaluations
+    The python-control objects above cost a second of start-up to build; the ``ssa``
+    commands use :func:`ddssa_response`, :func:`idssa_response`, :func:`amd_response`,
+    :func:`amd_statespace` and :func:`amd_mode_damping`, which evaluate the same
+    equations directly (the bridges' admittances at ``s = j 2 pi f``, (5.67) factor by
+    factor) and give the same numbers (``tests/test_ssa_arrays.py``).
 """
 
 from __future__ import annotations

@@ -32,6 +32,10 @@ Waterbed (6.20): if ``|S| <= alpha < 1`` on ``|phi| <= phi1`` and the integral i
 ``2 phi1 ln(alpha) + 2 (pi - phi1) ln||S||_inf >= 0``, i.e.
 ``||S||_inf >= (1/alpha)^(phi1/(pi - phi1))`` as printed.  The book's example (-40 dB
 below 1 kHz at 25 kHz sampling) gives 3.478 dB (printed 3.5 dB).
+
+Every function takes a python-control LTI object or a :class:`RationalLoop` (numpy
+coefficients; the CLI's path, which never imports python-control); both are read as
+``num/den`` with ``den + num`` giving the closed-loop poles.
 """
 
 from __future__ import annotations
