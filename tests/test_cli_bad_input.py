@@ -689,6 +689,24 @@ CASES: list[tuple[list[str], str]] = [
             ["report", "--plant", "hdd-benchmark", "--seek", f],
         )
     ],
+    # a flag that shapes another method/structure/input kind is refused, never ignored
+    ([*IVC, "--method", "jmin", "--pole", "0.5"], "--pole"),
+    ([*IVC, "--method", "input", "--weight", "input"], "--weight"),
+    ([*IVC, "--method", "jmin", "--jerk-weight", "1"], "--jerk-weight"),
+    (["loopshape", "FRF.csv", "--dt", "1e-4", "--out", "o", "--structure", "pid-notch", "--order",
+      "4"],
+     "--order"),
+    (["loopshape", "FRF.csv", "--dt", "1e-4", "--out", "o", "--order", "4", "--notch", "4000:0.1"],
+     "--notch"),
+    (["export", "ivc", "--method", "pole-zero", "--velocity-weight", "1"], "--velocity-weight"),
+    (["dual-stage", "--method", "inverse", "--kcv-phase", "3"], "--kcv-phase"),
+    (["dual-stage", "--method", "gain", "--pair-pole-damping", "0.1"], "--pair-pole-damping"),
+    (["srs", "--input", "polynomial", "--dt", "25e-6", "--duration", "1e-3"], "--duration"),
+    (["srs", "--input", "half-sine", "--target", "2"], "--target"),
+    (["srs", "--input", "u.txt", "--dt", "25e-6", "--n-samples", "30"], "--n-samples"),
+    # a quotient that underflows is refused, not printed as 0
+    (["limits", "dynamic-range", "--stroke-m", "1e300", "--accuracy-m", "1e-300"],
+     "--accuracy-m / --stroke-m"),
     # a file's own column names are quoted as written, never rewritten to a flag
     (["fit", "NOFREQ.csv", "--out", "o"], "'freq_hz'"),
     (["export", "table", "--input", "u.txt", "--out", "u.txt"], "--out"),

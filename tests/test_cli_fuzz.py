@@ -6,12 +6,16 @@ answer) or exit 2 with one stderr line naming a flag, never a traceback, never a
 A command born tomorrow is covered the day it is registered (its help must carry an
 example: ``tests/test_cli_help.py``).
 
+Composite flags whose example value is numbers joined by ``:`` or ``,`` (``--mode
+5461:2:10``, ``--num 0.5,0.1``) are fuzzed one number at a time.
+
 The full matrix is ``slow``; the default suite runs a deterministic sample of it.
 """
 
 from __future__ import annotations
 
 import random
+import re
 import shlex
 import shutil
 import typing
@@ -25,6 +29,9 @@ import servokit.cli
 
 VALUES = ("nan", "inf", "-inf", "0", "-1", "1e300", "1e-300", "1" + "0" * 30)
 TIME_LIMIT_S = 30  # in-process, per case: a case still running is a hang
+#: flags whose huge value legitimately means "no budget": the command then does its full,
+#: bounded work (loopshape's steps end at convergence), which takes longer than a refusal
+LONGER_S = {"--time-limit": 150}
 #: examples that cannot serve as a base (they pipe one command into another, or run the
 #: book's case studies for minutes); their flags are fuzzed from an empty base instead.
 _PIPED = (";", ">", "|")
@@ -108,20 +115,48 @@ def _cases() -> list[tuple[str, list[str], str]]:
     return cases
 
 
+#: a value of numbers joined by ``:`` or ``,`` (``--mode 5461:2:10``, ``--num 0.5,0.1``)
+_FIELDS = re.compile(r"[-+0-9.eE]+(?:[:,][-+0-9.eE]+)+")
+
+
+def _composite_cases() -> list[tuple[str, list[str], str]]:
+    """Each number inside a composite flag of a help example, set to each hostile value."""
+    cases = []
+    for path, cmd in _leaf_commands():
+        base = _base_args(path, cmd)
+        for param in cmd.params:
+            flag = max(param.opts, key=len) if param.opts else ""
+            if not flag.startswith("-") or _numeric(param) or flag not in base[:-1]:
+                continue
+            value = base[base.index(flag) + 1]
+            if not _FIELDS.fullmatch(value):
+                continue
+            fields = re.split(r"([:,])", value)  # numbers at even indices, separators between
+            for i in range(0, len(fields), 2):
+                for v in VALUES:
+                    hostile = "".join(v if j == i else w for j, w in enumerate(fields))
+                    cases.append((path, _with(base, flag, hostile), flag))
+    return cases
+
+
 ALL = _cases()
+COMPOSITE = _composite_cases()
 _rng = random.Random(23)
-DEFAULT = _rng.sample(ALL, min(SAMPLE, len(ALL)))
+DEFAULT = _rng.sample(ALL, min(SAMPLE, len(ALL))) + _rng.sample(COMPOSITE, min(30, len(COMPOSITE)))
 
 
-def _run(args: list[str], tmp_path: Path, monkeypatch, capsys) -> tuple[int, str, str, float]:
+def _run(
+    args: list[str], tmp_path: Path, monkeypatch, capsys, seconds: int = TIME_LIMIT_S
+) -> tuple[int, str, str, float]:
     # the help examples name the shipped example files (fit, loopshape) from the repo root
     shutil.copytree(EXAMPLE_DATA, tmp_path / "examples" / "data", dirs_exist_ok=True)
     monkeypatch.chdir(tmp_path)
-    return run_cli(args, TIME_LIMIT_S, monkeypatch, capsys)
+    return run_cli(args, seconds, monkeypatch, capsys)
 
 
 def _check(path: str, args: list[str], flag: str, tmp_path, monkeypatch, capsys) -> None:
-    code, out, err, _ = _run(args, tmp_path, monkeypatch, capsys)
+    seconds = LONGER_S.get(flag, TIME_LIMIT_S)
+    code, out, err, _ = _run(args, tmp_path, monkeypatch, capsys, seconds)
     assert "Traceback" not in err, err
     assert code in (0, 2), (args, code, err)
     if code == 2:
@@ -137,7 +172,9 @@ def test_numeric_flag_fuzz_sample(path, args, flag, tmp_path, monkeypatch, capsy
 
 
 @pytest.mark.slow
-@pytest.mark.parametrize(("path", "args", "flag"), ALL, ids=[shlex.join(c[1]) for c in ALL])
+@pytest.mark.parametrize(
+    ("path", "args", "flag"), ALL + COMPOSITE, ids=[shlex.join(c[1]) for c in ALL + COMPOSITE]
+)
 def test_numeric_flag_fuzz_full(path, args, flag, tmp_path, monkeypatch, capsys) -> None:
     _check(path, args, flag, tmp_path, monkeypatch, capsys)
 
@@ -147,3 +184,10 @@ def test_the_fuzz_covers_every_command_with_a_numeric_flag() -> None:
     with_numbers = {p for p, c in _leaf_commands() if any(_numeric(q) for q in c.params)}
     assert with_numbers - {"reproduce"} <= {p for p, _, _ in ALL}
     assert len(ALL) > 500
+
+
+def test_the_fuzz_reaches_inside_composite_flags() -> None:
+    """The numbers of ``--mode F:Z:K``-style flags are fuzzed one field at a time."""
+    flags = {(p, f) for p, _, f in COMPOSITE}
+    assert {("ssa amd", "--mode"), ("pes", "--peak-filter"), ("limits variance", "--den")} <= flags
+    assert len(COMPOSITE) >= 8 * len(flags) * 2

@@ -33,6 +33,22 @@ def test_filter_lag_json_matches_library():
     assert data["pole_dampings"] == pytest.approx([0.1, 0.1])
 
 
+@pytest.mark.parametrize(
+    ("args", "identity"),
+    [
+        (["lag", "--freq", "6900", "--damping", "0.1", "--phase", "0"], True),
+        (["inverse", "--zero-freq", "4449", "--pole-freq", "4449"], True),
+        (["inverse", "--zero-freq", "4449", "--pole-freq", "4775"], False),
+    ],
+)
+def test_an_identity_filter_is_explained(args, identity):
+    """num = den is the right answer to these flags; the output says so (issue 23)."""
+    data = json.loads(run("filter", *args, "--json").stdout)
+    same = np.allclose(data["num"], data["den"], rtol=1e-12, atol=0.0)
+    assert same == identity
+    assert ("identity" in data.get("note", "")) == identity
+
+
 def test_filter_peak_discrete_and_plot(tmp_path):
     png = tmp_path / "peak.png"
     out = run(

@@ -140,6 +140,25 @@ def test_evaluate_matches_judge_per_seek():
             assert stat.delays.tolist() == expect
 
 
+def test_svm_scores_stop_early_are_a_prefix_of_the_full_scores():
+    # scoring stops at the first f < stop_below of each seek (rounds of 3, 6, 12 ...
+    # samples): the scores are bit-identical to one call on every in-bound sample, and
+    # the first f < level for every level >= stop_below lies inside the prefix
+    from servokit.learn.evaluate import _svm_scores
+
+    data = training_set(simulate_seeks(training_seeks(4, 6)))
+    judge = SettlingJudge(C=10.0, coef0=0.5).fit(data.X, data.labels)
+    val = simulate_seeks(validation_seeks(12))
+    start = [0] * len(val)
+    full = _svm_scores(val, judge, start)
+    part = _svm_scores(val, judge, start, stop_below=-0.8, chunk=3)
+    assert sum(len(f) for _, f in part) < sum(len(f) for _, f in full) / 10
+    for (i_full, f_full), (i, f) in zip(full, part, strict=True):
+        assert np.array_equal(i, i_full[: len(i)]) and np.array_equal(f, f_full[: len(f)])
+        for lvl in (0.0, -0.8):
+            assert np.array_equal(i[f < lvl][:1], i_full[f_full < lvl][:1])
+
+
 def test_grids():
     assert len(training_seeks()) == 180
     seeks = validation_seeks()

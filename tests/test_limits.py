@@ -146,6 +146,10 @@ def test_dynamic_range():
     assert dynamic_range(0.03, 3e-9) == pytest.approx(1e-7)
     with pytest.raises(ServokitError, match="accuracy_m"):
         dynamic_range(1e-3, 1.0)
+    # the smallest normal quotient is returned; one that underflows is refused, not 0
+    assert dynamic_range(1.0, 1e-300) == pytest.approx(1e-300)
+    with pytest.raises(ServokitError, match="underflows"):
+        dynamic_range(1e300, 1e-300)
 
 
 def test_discrete_integral_with_integrators_is_zero():

@@ -37,3 +37,41 @@ def test_svg_copy_only_inside_the_context(tmp_path: Path) -> None:
     save_figure(_fig(), tmp_path / "b.png")
     assert sorted(p.name for p in tmp_path.iterdir()) == ["a.png", "a.svg", "b.png"]
     assert "<title>Fig. 4.41 | (a) gain</title>" in (tmp_path / "a.svg").read_text()
+
+
+def _count_draws(fig) -> list[int]:
+    """Wrap ``fig.draw`` to count full draws (layout passes of savefig)."""
+    calls = [0]
+    draw = fig.draw
+
+    def counted(renderer):
+        calls[0] += 1
+        return draw(renderer)
+
+    fig.draw = counted
+    return calls
+
+
+def test_one_draw_per_file_and_the_same_pixels(tmp_path: Path) -> None:
+    # the old save (tight_layout, then savefig with tight_layout's placeholder engine)
+    # drew every figure twice; save_figure draws once and writes the same image
+    import io
+
+    import numpy as np
+
+    old = _fig()
+    old.tight_layout()
+    buf = io.BytesIO()
+    old.savefig(buf, dpi=110, metadata={"Title": figure_title(old)}, format="png")
+    plt.close(old)
+    fig = _fig()
+    draws = _count_draws(fig)
+    path = save_figure(fig, tmp_path / "f.png")
+    assert draws[0] == 1
+    with Image.open(path) as new, Image.open(buf) as ref:
+        assert np.array_equal(np.asarray(new), np.asarray(ref))
+    with also_save_as("svg"):
+        fig = _fig()
+        draws = _count_draws(fig)
+        save_figure(fig, tmp_path / "g.png")
+    assert draws[0] == 2  # one per format

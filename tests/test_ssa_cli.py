@@ -44,9 +44,21 @@ def test_amd_and_adaptive() -> None:
     assert a["max_relative_increase"] < 1e-9 and a["lyapunov_end"] < a["lyapunov_start"]
 
 
+def test_amd_unstable_loop_reports_no_damped_response() -> None:
+    """Two modes 0.5 Hz apart destabilise the damping loop: no attenuation is invented."""
+    d = run_json("amd", "--mode", "5461:2:10", "--mode", "5461.5:2:10")
+    assert d["stable"] is False
+    assert d["damped_db"] is None and d["attenuation_db"] is None and d["estimate_db"] is None
+    assert "unstable" in d["reason"]
+    assert len(d["open_db"]) == 2  # the open-loop response exists and is reported
+
+
 @pytest.mark.parametrize(
     "args, message",
     [
+        (["ssa", "amd", "--mode", "5461:2:10", "--mode", "5461:2:10"], "given twice"),
+        (["ssa", "amd", "--mode", "1e300:2:10"], "FREQ_HZ"),
+        (["ssa", "amd", "--mode", "5461:1e-300:10"], "EPS"),
         (["ssa", "ddssa", "--c1", "-1"], "--c1"),
         (["ssa", "ddssa", "--r1", "1e3"], "--r1 and --r3"),
         (["ssa", "idssa", "--k", "0"], "--k"),

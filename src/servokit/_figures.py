@@ -50,6 +50,10 @@ def save_figure(fig: Figure, path: str | Path, *, dpi: int = 110) -> Path:
     # is drawn: a tight_layout pass here would be redundant
     if engine is None or isinstance(engine, PlaceHolderLayoutEngine):
         fig.tight_layout()
+        # tight_layout leaves a placeholder engine, for which savefig draws the whole
+        # figure once more (a "dry" draw, 30 % of a save) before the real draw; the
+        # layout is done, so no engine: one draw per file
+        fig.set_layout_engine(None)
     title = figure_title(fig)
     targets = [Path(path)] + [
         Path(path).with_suffix(f".{fmt}")

@@ -38,6 +38,7 @@ from servokit.feedback.dual_stage_plots import METHOD_LABELS as _LABEL
 from servokit.feedback.dual_stage_plots import bode_figure, sensitivity_figure
 from servokit.feedback.dual_stage_plots import finish_magnitude_figure as _finish
 from servokit.feedback.dual_stage_search import BOOK_RANGES, JOINT_NAMES, pzt_phase_span
+from servokit.models.lti_response import lti_response
 from servokit.report import CaseResult, Comparison
 
 __all__ = ["FITTED", "run", "bode_figure", "sensitivity_figure", "fitted_unknowns"]
@@ -240,8 +241,8 @@ def _amd_figure(plant, cd, path: Path) -> Path:
 
     f = frequency_grid([plant, cd], 1e3, 3e4, 3000)
     s = 2j * np.pi * f
-    p = np.asarray(plant(s)).ravel()
-    damped = np.asarray(control.feedback(plant, cd)(s)).ravel()
+    p = lti_response(plant, s).ravel()
+    damped = lti_response(control.feedback(plant, cd), s).ravel()
     fig, ax = plt.subplots(figsize=(7.5, 4.5))
     ax.semilogx(f, 20 * np.log10(np.abs(p)), label="PM (Table 5.3)")
     ax.semilogx(f, 20 * np.log10(np.abs(damped)), "--", label="PM / (1 + CD PM) (5.68)")

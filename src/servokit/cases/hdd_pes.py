@@ -22,6 +22,7 @@ import numpy as np
 from servokit.cases import register
 from servokit.feedback.peak_filtered import PeakFilterSpec, peak_filtered_controller
 from servokit.models.disturbances import disturbance_magnitude
+from servokit.models.lti_response import lti_response
 from servokit.report import CaseResult, Comparison
 
 __all__ = [
@@ -100,8 +101,8 @@ def _freq_figures(c0, c1, pd, outdir: Path) -> list[Path]:
 
     f = frequency_grid([pd, c0, c1], 50.0, 0.5 / dt * 0.999, 2000)
     z = np.exp(2j * np.pi * f * dt)
-    p = np.asarray(pd(z)).ravel()
-    cs = [np.asarray(c(z)).ravel() for c in (c0, c1)]
+    p = lti_response(pd, z).ravel()
+    cs = [lti_response(c, z).ravel() for c in (c0, c1)]
     styles = (("--", "without peak filter"), ("-", "with peak filter"))
     out = []
     for fig_no, what, fn in (

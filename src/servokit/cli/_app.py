@@ -203,8 +203,11 @@ def _run(usage: tuple[type[BaseException], ...]) -> int:
         return 2
     except (ServokitError, ValueError, TypeError, OverflowError, ZeroDivisionError,
             FloatingPointError, np.linalg.LinAlgError) as exc:  # fmt: skip
+        from servokit.cli._hints import with_input_hint
+
         msg = str(exc).splitlines()[0] if str(exc) else type(exc).__name__
-        typer.echo(f"servokit: error: {internal_names_to_flags(msg)}", err=True)
+        msg = with_input_hint(internal_names_to_flags(msg), sys.argv[1:])
+        typer.echo(f"servokit: error: {msg}", err=True)
         return 2
     except usage as exc:
         text = exc.format_message() if hasattr(exc, "format_message") else str(exc)

@@ -44,6 +44,8 @@ PARAM_FLAGS: dict[str, str] = {
     "freq_hz": "--freq",
     "damping": "--damping",
     "settle_band": "--settle-band",
+    "stroke_m": "--stroke-m",
+    "accuracy_m": "--accuracy-m",
     "target": "--target",
     "duration": "--duration",
     "max_memory_mb": "--max-memory-mb",

@@ -21,6 +21,7 @@ from servokit.cli._app import (
     progress,
     wrote,
 )
+from servokit.cli._options import refuse_inapplicable
 from servokit.errors import ServokitValueError, check_count
 
 #: Unknowns field -> the flag that sets it
@@ -65,6 +66,15 @@ def _check_choices(method: str, structure: str, maxiter: int) -> None:
             f"--structure must be one of {', '.join(STRUCTURES)} (got {structure!r})"
         )
     check_count("--maxiter", maxiter, lo=1, hi=1000)
+    refuse_inapplicable("--method", method, _METHOD_APPLIES)
+
+
+#: the unknowns that enter one method's controllers only (given with another: refused)
+_METHOD_APPLIES = {
+    "kcv_phase": ("--kcv-phase", ("phase",)),
+    "kcm_phase": ("--kcm-phase", ("phase",)),
+    "pair_pole_damping": ("--pair-pole-damping", ("inverse",)),
+}
 
 
 def _render(method: str, structure: str, u, row, target, json_out: bool) -> None:  # noqa: ANN001

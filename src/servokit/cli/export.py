@@ -19,7 +19,7 @@ from servokit.cli._app import (
     sub_app,
     wrote,
 )
-from servokit.cli._options import given_on_command_line, old_name, renamed
+from servokit.cli._options import given_on_command_line, old_name, refuse_inapplicable, renamed
 from servokit.errors import (
     DEFAULT_MAX_MEMORY_MB,
     ServokitValueError,
@@ -377,6 +377,7 @@ def ivc_cmd(
     from servokit.export.designs import book_ivc_gain
 
     out_dir = _check_common(out, name, fmt, precision)
+    refuse_inapplicable("--method", method, {"velocity_weight": ("--velocity-weight", ("jmin",))})
     K, desc = book_ivc_gain(method, velocity_weight)
     tables = [FirmwareTable("K", K, f"xc[0] = K xp[0]: {desc}")]
     _finish(tables, out_dir, name, fmt, precision, None, desc, json_out)

@@ -22,6 +22,7 @@ from servokit.cli._app import (
     warn,
     wrote,
 )
+from servokit.cli._options import given_on_command_line, refuse_inapplicable
 from servokit.errors import (
     ServokitValueError,
     check_count,
@@ -103,14 +104,25 @@ def _check_numbers(s_max_db: float, time_limit: float, keep_low_gain: float) -> 
         raise ServokitValueError(f"--keep-low-gain must be in [0, 1] (got {keep_low_gain})")
 
 
+#: flags that shape only one structure (given with the other they are refused)
+_STRUCTURE_APPLIES = {
+    "notch": ("--notch", ("pid-notch",)),
+    "lowpass": ("--lowpass", ("pid-notch",)),
+}
+
+
 def _structure(structure: str, order: int | None) -> tuple[str, int | None]:
     """``--order N`` implies ``--structure order``; ``order`` needs ``--order``."""
-    if order is not None:
-        return "order", check_count("--order", order, lo=1, hi=40)
     if structure not in ("pid-notch", "order"):
         raise ServokitValueError(f"--structure must be pid-notch or order (got {structure!r})")
+    if order is not None:
+        if given_on_command_line("structure") and structure != "order":
+            raise ServokitValueError(
+                f"--order applies only to --structure order, not {structure}; drop --order"
+            )
+        return "order", check_count("--order", order, lo=1, hi=40)
     if structure == "order":
-        raise ServokitValueError("--structure order needs --order N (controller states)")
+        raise ServokitValueError("--structure order needs --order COUNT (controller states)")
     return structure, None
 
 
@@ -235,6 +247,7 @@ def loopshape_cmd(
     dt = check_positive("--dt", dt, "s")
     outdir = check_out_dir(out)
     structure, order = _structure(structure, order)
+    refuse_inapplicable("--structure", structure, _STRUCTURE_APPLIES)
     _check_numbers(s_max_db, time_limit, keep_low_gain)
     notches = _notches(notch or [])
     lp = tuple(check_positive("--lowpass", v, "Hz") for v in (lowpass or []))

@@ -86,6 +86,9 @@ def _describe(tf: _Filter, freq: float, dt: float | None) -> dict[str, Any]:
         "poles_hz": pf,
         "pole_dampings": pd,
     }
+    if num.shape == den.shape and np.allclose(num, den, rtol=1e-12, atol=0.0):
+        # asked for (no lag, zero = pole): correct, but say so rather than look like a bug
+        out["note"] = "num = den: with these flags the filter is the identity (gain 1, no phase)"
     if dt is not None:
         from servokit.feedback.filters import tustin_coefficients
 
@@ -128,6 +131,8 @@ def _show(
     for kind in ("zero", "pole"):
         pairs = zip(info[f"{kind}s_hz"], info[f"{kind}_dampings"], strict=True)
         console.print(f"  {kind}s: " + ", ".join(f"{f:.6g} Hz (ζ {z:.4g})" for f, z in pairs))
+    if "note" in info:
+        console.print(f"  note: {info['note']}")
     if dt is not None:
         console.print(f"  Tustin at dt = {dt:g} s, prewarped at {freq:g} Hz:")
         console.print(f"    num_z = {np.array2string(np.asarray(info['num_z']), precision=8)}")

@@ -159,6 +159,10 @@ def train_cmd(
     _render_train(judge, data, len(seeks), out, json_out)
 
 
+#: largest |--coef0|: the degree-4 kernel of standardised features stays far from overflow
+_MAX_COEF0 = 1e6
+
+
 def _train_request(
     n_distances: int, n_lengths: int, settle_band: float, c: float, c_flag: str,
     coef0: float, class1_weight: float,
@@ -175,6 +179,11 @@ def _train_request(
         )
     c = check_positive(c_flag, c)
     coef0 = float(check_finite("--coef0", coef0))
+    if abs(coef0) > _MAX_COEF0:  # (g <x, x'> + coef0)^4 of standardised features overflows
+        raise ServokitValueError(
+            f"--coef0 must be within -{_MAX_COEF0:g}..{_MAX_COEF0:g} (got {coef0:g}); the "
+            "features are standardised, the book's grid is 0.5..2"
+        )
     class1_weight = check_positive("--class1-weight", class1_weight)
     judge = SettlingJudge(bound=settle_band, C=c, coef0=coef0, class1_weight=class1_weight)
     return judge, training_seeks(n_distances, n_lengths)

@@ -24,6 +24,7 @@ from servokit.cli._app import (
     progress,
     wrote,
 )
+from servokit.cli._options import refuse_inapplicable
 from servokit.errors import (
     DEFAULT_MAX_MEMORY_MB,
     ServokitValueError,
@@ -124,6 +125,8 @@ def srs_cmd(
     at = _check_at(at)
     if dt is not None:
         check_positive("--dt", dt, "s")
+    kind_of_input = input_ if input_ in ("half-sine", "polynomial") else "FILE"
+    refuse_inapplicable("--input", kind_of_input, _INPUT_APPLIES)
     size = (n, fmax, kind, at, max_memory_mb)
     accel, dur = _input(input_, dt, duration, n_samples, target, size)
     plot = plot_target(plot)
@@ -217,6 +220,14 @@ def _check_panels(n: int, fmax: float, at: list[float], duration: float, kind: s
         limit=MAX_CELLS,
         about="about twenty seconds",
     )
+
+
+#: flags that shape one kind of --input (given with another they are refused)
+_INPUT_APPLIES = {
+    "duration": ("--duration", ("half-sine",)),
+    "n_samples": ("--n-samples", ("polynomial",)),
+    "target": ("--target", ("polynomial",)),
+}
 
 
 def _input(input_: str, dt, duration, n_samples, target, size):  # noqa: ANN001

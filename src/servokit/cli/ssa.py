@@ -94,7 +94,25 @@ def _parse_mode(text: str) -> tuple[float, float, float]:
         raise ServokitValueError(
             f"--mode {text!r}: write FREQ_HZ:EPS:KAPPA, e.g. 9103:2:10"
         ) from None
+    if not 1e-6 <= f <= 1e9:
+        raise ServokitValueError(f"--mode {text!r}: FREQ_HZ must be 1e-6..1e9 Hz")
+    for name, v in (("EPS", eps), ("KAPPA", kappa)):
+        if not np.isfinite(v) or abs(v) > 1e12 or 0 < abs(v) < 1e-12:
+            raise ServokitValueError(
+                f"--mode {text!r}: {name} must be finite, |{name}| 1e-12..1e12"
+            )
     return f, eps, kappa
+
+
+def _amd_fields(res) -> dict:  # noqa: ANN001
+    """The JSON of a mode-damping result; an unstable loop has no damped response."""
+    data = {"stable": res.stable, "freq_hz": res.freq_hz, "open_db": res.open_db}
+    if res.stable:
+        return data | {"damped_db": res.damped_db, "attenuation_db": res.attenuation_db,
+                       "estimate_db": res.estimate_db}  # fmt: skip
+    reason = "the damped loop is unstable: its frequency response (and attenuation) do not exist"
+    return data | {"damped_db": None, "attenuation_db": None, "estimate_db": None,
+                   "reason": reason}  # fmt: skip
 
 
 @ssa_app.command("amd", epilog=example("servokit ssa amd --mode 5461:2:10 --mode 9103:2:10"))
@@ -113,22 +131,16 @@ def amd_cmd(
     from servokit.models import pzt_active_suspension
 
     modes = [_parse_mode(m) for m in (mode or ["5461:2:10", "6074:2:10", "9103:2:10"])]
+    freqs = [m[0] for m in modes]
+    if len(set(freqs)) < len(freqs):
+        twice = next(f for f in freqs if freqs.count(f) > 1)
+        raise ServokitValueError(f"--mode: FREQ_HZ {twice:g} is given twice; give each mode once")
     try:
         amd_response(modes, 0j)  # checks every factor's arguments
     except ServokitValueError as exc:
         raise ServokitValueError(f"--mode: {exc}") from None
     res = amd_mode_damping(pzt_active_suspension(), modes)
-    _report(
-        {
-            "stable": res.stable,
-            "freq_hz": res.freq_hz,
-            "open_db": res.open_db,
-            "damped_db": res.damped_db,
-            "attenuation_db": res.attenuation_db,
-            "estimate_db": res.estimate_db,
-        },
-        json_out,
-    )
+    _report(_amd_fields(res), json_out)
 
 
 @ssa_app.command("adaptive", epilog=example("servokit ssa adaptive --duration 2e-3 --json"))

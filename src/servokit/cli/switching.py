@@ -22,7 +22,12 @@ from servokit.cli._app import (
     sub_app,
     wrote,
 )
-from servokit.cli._options import check_state_size, controller_states, discrete_states
+from servokit.cli._options import (
+    check_state_size,
+    controller_states,
+    discrete_states,
+    refuse_inapplicable,
+)
 from servokit.errors import (
     ServokitValueError,
     check_count,
@@ -206,6 +211,18 @@ def _check_ivc_request(
         raise ServokitValueError(f"--method must be jmin, pole-zero or input (got {method!r})")
     if method == "pole-zero" and not poles:
         raise ServokitValueError("--method pole-zero needs --poles, e.g. --poles 0.905,0.954")
+    refuse_inapplicable("--method", method, _IVC_APPLIES)
+
+
+#: the ivc flags that belong to one method (given with another they are refused)
+_IVC_APPLIES = {
+    "weight": ("--weight", ("jmin",)),
+    "poles": ("--poles", ("pole-zero",)),
+    "pole": ("--pole", ("input",)),
+    "order": ("--order", ("input",)),
+    "input_weight": ("--input-weight", ("input",)),
+    "jerk_weight": ("--jerk-weight", ("input",)),
+}
 
 
 def _ivc_design(

@@ -423,8 +423,10 @@ def mode_damping(
     closed = control.feedback(plant, cd)
     stable = bool(np.all(np.real(control.poles(closed)) < 0))
 
+    from servokit.models.lti_response import lti_response  # sys(x) vectorised, same values
+
     def response(sys: control.LTI) -> Callable[[np.ndarray], np.ndarray]:
-        return lambda s: np.asarray(sys(s)).ravel()
+        return lambda s: np.asarray(lti_response(sys, s)).ravel()
 
     return _damping_peaks(response(plant), response(cd), freq_hz, band, stable)
 

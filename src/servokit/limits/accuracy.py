@@ -84,15 +84,26 @@ def _response(system: object, dt: float | None) -> Response:
             raise ServokitValueError(
                 "disturbance and loop must both be continuous or both discrete (same dt)"
             )
+        evaluate = _evaluator(system)
         if dt is None:
-            return lambda w: np.asarray(system(1j * np.asarray(w)), dtype=complex)
-        return lambda w: np.asarray(system(np.exp(1j * np.asarray(w) * dt)), dtype=complex)
+            return lambda w: np.asarray(evaluate(1j * np.asarray(w)), dtype=complex)
+        return lambda w: np.asarray(evaluate(np.exp(1j * np.asarray(w) * dt)), dtype=complex)
     if callable(system):
         return lambda w: np.asarray(system(np.asarray(w) / (2 * np.pi)), dtype=complex)
     raise ServokitTypeError(
         "expected a RationalLoop, a python-control LTI object or a callable of freq_hz, "
         f"got {type(system).__name__}"
     )
+
+
+def _evaluator(system: object) -> Callable[[np.ndarray], np.ndarray]:
+    """``x -> system(x)``: a RationalLoop evaluates itself (numpy); a python-control object
+    through :func:`~servokit.models.lti_response.lti_response` (vectorised, same values)."""
+    if isinstance(system, RationalLoop):
+        return system
+    from servokit.models.lti_response import lti_response
+
+    return lambda x: lti_response(system, x)
 
 
 def _is_lti(system: object) -> bool:
@@ -343,4 +354,10 @@ def dynamic_range(stroke_m: float, accuracy_m: float) -> float:
     a = check_positive("accuracy_m", accuracy_m, "m")
     if a > s:
         raise ServokitValueError(f"accuracy_m ({a:g}) must not exceed stroke_m ({s:g})")
-    return a / s
+    ratio = a / s
+    if ratio < np.finfo(float).tiny:  # 0.0 or subnormal: the quotient lost its digits
+        raise ServokitValueError(
+            f"accuracy_m / stroke_m = {a:g} / {s:g} underflows double precision (below "
+            f"{np.finfo(float).tiny:.3g}); give both in metres (an HDD: 3e-9 / 0.03)"
+        )
+    return ratio

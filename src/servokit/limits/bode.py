@@ -118,6 +118,16 @@ def high_frequency_gain(
     return float(num[0] / den[0]) if rel == 1 else 0.0
 
 
+def _evaluate(loop: object, x: np.ndarray) -> np.ndarray:
+    """``loop(x)`` flattened: a RationalLoop with numpy, a python-control object through
+    :func:`~servokit.models.lti_response.lti_response` (vectorised, its own values)."""
+    if isinstance(loop, RationalLoop):
+        return loop(x).ravel()
+    from servokit.models.lti_response import lti_response
+
+    return np.asarray(lti_response(loop, x)).ravel()
+
+
 def _unstable_poles(loop: RationalLoop) -> np.ndarray:
     """Open-loop poles strictly outside the stability region (boundary poles excluded)."""
     ol = np.asarray(loop.poles())
@@ -181,7 +191,7 @@ def discrete_bode_integral(
     z = np.exp(1j * (-np.pi + 2.0 * np.pi * (np.arange(n) + 0.5) / n))
     # evaluate the object as given: a state space near its integrators is far more
     # accurate than the expanded polynomial of its transfer function
-    ln_s = np.log(np.abs(1.0 / (1.0 + np.asarray(loop(z)).ravel())))
+    ln_s = np.log(np.abs(1.0 / (1.0 + _evaluate(loop, z))))
     # open-loop poles on the unit circle are zeros of S: ln|S| has log singularities there.
     # Remove them: the mean of ln|z - p| over the circle is ln max(1, |p|) = 0 for |p| = 1
     # (Jensen), so subtracting them leaves a smooth periodic integrand with the same integral.

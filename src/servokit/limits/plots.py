@@ -9,6 +9,7 @@ import numpy as np
 from servokit._figures import save_figure
 from servokit._lazy import control
 from servokit.limits.bode import waterbed_lower_bound
+from servokit.models.lti_response import lti_response
 
 __all__ = ["bode_integral_plot", "variance_plot", "waterbed_plot"]
 
@@ -35,14 +36,14 @@ def bode_integral_plot(
 
     if loop.isdtime():
         f = np.linspace(0.0, 0.5 / loop.dt, n_freq)[1:]
-        s = 1.0 / (1.0 + loop(np.exp(2j * np.pi * f * loop.dt)))
+        s = 1.0 / (1.0 + lti_response(loop, np.exp(2j * np.pi * f * loop.dt)))
         xlabel, xscale = "frequency [Hz] (up to Nyquist)", "linear"
     else:
         from servokit.models.frequency_grid import frequency_grid
 
         top = 10 * max(1.0, float(np.max(np.abs(loop.poles())))) / (2 * np.pi)
         f = frequency_grid(loop, top * 1e-5, top * 10, n_freq)  # no resonance clipped
-        s = 1.0 / (1.0 + loop(2j * np.pi * f))
+        s = 1.0 / (1.0 + lti_response(loop, 2j * np.pi * f))
         xlabel, xscale = "frequency [Hz]", "log"
     ln_s = np.log(np.abs(s))
     fig, ax = plt.subplots(figsize=(7, 3.6))
@@ -126,7 +127,7 @@ def variance_plot(
         f = frequency_grid([loop, disturbance], bandwidth_hz * 1e-3, bandwidth_hz * 1e3, n_freq)
         x = 2j * np.pi * f
     d2 = np.abs(np.asarray(disturbance(x)).ravel()) ** 2
-    s2 = np.abs(1.0 / (1.0 + np.asarray(loop(x)).ravel())) ** 2
+    s2 = np.abs(1.0 / (1.0 + np.asarray(lti_response(loop, x)).ravel())) ** 2
     fig, ax = plt.subplots(figsize=(7, 3.6))
     ax.loglog(f, d2, "--", label="|D|^2 (open loop)")
     ax.loglog(f, s2 * d2, label="|S D|^2 (closed loop)")

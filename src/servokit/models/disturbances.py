@@ -33,6 +33,7 @@ import numpy as np
 from servokit._lazy import control
 from servokit._lazy import scipy_signal as signal
 from servokit.errors import ServokitValueError, check_count, check_positive
+from servokit.models.lti_response import lti_response
 
 __all__ = ["BenchmarkDisturbances", "DisturbanceRecord", "band_powers", "disturbance_magnitude"]
 
@@ -169,6 +170,18 @@ class BenchmarkDisturbances:
                 ]
         return self._cache["flutter"]
 
+    def _flutter_coefficients(self) -> tuple[np.ndarray, np.ndarray]:
+        """Numerators and denominators of the ZOH resonators, one row each, padded in front
+        with zeros to a common length (a leading zero leaves Horner's value unchanged)."""
+        if "flutter_coef" not in self._cache:
+            gs = self._discrete_flutter()
+            rows = []
+            for part in ([g.num_array[0, 0] for g in gs], [g.den_array[0, 0] for g in gs]):
+                m = max(len(c) for c in part)
+                rows.append(np.array([np.concatenate([np.zeros(m - len(c)), c]) for c in part]))
+            self._cache["flutter_coef"] = (rows[0], rows[1])
+        return self._cache["flutter_coef"]
+
     def flutter_psd(self, freq_hz: np.ndarray) -> np.ndarray:
         """One-sided PSD of the generated (sampled) flutter sequence [track^2/Hz].
 
@@ -176,11 +189,14 @@ class BenchmarkDisturbances:
         independent, so the PSDs add.
         """
         z = np.exp(2j * np.pi * np.asarray(freq_hz, dtype=float) * self.dt)
+        num, den = self._flutter_coefficients()
+        # every g(z) at once by the Horner quotient np.polyval computes (the same
+        # operations, element by element): the quadratures of the variance bound (6.16)
+        # call this 10^4 times with one frequency, where the per-filter calls cost 4x more
+        terms = np.abs(_horner_rows(num, z) / _horner_rows(den, z)) ** 2
         total = np.zeros(z.shape)
-        for g in self._discrete_flutter():
-            # g(z) without python-control's call overhead: the same Horner quotient
-            num, den = g.num_array[0, 0], g.den_array[0, 0]
-            total += np.abs(np.polyval(num, z) / np.polyval(den, z)) ** 2
+        for term in terms:  # summed in filter order, as before
+            total += term
         return 2.0 * self.dt * total
 
     def sensor_psd(self, freq_hz: np.ndarray) -> np.ndarray:
@@ -241,9 +257,17 @@ def disturbance_magnitude(disturbances, plant_d: control.LTI):
     def mag(freq_hz):
         f = np.asarray(freq_hz, dtype=float)
         z = np.exp(2j * np.pi * f * dt)
-        p2 = np.abs(np.asarray(plant_d(z)).reshape(f.shape)) ** 2
+        p2 = np.abs(np.asarray(lti_response(plant_d, z)).reshape(f.shape)) ** 2
         force = 2 * dt * disturbances.force_sigma_a**2 * p2
         psd = disturbances.flutter_psd(f) + disturbances.sensor_psd(f) + force
         return np.sqrt(psd / (2 * dt))
 
     return mag
+
+
+def _horner_rows(coef: np.ndarray, z: np.ndarray) -> np.ndarray:
+    """``np.polyval(coef[i], z)`` for every row ``i``, stacked first (same arithmetic)."""
+    y = np.zeros((coef.shape[0], *z.shape), dtype=complex)
+    for k in range(coef.shape[1]):
+        y = y * z + coef[:, k].reshape((-1,) + (1,) * z.ndim)
+    return y

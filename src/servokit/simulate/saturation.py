@@ -33,8 +33,11 @@ from typing import Any
 
 import numpy as np
 
-from servokit.errors import ServokitValueError, check_positive
+from servokit.errors import ServokitValueError, check_positive, check_work
 from servokit.models.modal import ModalPlant
+
+#: samples :func:`limit_input` walks one by one at most (~20 us each: about ten seconds)
+_MAX_LIMITED_SAMPLES = 5e5
 
 __all__ = ["Actuator", "SaturatedResult", "antiwindup_gain", "limit_input", "simulate_saturated"]
 
@@ -273,8 +276,20 @@ def limit_input(u: np.ndarray, actuator: Actuator) -> tuple[np.ndarray, int]:
     u = np.asarray(u, dtype=float).ravel()
     extra = 0
     if actuator.slew_max is not None:  # from +-peak back to zero at the slew rate
-        peak = min(float(np.max(np.abs(u), initial=0.0)), actuator.u_max)
-        extra = int(np.ceil(2 * peak / actuator.slew_max)) + 1
+        # from rest the applied input cannot pass N slew steps: extra <= 2 N + 1
+        peak = min(
+            float(np.max(np.abs(u), initial=0.0)), actuator.u_max, u.size * actuator.slew_max
+        )
+        steps = np.ceil(2 * peak / actuator.slew_max) + 1
+        # the return to rest is walked sample by sample: bound it before allocating
+        check_work(
+            u.size + steps,
+            what=f"slew_max {actuator.slew_max:g} (a peak of {peak:g} returns to rest in "
+            f"{steps:.3g} samples)",
+            limit=_MAX_LIMITED_SAMPLES,
+            about="about ten seconds; raise slew_max",
+        )
+        extra = int(steps)
     demand = np.concatenate([u, np.zeros(extra)])
     applied, prev = np.empty_like(demand), np.zeros(1)
     for k, v in enumerate(demand):
