@@ -63,6 +63,15 @@ CHEAP = (
     ["sensitivity", "--plant", "hdd-sampled-data", "--controller", "eq-4.69", "--n-freq", "50"],
     # fixed-point export: coefficients, numpy partial fractions (python-control unloaded)
     "export controller --controller eq-4.69 --precision q15 --u-max 2 --out fw".split(),
+    # the loop as numpy coefficients (servokit.limits.RationalLoop); variance adds quad
+    ["limits", "bode-integral", "--num", "0.5,0.1", "--den", "1,-0.5,0.1", "--dt", "1e-4"],
+    ["limits", "variance", "--num", "40000", "--den", "1,300,0", "--dist-num", "1",
+     "--dist-den", "0.01,1"],
+    ["feedforward", "minimum-jerk", "--move-time", "1", "--dt", "0.1"],
+    # the bridges and the AMD loop evaluated with numpy (servokit.feedback.ssa *_response)
+    ["ssa", "ddssa", "--c-pzt", "2e-9", "--c1", "2e-9", "--c2", "2e-9", "--c3", "2e-9"],
+    ["ssa", "idssa", "--c", "1e-9", "--r", "10e3", "--k", "2"],
+    ["ssa", "amd", "--mode", "5461:2:10", "--mode", "9103:2:10"],
 )
 
 _RUN = r"""
@@ -128,3 +137,18 @@ def test_lazy_module_loads_on_first_use_and_then_holds_the_namespace() -> None:
     import colorsys
 
     assert lazy.hsv_to_rgb is colorsys.hsv_to_rgb
+
+
+def test_lazy_exports_import_a_name_on_first_use() -> None:
+    code = (
+        "import sys, servokit.feedback as f\n"
+        "assert 'servokit.feedback.margins' not in sys.modules\n"
+        "assert 'stability_margins' in dir(f) and 'stability_margins' not in vars(f)\n"
+        "g = f.stability_margins\n"
+        "assert 'servokit.feedback.margins' in sys.modules and vars(f)['stability_margins'] is g\n"
+        "try:\n    f.no_such_name\nexcept AttributeError as e:\n    print('ok', e)\n"
+    )
+    out = subprocess.run(
+        [sys.executable, "-c", code], capture_output=True, text=True, timeout=120, check=True
+    ).stdout
+    assert out.startswith("ok") and "no_such_name" in out

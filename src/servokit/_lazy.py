@@ -15,9 +15,17 @@ from __future__ import annotations
 
 import importlib
 import types
+from collections.abc import Callable
 from typing import Any
 
-__all__ = ["LazyModule", "control", "scipy_integrate", "scipy_signal", "scipy_sparse"]
+__all__ = [
+    "LazyModule",
+    "control",
+    "lazy_exports",
+    "scipy_integrate",
+    "scipy_signal",
+    "scipy_sparse",
+]
 
 
 class LazyModule(types.ModuleType):
@@ -46,3 +54,40 @@ control = LazyModule("control")
 scipy_signal = LazyModule("scipy.signal")
 scipy_integrate = LazyModule("scipy.integrate")
 scipy_sparse = LazyModule("scipy.sparse")
+
+
+def lazy_exports(
+    package: str, exports: dict[str, str]
+) -> tuple[Callable[[str], Any], Callable[[], list[str]]]:
+    """``__getattr__`` and ``__dir__`` for a package that names what its modules define.
+
+    A package ``__init__`` that imports every submodule makes a command pay for all of
+    them (``servokit.feedback`` loads the margins, loop-shaping and dual-stage modules
+    before ``filter inverse`` can run); with these, a name's module is imported on its first
+    use (PEP 562) and the name then held in the package.
+
+    Parameters
+    ----------
+    package : str
+        The package's ``__name__``.
+    exports : dict of str to str
+        Public name -> dotted name of the module that defines it.
+
+    Returns
+    -------
+    getattr_, dir_ : callable
+        The package's module-level ``__getattr__`` and ``__dir__``.
+    """
+
+    def getattr_(name: str) -> Any:
+        module_name = exports.get(name)
+        if module_name is None:
+            raise AttributeError(f"module {package!r} has no attribute {name!r}")
+        value = getattr(importlib.import_module(module_name), name)
+        setattr(importlib.import_module(package), name, value)
+        return value
+
+    def dir_() -> list[str]:
+        return sorted(set(vars(importlib.import_module(package))) | set(exports))
+
+    return getattr_, dir_

@@ -61,11 +61,13 @@ def polynomial_cmd(
     from servokit.feedforward.polynomial import polynomial_formula, sampled_polynomial
 
     with flag_names({"order": "--order", "N": "--n-samples", "dt": "--dt", "target": "--target"}):
-        u = sampled_polynomial(order, n, dt, target)
-        formula = f"({polynomial_formula(order)}) * r / tau**2"
+        u = sampled_polynomial(order, n, dt, target)  # numpy: the formula needs sympy
     if plot is not None:
         _polynomial_plot(u, n, dt, order, plot)
     peak = float(np.abs(u).max())
+    if not json_out:  # the first line before sympy's derivation (start-up, issue 23)
+        console.print(f"order {order}, N = {n}, dt = {dt:g} s, target = {target:g}")
+    formula = f"({polynomial_formula(order)}) * r / tau**2"
     if json_out:
         emit_json(
             {
@@ -79,7 +81,6 @@ def polynomial_cmd(
             }
         )
         return
-    console.print(f"order {order}, N = {n}, dt = {dt:g} s, target = {target:g}")
     console.print(f"u[n] = {formula}")
     console.print(f"peak |u| = {peak:.6g} (target units/s^2)")
 

@@ -50,12 +50,24 @@ def _coeffs(text: str, flag: str) -> np.ndarray:
 
 
 def _loop(num: str, den: str, dt: float | None, flags: tuple[str, str] = ("--num", "--den")):
+    """The loop as numpy coefficients: no python-control object (start-up, issue 23)."""
+    from servokit.limits import RationalLoop
+
     n, d = _coeffs(num, flags[0]), _coeffs(den, flags[1])
     if dt is not None:
         dt = check_positive("--dt", dt, "s")
+    return RationalLoop(n, d, dt)
+
+
+def _lti(loop):  # noqa: ANN001, ANN202
+    """The python-control transfer function of a RationalLoop, for the plots."""
     import control
 
-    return control.tf(n, d) if dt is None else control.tf(n, d, dt)
+    return (
+        control.tf(loop.num, loop.den)
+        if loop.dt is None
+        else control.tf(loop.num, loop.den, loop.dt)
+    )
 
 
 @limits_app.command(
@@ -131,7 +143,7 @@ def bode_integral_cmd(
     if plot is not None:
         from servokit.limits.plots import bode_integral_plot
 
-        wrote(bode_integral_plot(loop, plot))
+        wrote(bode_integral_plot(_lti(loop), plot))
     data = {
         "integral": res.integral,
         "theory": res.theory,
@@ -182,7 +194,7 @@ def variance_cmd(
     if plot is not None:
         from servokit.limits.plots import variance_plot
 
-        wrote(variance_plot(loop, dist, res.bandwidth_hz, plot))
+        wrote(variance_plot(_lti(loop), _lti(dist), res.bandwidth_hz, plot))
     _variance_render(res, json_out)
 
 

@@ -40,7 +40,7 @@ def ddssa_cmd(
 
     JSON keys: balanced, freq_hz, um_gain, vm_gain (magnitudes of a and b).
     """
-    from servokit.feedback.ssa import ddssa_bridge
+    from servokit.feedback.ssa import ddssa_response
 
     names = {
         "c_pzt": "--c-pzt",
@@ -53,14 +53,13 @@ def ddssa_cmd(
     if not (np.isfinite(freq) and freq > 0):
         raise ServokitValueError(f"--freq must be > 0 Hz (got {freq})")
     with flag_names(names):
-        b = ddssa_bridge(c_pzt, c1, c2, c3, r1=r1, r3=r3)
-    s = 2j * np.pi * freq
+        from_um, from_vm, balanced = ddssa_response(c_pzt, c1, c2, c3, freq, r1=r1, r3=r3)
     _report(
         {
-            "balanced": b.balanced,
+            "balanced": balanced,
             "freq_hz": freq,
-            "um_gain": abs(complex(b.from_um(s))),
-            "vm_gain": abs(complex(b.from_vm(s))),
+            "um_gain": float(abs(from_um)),
+            "vm_gain": float(abs(from_vm)),
         },
         json_out,
     )
@@ -77,16 +76,15 @@ def idssa_cmd(
 
     JSON keys: fc_hz, damping, gain, um_leak_at_fc (|vS/uM| at fc, 0 at balance).
     """
-    from servokit.feedback.ssa import idssa_bridge
+    from servokit.feedback.ssa import idssa_response
 
     for flag, v in (("--c", c), ("--r", r), ("--k", k)):
         if not (np.isfinite(v) and v > 0):
             raise ServokitValueError(f"{flag} must be > 0 (got {v})")
-    b = idssa_bridge((c, c, c, c), c, c, (r, r, r, r, 1e3, k * 1e3, k * 1e3, 1e3))
-    leak = abs(complex(b.from_um(2j * np.pi * b.fc_hz)))
-    _report(
-        {"fc_hz": b.fc_hz, "damping": b.damping, "gain": b.gain, "um_leak_at_fc": leak}, json_out
-    )
+    args = ((c, c, c, c), c, c, (r, r, r, r, 1e3, k * 1e3, k * 1e3, 1e3))
+    fc_hz, damping, gain = idssa_response(*args, 1.0)[2]
+    leak = float(abs(idssa_response(*args, fc_hz)[0]))
+    _report({"fc_hz": fc_hz, "damping": damping, "gain": gain, "um_leak_at_fc": leak}, json_out)
 
 
 def _parse_mode(text: str) -> tuple[float, float, float]:
@@ -129,7 +127,7 @@ def amd_cmd(
 
     JSON keys: stable, freq_hz, open_db, damped_db, attenuation_db, estimate_db (1/|CD|).
     """
-    from servokit.feedback.ssa import amd_controller, mode_damping
+    from servokit.feedback.ssa import amd_mode_damping, amd_response
     from servokit.models import pzt_active_suspension
 
     modes = [_parse_mode(m) for m in (mode or ["5461:2:10", "6074:2:10", "9103:2:10"])]
@@ -138,10 +136,10 @@ def amd_cmd(
         twice = next(f for f in freqs if freqs.count(f) > 1)
         raise ServokitValueError(f"--mode: FREQ_HZ {twice:g} is given twice; give each mode once")
     try:
-        cd = amd_controller(modes)
+        amd_response(modes, 0j)  # checks every factor's arguments
     except ServokitValueError as exc:
         raise ServokitValueError(f"--mode: {exc}") from None
-    res = mode_damping(pzt_active_suspension().to_statespace(), cd, [m[0] for m in modes])
+    res = amd_mode_damping(pzt_active_suspension(), modes)
     _report(_amd_fields(res), json_out)
 
 

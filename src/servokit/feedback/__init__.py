@@ -14,38 +14,45 @@
   ``loopshape_eval``, figures in ``loopshape_plots``.
 """
 
-from servokit.feedback.dual_stage import DualStageLoops, dual_stage_loops
-from servokit.feedback.filters import (
-    complex_lag,
-    design_peak_filter,
-    discretize_filter,
-    inverse_pair,
-    lag,
-    lead_lag,
-    notch,
-    peak_filter,
-    peak_filter_phase,
-    pi_controller,
-    pseudo_plant,
-)
-from servokit.feedback.ieej_fit import (
-    IEEJ_ISSUE_20_NUMBERS,
-    IEEJ_ISSUE_20_PRECISION,
-    IeejLoopFit,
-    fit_ieej_loop,
-    ieej_loop_numbers,
-)
-from servokit.feedback.loopshape_eval import LoopRow, LoopTable
-from servokit.feedback.loopshape_iterate import LoopshapeResult, certify_models, loopshape
-from servokit.feedback.loopshape_problem import (
-    Structure,
-    fixed_order_structure,
-    pid_notch_structure,
-)
-from servokit.feedback.margins import Margins, loop_response, stability_margins
-from servokit.feedback.margins_set import SetMargins, margins_over_set
-from servokit.feedback.peak_filtered import PeakFilterSpec, peak_filtered_controller
-from servokit.models.frequency_grid import frequency_grid
+from servokit._lazy import lazy_exports
+
+#: public name -> defining module, imported on first use (start-up, issue 23)
+_EXPORTS = {
+    "DualStageLoops": "servokit.feedback.dual_stage",
+    "LoopRow": "servokit.feedback.loopshape_eval",
+    "LoopTable": "servokit.feedback.loopshape_eval",
+    "LoopshapeResult": "servokit.feedback.loopshape_iterate",
+    "Structure": "servokit.feedback.loopshape_problem",
+    "certify_models": "servokit.feedback.loopshape_iterate",
+    "fixed_order_structure": "servokit.feedback.loopshape_problem",
+    "loopshape": "servokit.feedback.loopshape_iterate",
+    "pid_notch_structure": "servokit.feedback.loopshape_problem",
+    "Margins": "servokit.feedback.margins",
+    "SetMargins": "servokit.feedback.margins_set",
+    "PeakFilterSpec": "servokit.feedback.peak_filtered",
+    "peak_filtered_controller": "servokit.feedback.peak_filtered",
+    "complex_lag": "servokit.feedback.filters",
+    "design_peak_filter": "servokit.feedback.filters",
+    "discretize_filter": "servokit.feedback.filters",
+    "dual_stage_loops": "servokit.feedback.dual_stage",
+    "frequency_grid": "servokit.models.frequency_grid",
+    "inverse_pair": "servokit.feedback.filters",
+    "lag": "servokit.feedback.filters",
+    "lead_lag": "servokit.feedback.filters",
+    "loop_response": "servokit.feedback.margins",
+    "margins_over_set": "servokit.feedback.margins_set",
+    "notch": "servokit.feedback.filters",
+    "peak_filter": "servokit.feedback.filters",
+    "peak_filter_phase": "servokit.feedback.filters",
+    "pi_controller": "servokit.feedback.filters",
+    "pseudo_plant": "servokit.feedback.filters",
+    "stability_margins": "servokit.feedback.margins",
+    "IEEJ_ISSUE_20_NUMBERS": "servokit.feedback.ieej_fit",
+    "IEEJ_ISSUE_20_PRECISION": "servokit.feedback.ieej_fit",
+    "IeejLoopFit": "servokit.feedback.ieej_fit",
+    "fit_ieej_loop": "servokit.feedback.ieej_fit",
+    "ieej_loop_numbers": "servokit.feedback.ieej_fit",
+}
 
 __all__ = [
     "IEEJ_ISSUE_20_NUMBERS",
@@ -83,3 +90,5 @@ __all__ = [
     "pseudo_plant",
     "stability_margins",
 ]
+
+__getattr__, __dir__ = lazy_exports(__name__, _EXPORTS)

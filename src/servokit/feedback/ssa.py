@@ -40,25 +40,41 @@ Active mode damping (AMD, eqs. 5.67-5.69)
     read "kappa determines the amount of phase lift".  The loop
     (5.68) ``yM/uM = PM / (1 + CD PM)`` attenuates mode ``i`` by about ``1/|CD(j wn)|``
     when ``|CD PM| >> 1`` (5.69).
+
+numpy evaluations
+    The python-control objects above cost a second of start-up to build; the ``ssa``
+    commands use :func:`ddssa_response`, :func:`idssa_response`, :func:`amd_response`,
+    :func:`amd_statespace` and :func:`amd_mode_damping`, which evaluate the same
+    equations directly (the bridges' admittances at ``s = j 2 pi f``, (5.67) factor by
+    factor) and give the same numbers (``tests/test_ssa_arrays.py``).
 """
 
 from __future__ import annotations
 
+from collections.abc import Callable
 from dataclasses import dataclass
+from typing import TYPE_CHECKING
 
 import numpy as np
 
 from servokit._lazy import control
 from servokit.errors import ServokitValueError, check_positive
-from servokit.models.lti_response import lti_response
+
+if TYPE_CHECKING:
+    from servokit.models import ModalPlant
 
 __all__ = [
     "DDSSABridge",
     "ddssa_bridge",
     "IDSSABridge",
     "idssa_bridge",
+    "ddssa_response",
+    "idssa_response",
     "amd_controller",
     "amd_mode",
+    "amd_mode_damping",
+    "amd_response",
+    "amd_statespace",
     "ModeDamping",
     "mode_damping",
 ]
@@ -113,20 +129,68 @@ def ddssa_bridge(
         ``from_um`` is zero at all frequencies and, with ``C1 = C2 = C3 = CPZT``,
         ``vs = vM / 2`` (5.62)).
     """
+    cp, c1, c2, c3, r1, r3, balanced = _ddssa_checked(c_pzt, c1, c2, c3, r1, r3, rtol)
+    yp, y1 = control.tf([cp, 0.0], [1.0]), _rc_admittance(c1, r1)
+    y2, y3 = control.tf([c2, 0.0], [1.0]), _rc_admittance(c3, r3)
+    arm1 = control.minreal(yp / (yp + y1), verbose=False)
+    arm2 = control.minreal(y2 / (y2 + y3), verbose=False)
+    return DDSSABridge(arm2 - arm1, arm1, balanced)
+
+
+def _ddssa_checked(c_pzt, c1, c2, c3, r1, r3, rtol):  # noqa: ANN001, ANN202
+    """Validated ``(CPZT, C1, C2, C3, R1, R3, balanced)`` of :func:`ddssa_bridge`."""
     cp, c1, c2, c3 = (
         check_positive(n, v, "F") for n, v in (("c_pzt", c_pzt), ("c1", c1), ("c2", c2), ("c3", c3))
     )
     r1, r3 = _positive_or_none("r1", r1), _positive_or_none("r3", r3)
     if (r1 is None) != (r3 is None):
         raise ServokitValueError("give both r1 and r3 (the drift resistors) or neither")
-    yp, y1 = control.tf([cp, 0.0], [1.0]), _rc_admittance(c1, r1)
-    y2, y3 = control.tf([c2, 0.0], [1.0]), _rc_admittance(c3, r3)
-    arm1 = control.minreal(yp / (yp + y1), verbose=False)
-    arm2 = control.minreal(y2 / (y2 + y3), verbose=False)
     balanced = np.isclose(cp * c3, c1 * c2, rtol=rtol, atol=0.0) and (
         r1 is None or np.isclose(cp / r3, c2 / r1, rtol=rtol, atol=0.0)
     )
-    return DDSSABridge(arm2 - arm1, arm1, bool(balanced))
+    return cp, c1, c2, c3, r1, r3, bool(balanced)
+
+
+def ddssa_response(
+    c_pzt: float,
+    c1: float,
+    c2: float,
+    c3: float,
+    freq_hz: float | np.ndarray,
+    *,
+    r1: float | None = None,
+    r3: float | None = None,
+    rtol: float = 1e-9,
+) -> tuple[np.ndarray, np.ndarray, bool]:
+    """:func:`ddssa_bridge`'s two transfer functions evaluated at ``freq_hz``, with numpy.
+
+    The admittances ``Y = s C (+ 1/R)`` of (5.59)-(5.60) are evaluated at ``s = j 2 pi f``
+    and combined as in the module docstring; no python-control object is built.
+
+    Parameters
+    ----------
+    c_pzt, c1, c2, c3 : float
+        Capacitances [F].
+    freq_hz : float or ndarray
+        Frequencies [Hz].
+    r1, r3 : float, optional
+        Drift resistors [ohm] in parallel with ``C1`` and ``C3``.
+    rtol : float
+        Relative tolerance of the balance test.
+
+    Returns
+    -------
+    from_um, from_vm : ndarray of complex
+        ``Y2/(Y2+Y3) - YP/(YP+Y1)`` and ``YP/(YP+Y1)`` at ``freq_hz`` (shape of ``freq_hz``).
+    balanced : bool
+        As :attr:`DDSSABridge.balanced`.
+    """
+    cp, c1, c2, c3, r1, r3, balanced = _ddssa_checked(c_pzt, c1, c2, c3, r1, r3, rtol)
+    s = 2j * np.pi * np.asarray(freq_hz, dtype=float)
+    yp, y1 = s * cp, s * c1 + (0.0 if r1 is None else 1.0 / r1)
+    y2, y3 = s * c2, s * c3 + (0.0 if r3 is None else 1.0 / r3)
+    arm1, arm2 = yp / (yp + y1), y2 / (y2 + y3)
+    return arm2 - arm1, arm1, balanced
 
 
 @dataclass(frozen=True)
@@ -181,23 +245,76 @@ def idssa_bridge(
         ``gain = R6 / R5``, the parameters of the high-pass (5.66) that ``from_vm`` equals
         at balance (5.65), where ``from_um`` vanishes.
     """
-    c1, c2, c3, c4 = (check_positive(f"C{i + 1}", v, "F") for i, v in enumerate(c))
-    cp, cpr = check_positive("c_pzt", c_pzt, "F"), check_positive("c_pzt_ref", c_pzt_ref, "F")
-    rr = [check_positive(f"R{i + 1}", v, "ohm") for i, v in enumerate(r)]
-    r1, r2, r3, r4, r5, r6, r7, r8 = rr
+    (c1, c2, c3, c4), cp, cpr, rr = _idssa_checked(c, c_pzt, c_pzt_ref, r)
+    r1, r2, r3, r4 = rr[:4]
     v1_um = _idssa_arm(c1, c2, cp, r1, r2)
     v1_vm = -control.tf([c1 * cp * r1 * r2, 0.0, 0.0], [c1 * c2 * r1 * r2, (cp + c1 + c2) * r1, 1])
     v2_um = _idssa_arm(c3, c4, cpr, r3, r4)
-    a2, a1 = r6 / (r5 + r6) * (r7 + r8) / r8, r7 / r8  # (5.64)
-    wc = 1.0 / np.sqrt(c1 * c2 * r1 * r2)
-    zeta = np.sqrt(c1 * c2 * r1 * r2) * (c1 + c2 + cp) / (2.0 * c1 * c2 * r2)
+    a2, a1 = _idssa_amplifier(rr)
     return IDSSABridge(
         control.minreal(a2 * v2_um - a1 * v1_um, verbose=False),
         -a1 * v1_vm,
-        float(wc / (2 * np.pi)),
-        float(zeta),
-        float(r6 / r5),
+        *_idssa_highpass(c1, c2, cp, rr),
     )
+
+
+def _idssa_checked(c, c_pzt, c_pzt_ref, r):  # noqa: ANN001, ANN202
+    """Validated ``((C1..C4), CPZT, C'PZT, [R1..R8])`` of :func:`idssa_bridge`."""
+    cc = tuple(check_positive(f"C{i + 1}", v, "F") for i, v in enumerate(c))
+    cp, cpr = check_positive("c_pzt", c_pzt, "F"), check_positive("c_pzt_ref", c_pzt_ref, "F")
+    return cc, cp, cpr, [check_positive(f"R{i + 1}", v, "ohm") for i, v in enumerate(r)]
+
+
+def _idssa_amplifier(rr: list[float]) -> tuple[float, float]:
+    """``a2 = R6 (R7 + R8) / ((R5 + R6) R8)`` and ``a1 = R7 / R8`` of (5.64)."""
+    r5, r6, r7, r8 = rr[4:]
+    return r6 / (r5 + r6) * (r7 + r8) / r8, r7 / r8
+
+
+def _idssa_highpass(c1: float, c2: float, cp: float, rr: list[float]) -> tuple[float, float, float]:
+    """``fc_hz``, ``damping`` and ``gain`` of the high-pass (5.66)."""
+    r1, r2, r5, r6 = rr[0], rr[1], rr[4], rr[5]
+    wc = 1.0 / np.sqrt(c1 * c2 * r1 * r2)
+    zeta = np.sqrt(c1 * c2 * r1 * r2) * (c1 + c2 + cp) / (2.0 * c1 * c2 * r2)
+    return float(wc / (2 * np.pi)), float(zeta), float(r6 / r5)
+
+
+def _idssa_arm_at(s: np.ndarray, ca: float, cb: float, cp: float, ra: float, rb: float):  # noqa: ANN202
+    """``v/uM`` of one arm (5.63) at ``s`` and the ``vM`` term's ``s^2`` numerator factor."""
+    den = ca * cb * ra * rb * s * s + (cp + ca + cb) * ra * s + 1.0
+    return 1.0 + (ca * cp * ra * rb * s * s + ca * rb * s) / den, den
+
+
+def idssa_response(
+    c: tuple[float, float, float, float],
+    c_pzt: float,
+    c_pzt_ref: float,
+    r: tuple[float, float, float, float, float, float, float, float],
+    freq_hz: float | np.ndarray,
+) -> tuple[np.ndarray, np.ndarray, tuple[float, float, float]]:
+    """:func:`idssa_bridge` evaluated at ``freq_hz`` with numpy (no python-control object).
+
+    Parameters
+    ----------
+    c, c_pzt, c_pzt_ref, r
+        As :func:`idssa_bridge`.
+    freq_hz : float or ndarray
+        Frequencies [Hz].
+
+    Returns
+    -------
+    from_um, from_vm : ndarray of complex
+        ``vS/uM`` and ``vS/vM`` (5.63)-(5.64) at ``freq_hz``.
+    highpass : tuple of float
+        ``(fc_hz, damping, gain)`` of (5.66), as :class:`IDSSABridge`.
+    """
+    (c1, c2, c3, c4), cp, cpr, rr = _idssa_checked(c, c_pzt, c_pzt_ref, r)
+    s = 2j * np.pi * np.asarray(freq_hz, dtype=float)
+    v1_um, den1 = _idssa_arm_at(s, c1, c2, cp, rr[0], rr[1])
+    v2_um, _ = _idssa_arm_at(s, c3, c4, cpr, rr[2], rr[3])
+    a2, a1 = _idssa_amplifier(rr)
+    from_vm = a1 * c1 * cp * rr[0] * rr[1] * s * s / den1
+    return a2 * v2_um - a1 * v1_um, from_vm, _idssa_highpass(c1, c2, cp, rr)
 
 
 # --------------------------------------------------------------- active mode damping
@@ -224,14 +341,21 @@ def amd_mode(freq_hz: float, eps: float, kappa: float, gain: float | None = None
     control.TransferFunction
         The continuous ``CD,i(s)``, DC gain ``KD,i / eps``, high-frequency gain ``KD,i``.
     """
+    k, zeros, poles = _amd_factor(freq_hz, eps, kappa, gain)
+    num = np.polymul([1, zeros[0]], [1, zeros[1]])
+    den = np.polymul([1, poles[0]], [1, poles[1]])
+    return control.tf(k * num, den)
+
+
+def _amd_factor(freq_hz, eps, kappa, gain=None):  # noqa: ANN001, ANN202
+    """``(KD, (wn/eps, wn), (kappa wn/eps, eps wn/kappa))``: ``CD,i = KD (s + a)(s + b) /
+    ((s + c)(s + d))`` of (5.67), its arguments checked."""
     wn = 2 * np.pi * check_positive("freq_hz", freq_hz, "Hz")
     eps, kappa = check_positive("eps", eps), check_positive("kappa", kappa)
     if not kappa > eps:
         raise ServokitValueError(f"kappa must exceed eps (got kappa={kappa}, eps={eps})")
     k = eps if gain is None else check_positive("gain", gain)
-    num = np.polymul([1, wn / eps], [1, wn])
-    den = np.polymul([1, kappa * wn / eps], [1, eps * wn / kappa])
-    return control.tf(k * num, den)
+    return k, (wn / eps, wn), (kappa * wn / eps, eps * wn / kappa)
 
 
 def amd_controller(modes: list[tuple[float, float, float]]) -> control.TransferFunction:
@@ -298,14 +422,134 @@ def mode_damping(
     """
     closed = control.feedback(plant, cd)
     stable = bool(np.all(np.real(control.poles(closed)) < 0))
+
+    from servokit.models.lti_response import lti_response  # sys(x) vectorised, same values
+
+    def response(sys: control.LTI) -> Callable[[np.ndarray], np.ndarray]:
+        return lambda s: np.asarray(lti_response(sys, s)).ravel()
+
+    return _damping_peaks(response(plant), response(cd), freq_hz, band, stable)
+
+
+def _damping_peaks(
+    plant: Callable[[np.ndarray], np.ndarray],
+    cd: Callable[[np.ndarray], np.ndarray],
+    freq_hz: np.ndarray,
+    band: float,
+    stable: bool,
+) -> ModeDamping:
+    """:class:`ModeDamping` from the responses ``s -> PM(s)`` and ``s -> CD(s)``."""
     centres = np.atleast_1d(np.asarray(freq_hz, dtype=float))
     rows = []
     for f in centres:
-        grid = np.linspace((1 - band) * f, (1 + band) * f, 2001)
-        s = 2j * np.pi * grid
-        p, c = lti_response(plant, s).ravel(), lti_response(cd, s).ravel()
-        rows.append(
-            (np.abs(p).max(), np.abs(p / (1 + c * p)).max(), 1 / abs(complex(cd(2j * np.pi * f))))
-        )
+        s = 2j * np.pi * np.linspace((1 - band) * f, (1 + band) * f, 2001)
+        p, c = plant(s), cd(s)
+        at_wn = complex(cd(np.array([2j * np.pi * f]))[0])
+        rows.append((np.abs(p).max(), np.abs(p / (1 + c * p)).max(), 1 / abs(at_wn)))
     a = 20 * np.log10(np.array(rows))
     return ModeDamping(centres, a[:, 0], a[:, 1], a[:, 0] - a[:, 1], a[:, 2], stable)
+
+
+def amd_response(modes: list[tuple[float, float, float]], s: complex | np.ndarray) -> np.ndarray:
+    """:func:`amd_controller` evaluated at ``s`` with numpy: the product of the factors (5.67).
+
+    Parameters
+    ----------
+    modes : list of tuple of (float, float, float)
+        ``(freq_hz, eps, kappa)`` per mode, as :func:`amd_controller`.
+    s : complex or ndarray
+        Laplace variable [rad/s] (e.g. ``2j pi f``).
+
+    Returns
+    -------
+    ndarray of complex
+        ``CD(s)``, the shape of ``s``.
+    """
+    if not modes:
+        raise ServokitValueError("modes is empty; give at least one (freq_hz, eps, kappa)")
+    s = np.asarray(s, dtype=complex)
+    out = np.ones_like(s)
+    for mode in modes:
+        k, (a, b), (c, d) = _amd_factor(*mode)
+        out = out * (k * (s + a) * (s + b) / ((s + c) * (s + d)))
+    return out
+
+
+def amd_statespace(
+    modes: list[tuple[float, float, float]],
+) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+    """A real state space ``(A, B, C, D)`` of :func:`amd_controller`: the factors in series.
+
+    Each factor ``KD (s + a)(s + b)/((s + c)(s + d)) = KD + KD ((a + b - c - d) s + ab - cd) /
+    (s^2 + (c + d) s + cd)`` in controllable companion form; one factor at a time keeps
+    the coefficients at ``wn^2`` instead of the ``wn^(2m)`` of the expanded product.
+
+    Parameters
+    ----------
+    modes : list of tuple of (float, float, float)
+        ``(freq_hz, eps, kappa)`` per mode, as :func:`amd_controller`.
+
+    Returns
+    -------
+    A : ndarray (2m, 2m)
+    B : ndarray (2m, 1)
+    C : ndarray (1, 2m)
+    D : ndarray (1, 1)
+    """
+    if not modes:
+        raise ServokitValueError("modes is empty; give at least one (freq_hz, eps, kappa)")
+    A, B, C, D = np.zeros((0, 0)), np.zeros((0, 1)), np.zeros((1, 0)), np.ones((1, 1))
+    for mode in modes:
+        k, (a, b), (c, d) = _amd_factor(*mode)
+        a2 = np.array([[0.0, 1.0], [-c * d, -(c + d)]])
+        b2, c2 = np.array([[0.0], [1.0]]), k * np.array([[a * b - c * d, a + b - c - d]])
+        n = A.shape[0]  # series: the new factor reads the output of the ones before
+        A = np.block([[A, np.zeros((n, 2))], [b2 @ C, a2]])
+        B = np.vstack([B, b2 @ D])
+        C = np.hstack([k * C, c2])
+        D = k * D
+    return A, B, C, D
+
+
+def amd_mode_damping(
+    plant: ModalPlant, modes: list[tuple[float, float, float]], *, band: float = 0.1
+) -> ModeDamping:
+    """:func:`mode_damping` of :func:`amd_controller` ``(modes)`` on a modal plant, with numpy.
+
+    The same numbers without python-control: the responses from
+    :meth:`ModalPlant.freqresp` and :func:`amd_response`, stability from the eigenvalues of
+    the closed loop of the plant's modal state space and :func:`amd_statespace`.
+
+    Parameters
+    ----------
+    plant : ModalPlant
+        Continuous PZT plant ``PM`` without input delay.
+    modes : list of tuple of (float, float, float)
+        ``(freq_hz, eps, kappa)`` per damped mode; the peaks are sought near each
+        ``freq_hz``.
+    band : float
+        Relative half-width of each peak search, as :func:`mode_damping`.
+
+    Returns
+    -------
+    ModeDamping
+    """
+    from servokit.models import modal_matrices
+
+    if plant.delay != 0.0:
+        raise ServokitValueError(
+            "plant has an input delay: its closed loop has no finite state space; give a "
+            "plant without delay (ModalPlant.replace(delay=0.0))"
+        )
+    ap, bp, cp = modal_matrices(*plant.arrays())
+    ac, bc, cc, dc = amd_statespace(modes)
+    # yM = PM (uM - CD yM): the controller reads the plant output, its output subtracts
+    a_cl = np.block([[ap - bp @ dc @ cp, -bp @ cc], [bc @ cp, ac]])
+    stable = bool(np.all(np.linalg.eigvals(a_cl).real < 0))
+    return _damping_peaks(
+        lambda s: plant.freqresp(s.imag / (2 * np.pi)),
+        lambda s: amd_response(modes, s),
+        [m[0] for m in modes],
+        band,
+        stable,
+    )

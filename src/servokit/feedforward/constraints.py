@@ -29,8 +29,10 @@ from dataclasses import dataclass
 from typing import TYPE_CHECKING
 
 import numpy as np
-import scipy.linalg  # scipy.optimize is loaded by SciPy on first use (start-up)
-import scipy.sparse
+
+# scipy.linalg, scipy.optimize and scipy.sparse load on first attribute access (SciPy's
+# lazy submodules): an unconstrained FSC design never needs them (start-up, issue 23)
+import scipy
 
 from servokit.errors import ServokitTypeError, ServokitValueError, check_finite, check_positive
 

@@ -24,7 +24,7 @@ from __future__ import annotations
 from dataclasses import dataclass
 
 import numpy as np
-import scipy.linalg
+import scipy  # scipy.linalg is loaded by SciPy on first use (start-up)
 
 from servokit.errors import ServokitTypeError, ServokitValueError, check_finite
 

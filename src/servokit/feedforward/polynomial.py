@@ -20,12 +20,14 @@ derivation is cached per order.  Order 3 gives (2.24), orders 4-8 give Table 2.1
 from __future__ import annotations
 
 import functools
-from collections.abc import Callable
+from typing import TYPE_CHECKING
 
 import numpy as np
-import sympy as sp
 
 from servokit.errors import ServokitTypeError, ServokitValueError, check_finite
+
+if TYPE_CHECKING:
+    import sympy as sp
 
 __all__ = [
     "POLYNOMIAL_ORDERS",
@@ -38,7 +40,15 @@ __all__ = [
 #: Orders of Table 2.1 (3 is eq. (2.24)).
 POLYNOMIAL_ORDERS = (3, 4, 5, 6, 7, 8)
 
-_n, _N, _i = sp.symbols("n N i", integer=True, positive=True)
+
+
+@functools.cache
+def _symbols() -> tuple[sp.Symbol, sp.Symbol, sp.Symbol]:
+    """The symbols ``n, N, i``; sympy is imported here, on first use (it costs about half
+    a second: ``rigid_body_zoh_states`` and the minimum-jerk module never need it)."""
+    import sympy as sp
+
+    return sp.symbols("n N i", integer=True, positive=True)
 
 
 def _check_order(order: object) -> int:
@@ -89,7 +99,10 @@ def polynomial_formula(order: int) -> sp.Expr:
     sympy.Expr
         Factored rational function of the sympy symbols ``n`` and ``N`` (positive integers).
     """
+    import sympy as sp
+
     k = _check_order(order)
+    _n, _N, _i = _symbols()
     coeffs = sp.symbols(f"c0:{k + 1}")
     u = sum(c * _n**j for j, c in enumerate(coeffs))
     n_start, n_end = boundary_condition_split(k)
@@ -109,10 +122,24 @@ def polynomial_formula(order: int) -> sp.Expr:
     return sp.factor(u.subs(solutions[0]))
 
 
-@functools.cache
-def _numeric_formula(order: int) -> tuple[Callable[..., np.ndarray], sp.Expr]:
-    expr = polynomial_formula(order)
-    return sp.lambdify((_n, _N), expr, modules="numpy"), sp.denom(expr)
+def _polynomial_samples(order: int, N: int) -> np.ndarray:
+    """``u[0..N]`` for ``r = tau = 1`` from the boundary conditions, numerically.
+
+    The ``n_start`` conditions at ``n = 0`` and the ``n_end`` at ``n = N`` (Table 2.1) say
+    that ``u`` has the factors ``x^n_start (1 - x)^n_end`` (``x = n / N``); with
+    ``n_start + n_end = K - 1`` the rest is linear, ``c0 + c1 x``, and (2.18)-(2.19) fix
+    ``c0, c1``: ``sum_i u[i] = 0`` (``v[N] = 0``) and ``sum_i (2N - 1 - 2i) u[i] = 2``
+    (``p[N] = 1``).  The boundary zeros are exact and the 2 x 2 system well conditioned;
+    numpy only, where sympy's exact derivation costs about a second of start-up.
+    """
+    n_start, n_end = boundary_condition_split(order)
+    x = np.arange(N + 1) / N
+    g0 = x**n_start * (1.0 - x) ** n_end
+    basis = np.array([g0, g0 * x])  # u = c0 g0 + c1 g0 x
+    i = np.arange(N, dtype=float)  # the sums run over u[0..N-1]
+    rows = np.array([basis[:, :-1].sum(axis=1) / N, basis[:, :-1] @ ((2 * N - 1 - 2 * i) / N) / N])
+    c = np.linalg.solve(rows, [0.0, 2.0 / N**2])
+    return c @ basis
 
 
 def rigid_body_zoh_states(u: np.ndarray, dt: float) -> tuple[np.ndarray, np.ndarray]:
@@ -171,13 +198,11 @@ def sampled_polynomial(order: int, N: int, dt: float, target: float) -> np.ndarr
     target = float(check_finite("target", target))
     if dt <= 0:
         raise ServokitValueError(f"dt must be > 0 seconds (got {dt})")
-    fn, denominator = _numeric_formula(k)
-    if N < 3 or denominator.subs(_N, N) == 0:
+    if N < 3:
         raise ServokitValueError(
             f"N = {N} makes the order-{k} boundary conditions singular; use N >= 3"
         )
-    n = np.arange(N + 1, dtype=float)
-    u = np.asarray(fn(n, float(N)), dtype=float) * (target / dt**2)
+    u = _polynomial_samples(k, N) * (target / dt**2)
     p, v = rigid_body_zoh_states(u[:-1], dt)
     scale = max(abs(target), np.finfo(float).tiny)
     if not (

@@ -19,9 +19,11 @@ from servokit.limits.bode import (
     waterbed_lower_bound,
     waterbed_phi1,
 )
+from servokit.limits.rational import RationalLoop
 
 __all__ = [
     "BodeIntegral",
+    "RationalLoop",
     "VarianceBound",
     "VarianceComparison",
     "continuous_bode_integral",

@@ -26,14 +26,19 @@ recent HDD, Fig. 6.1).
 
 from __future__ import annotations
 
+import sys
 from collections.abc import Callable
 from dataclasses import dataclass
+from typing import TYPE_CHECKING
 
 import numpy as np
 
-from servokit._lazy import control
 from servokit._lazy import scipy_integrate as integrate
 from servokit.errors import ServokitTypeError, ServokitValueError, check_count, check_positive
+from servokit.limits.rational import RationalLoop
+
+if TYPE_CHECKING:
+    import control
 
 __all__ = [
     "VarianceComparison",
@@ -74,24 +79,46 @@ class VarianceBound:
 
 def _response(system: object, dt: float | None) -> Response:
     """``w [rad/s] -> complex response`` of an LTI object or a ``freq_hz`` callable."""
-    from servokit.models.lti_response import lti_response  # sys(x) vectorised, same values
-
-    if isinstance(system, control.TransferFunction | control.StateSpace):
+    if isinstance(system, RationalLoop) or _is_lti(system):
         if system.isdtime() != (dt is not None):
             raise ServokitValueError(
                 "disturbance and loop must both be continuous or both discrete (same dt)"
             )
+        evaluate = _evaluator(system)
         if dt is None:
-            return lambda w: np.asarray(lti_response(system, 1j * np.asarray(w)), dtype=complex)
-        return lambda w: np.asarray(
-            lti_response(system, np.exp(1j * np.asarray(w) * dt)), dtype=complex
-        )
+            return lambda w: np.asarray(evaluate(1j * np.asarray(w)), dtype=complex)
+        return lambda w: np.asarray(evaluate(np.exp(1j * np.asarray(w) * dt)), dtype=complex)
     if callable(system):
         return lambda w: np.asarray(system(np.asarray(w) / (2 * np.pi)), dtype=complex)
     raise ServokitTypeError(
-        "expected a python-control LTI object or a callable of freq_hz, "
+        "expected a RationalLoop, a python-control LTI object or a callable of freq_hz, "
         f"got {type(system).__name__}"
     )
+
+
+def _evaluator(system: object) -> Callable[[np.ndarray], np.ndarray]:
+    """``x -> system(x)``: a RationalLoop evaluates itself (numpy); a python-control object
+    through :func:`~servokit.models.lti_response.lti_response` (vectorised, same values)."""
+    if isinstance(system, RationalLoop):
+        return system
+    from servokit.models.lti_response import lti_response
+
+    return lambda x: lti_response(system, x)
+
+
+def _is_lti(system: object) -> bool:
+    """A python-control LTI object (python-control is imported only if it already is)."""
+    control = sys.modules.get("control")
+    return control is not None and isinstance(system, control.TransferFunction | control.StateSpace)
+
+
+def _closed_loop_poles(loop: object) -> np.ndarray:
+    """Poles of unity negative feedback around ``loop``."""
+    if isinstance(loop, RationalLoop):
+        return loop.closed_loop_poles()
+    import control
+
+    return np.asarray(control.feedback(loop, 1).poles())
 
 
 def _upper(dt: float | None) -> float:
@@ -123,7 +150,7 @@ def variance_lower_bound(
 
     Parameters
     ----------
-    disturbance : LTI or callable
+    disturbance : RationalLoop, LTI or callable
         Shaping filter ``D`` of unit-intensity white noise (continuous, or discrete with
         ``dt`` and unit-variance white input), or a callable ``freq_hz -> D``.
     bandwidth_hz : float
@@ -170,7 +197,7 @@ def variance_lower_bound(
 
 
 def output_variance(
-    loop: control.TransferFunction | control.StateSpace,
+    loop: RationalLoop | control.TransferFunction | control.StateSpace,
     disturbance: object,
     *,
     breakpoints_hz: tuple[float, ...] = (),
@@ -182,9 +209,9 @@ def output_variance(
 
     Parameters
     ----------
-    loop : LTI
+    loop : RationalLoop or LTI
         Open loop ``L``.
-    disturbance : LTI or callable
+    disturbance : RationalLoop, LTI or callable
         Shaping filter ``D`` or ``freq_hz -> D``.
     breakpoints_hz : tuple of float
         Sharp peaks, to guide the quadrature [Hz].
@@ -207,7 +234,7 @@ def output_variance(
 
 
 def rolloff_bandwidth(
-    loop: control.TransferFunction | control.StateSpace,
+    loop: RationalLoop | control.TransferFunction | control.StateSpace,
     *,
     delta: float = 0.5,
     k: int = 1,
@@ -220,7 +247,7 @@ def rolloff_bandwidth(
 
     Parameters
     ----------
-    loop : LTI
+    loop : RationalLoop or LTI
         Open loop ``L`` (continuous or discrete).
     delta, k : float, int
         Constants of (6.14).
@@ -255,8 +282,8 @@ class VarianceComparison:
 
 
 def variance_against_bound(
-    loop: control.TransferFunction | control.StateSpace,
-    disturbance: control.TransferFunction | control.StateSpace,
+    loop: RationalLoop | control.TransferFunction | control.StateSpace,
+    disturbance: RationalLoop | control.TransferFunction | control.StateSpace,
     *,
     delta: float = 0.5,
     k: int = 1,
@@ -266,9 +293,9 @@ def variance_against_bound(
 
     Parameters
     ----------
-    loop : LTI
+    loop : RationalLoop or LTI
         Open loop ``L`` (continuous, or discrete with its ``dt``).
-    disturbance : LTI
+    disturbance : RationalLoop or LTI
         Shaping filter ``D`` of unit-variance white noise, with the loop's time base.
     delta, k : float, int
         Roll-off constants of (6.14).
@@ -285,7 +312,7 @@ def variance_against_bound(
         closed loop makes the integral (6.13) diverge.
     """
     dt = float(loop.dt) if loop.isdtime() else None
-    poles = control.feedback(loop, 1).poles()
+    poles = _closed_loop_poles(loop)
     worst = poles[np.argmax(np.abs(poles) if dt else poles.real)] if poles.size else 0.0
     if poles.size and (abs(worst) >= 1 if dt else worst.real >= 0):
         # (6.13) integrates |S D|^2 on the boundary, which stays finite for an unstable

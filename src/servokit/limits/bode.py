@@ -32,16 +32,24 @@ Waterbed (6.20): if ``|S| <= alpha < 1`` on ``|phi| <= phi1`` and the integral i
 ``2 phi1 ln(alpha) + 2 (pi - phi1) ln||S||_inf >= 0``, i.e.
 ``||S||_inf >= (1/alpha)^(phi1/(pi - phi1))`` as printed.  The book's example (-40 dB
 below 1 kHz at 25 kHz sampling) gives 3.478 dB (printed 3.5 dB).
+
+Every function takes a python-control LTI object or a :class:`RationalLoop` (numpy
+coefficients; the CLI's path, which never imports python-control); both are read as
+``num/den`` with ``den + num`` giving the closed-loop poles.
 """
 
 from __future__ import annotations
 
 from dataclasses import dataclass
+from typing import TYPE_CHECKING
 
 import numpy as np
 
-from servokit._lazy import control
-from servokit.errors import ServokitTypeError, ServokitValueError, check_count, check_positive
+from servokit.errors import ServokitValueError, check_count, check_positive
+from servokit.limits.rational import RationalLoop, as_rational
+
+if TYPE_CHECKING:
+    import control
 
 __all__ = [
     "BodeIntegral",
@@ -80,39 +88,24 @@ class BodeIntegral:
         return self.integral - self.theory
 
 
-def _as_tf(loop: object) -> control.TransferFunction:
-    if not isinstance(loop, control.TransferFunction | control.StateSpace):
-        raise ServokitTypeError(
-            f"loop must be a python-control TransferFunction or StateSpace, got "
-            f"{type(loop).__name__}"
-        )
-    if loop.ninputs != 1 or loop.noutputs != 1:
-        raise ServokitValueError("loop must be SISO (one input, one output)")
-    return control.tf(loop)
-
-
-def _trimmed(coeffs: np.ndarray) -> np.ndarray:
-    c = np.atleast_1d(np.asarray(coeffs, dtype=float))
-    nz = np.flatnonzero(np.abs(c) > 1e-300)
-    return c[nz[0] :] if nz.size else np.zeros(1)
-
-
-def high_frequency_gain(loop: control.TransferFunction | control.StateSpace) -> float:
+def high_frequency_gain(
+    loop: RationalLoop | control.TransferFunction | control.StateSpace,
+) -> float:
     """``Kz = lim_{z->inf} L(z)`` (discrete) or ``Ks = lim_{s->inf} s L(s)`` (continuous).
 
     Raises for a continuous loop that is not strictly proper (``Ks`` infinite).
 
     Parameters
     ----------
-    loop : SISO LTI
+    loop : RationalLoop or SISO LTI
         Open loop.
 
     Returns
     -------
     float
     """
-    tf = _as_tf(loop)
-    num, den = _trimmed(tf.num[0][0]), _trimmed(tf.den[0][0])
+    tf = as_rational(loop)
+    num, den = tf.num, tf.den
     rel = len(den) - len(num)
     if rel < 0:
         raise ServokitValueError("loop is improper (more zeros than poles); give a proper loop")
@@ -125,17 +118,26 @@ def high_frequency_gain(loop: control.TransferFunction | control.StateSpace) -> 
     return float(num[0] / den[0]) if rel == 1 else 0.0
 
 
-def _unstable_poles(loop: control.TransferFunction) -> np.ndarray:
+def _evaluate(loop: object, x: np.ndarray) -> np.ndarray:
+    """``loop(x)`` flattened: a RationalLoop with numpy, a python-control object through
+    :func:`~servokit.models.lti_response.lti_response` (vectorised, its own values)."""
+    if isinstance(loop, RationalLoop):
+        return loop(x).ravel()
+    from servokit.models.lti_response import lti_response
+
+    return np.asarray(lti_response(loop, x)).ravel()
+
+
+def _unstable_poles(loop: RationalLoop) -> np.ndarray:
     """Open-loop poles strictly outside the stability region (boundary poles excluded)."""
     ol = np.asarray(loop.poles())
     tol = 1e-4  # repeated poles on the boundary (integrators) are found only to ~eps^(1/m)
     return ol[np.abs(ol) > 1.0 + tol] if loop.isdtime() else ol[ol.real > tol]
 
 
-def _check_stable(loop: control.TransferFunction) -> None:
+def _check_stable(loop: RationalLoop) -> None:
     """The theorem needs a stable closed loop; unstable open-loop poles enter the theory."""
-    cl = control.feedback(loop, 1)
-    poles = np.asarray(cl.poles())
+    poles = loop.closed_loop_poles()
     bad = np.abs(poles) >= 1.0 if loop.isdtime() else poles.real >= 0.0
     if np.any(bad):
         raise ServokitValueError(
@@ -155,7 +157,7 @@ def _corollary(kz: float, discrete: bool) -> str:
 
 
 def discrete_bode_integral(
-    loop: control.TransferFunction | control.StateSpace, *, n_freq: int = 1 << 16
+    loop: RationalLoop | control.TransferFunction | control.StateSpace, *, n_freq: int = 1 << 16
 ) -> BodeIntegral:
     """``int_{-pi}^{pi} ln|S(e^{j phi})| d phi`` numerically, against (6.18).
 
@@ -165,7 +167,7 @@ def discrete_bode_integral(
 
     Parameters
     ----------
-    loop : discrete SISO LTI
+    loop : discrete RationalLoop or SISO LTI
         Open loop ``L(z) = C(z) P(z)`` with a stable closed loop; unstable open-loop poles
         add ``2 pi sum ln|p|`` to the theory.
     n_freq : int
@@ -175,7 +177,7 @@ def discrete_bode_integral(
     -------
     BodeIntegral
     """
-    tf = _as_tf(loop)
+    tf = as_rational(loop)
     if not tf.isdtime():
         raise ServokitValueError("loop must be discrete (dt set); use continuous_bode_integral")
     n = check_count("n_freq", n_freq, lo=64, hi=1 << 24)
@@ -189,9 +191,7 @@ def discrete_bode_integral(
     z = np.exp(1j * (-np.pi + 2.0 * np.pi * (np.arange(n) + 0.5) / n))
     # evaluate the object as given: a state space near its integrators is far more
     # accurate than the expanded polynomial of its transfer function
-    from servokit.models.lti_response import lti_response
-
-    ln_s = np.log(np.abs(1.0 / (1.0 + np.asarray(lti_response(loop, z)).ravel())))
+    ln_s = np.log(np.abs(1.0 / (1.0 + _evaluate(loop, z))))
     # open-loop poles on the unit circle are zeros of S: ln|S| has log singularities there.
     # Remove them: the mean of ln|z - p| over the circle is ln max(1, |p|) = 0 for |p| = 1
     # (Jensen), so subtracting them leaves a smooth periodic integrand with the same integral.
@@ -208,7 +208,7 @@ def discrete_bode_integral(
 
 
 def continuous_bode_integral(
-    loop: control.TransferFunction | control.StateSpace, *, n_freq: int = 200_000
+    loop: RationalLoop | control.TransferFunction | control.StateSpace, *, n_freq: int = 200_000
 ) -> BodeIntegral:
     """``int_0^inf ln|S(jw)| dw`` numerically, against (6.17).
 
@@ -218,7 +218,7 @@ def continuous_bode_integral(
 
     Parameters
     ----------
-    loop : continuous SISO LTI
+    loop : continuous RationalLoop or SISO LTI
         Strictly proper open loop with a stable closed loop; unstable open-loop poles add
         ``pi sum Re p`` to the theory.
     n_freq : int
@@ -228,7 +228,7 @@ def continuous_bode_integral(
     -------
     BodeIntegral
     """
-    tf = _as_tf(loop)
+    tf = as_rational(loop)
     if tf.isdtime():
         raise ServokitValueError("loop must be continuous; use discrete_bode_integral")
     n = check_count("n_freq", n_freq, lo=1000, hi=1 << 24)
