@@ -150,7 +150,11 @@ def _heap_for_arrays() -> None:
     Dask's nanny starts workers with ``MALLOC_TRIM_THRESHOLD_=65536``, which also fixes
     the mmap threshold at 128 kB: every temporary array of a chunk is then mapped and
     unmapped, and page-faulted afresh, 2-3x slower than in-process (measured, issue 24).
-    Thresholds of 32 MB (mmap) and 64 MB (trim) restore in-process speed.
+    Thresholds of 32 MB (mmap) and 64 MB (trim) restore in-process speed. In-process
+    sweeps set them too: glibc's default dynamic threshold still maps a chunk's large
+    temporaries afresh, and the tuned heap halves the wall time of a 10^5-variant sweep
+    (3.0 -> 1.5 s with one thread, 1.6 -> 1.1 s with two; bench/sweep.py). The setting is
+    process-wide and only lets glibc keep up to 64 MB of freed memory for reuse.
     """
     global _MALLOC_TUNED
     if _MALLOC_TUNED:
@@ -225,9 +229,14 @@ def connect_dask(scheduler: str | None = None, workers: int | None = None) -> An
 
 def _ready_worker() -> None:
     """Import the simulation kernel and tune the heap in a worker (start-up, once)."""
+    from threadpoolctl import threadpool_limits
+
     import servokit.seek.sweep  # noqa: F401
 
     _heap_for_arrays()
+    # one BLAS thread for the worker's life (Dask's nanny sets this for the workers it
+    # spawns; a worker started by hand may not): the parallelism is across tasks
+    threadpool_limits(limits=1)
 
 
 def plan_chunks(
@@ -371,7 +380,14 @@ def sweep_seek_times(
     times = np.empty(n)
     tick = progress or (lambda k: None)
     if client is None:
-        _run_local(vset, draws, gains, args, chunk_size, times, tick, threads)
+        from threadpoolctl import threadpool_limits
+
+        # the parallelism is across chunks: BLAS threads on top of it oversubscribe the
+        # cores and spin (measured at 10^5 variants on 2 cores: 7.4 -> 3.1 CPU s with
+        # one sweep thread, 2.7 -> 1.6 s wall with two)
+        _heap_for_arrays()  # 2x in-process as in the workers (3.0 -> 1.5 s at 10^5)
+        with threadpool_limits(limits=1):
+            _run_local(vset, draws, gains, args, chunk_size, times, tick, threads)
         backend = "numpy"
     else:
         _run_dask(client, vset, draws, gains, args, chunk_size, times, tick, n_workers)
