@@ -222,3 +222,31 @@ def test_default_chunk_fits_the_budget():
     assert size * per_plant <= _CHUNK_BUDGET < (size + 1) * per_plant
     size2, _ = plan_chunks(VSET, FF, 10**6, n_workers=2)
     assert size2 == size  # a million plants: plenty of chunks for every worker
+
+
+@pytest.mark.parametrize("threads", [1, 2])
+def test_in_process_chunks_run_on_one_blas_thread(threads, monkeypatch):
+    """The sweep's parallelism is across chunks: BLAS inside a chunk runs one thread (on
+    2 cores OpenBLAS's extra threads spun: 7.4 vs 3.1 CPU s at 10^5), and the limit is
+    lifted after the sweep. The seek times are those of the direct computation."""
+    from threadpoolctl import threadpool_info
+
+    import servokit.seek.sweep as sweep_mod
+
+    def blas_threads() -> list[int]:
+        return [p["num_threads"] for p in threadpool_info() if p["user_api"] == "blas"]
+
+    seen: list[list[int]] = []
+    real = sweep_mod._chunk_seek_times
+
+    def spy(*a, **k):
+        seen.append(blas_threads())
+        return real(*a, **k)
+
+    before = blas_threads()
+    monkeypatch.setattr(sweep_mod, "_chunk_seek_times", spy)
+    res = sweep_seek_times(VSET, FF, 1.0, n=6, seed=3, chunk_size=2, threads=threads)
+    assert seen and all(t == [1] * len(t) for t in seen)
+    assert blas_threads() == before
+    direct = seek_time(VSET.monte_carlo(6, seed=3), FF, 1.0, band=0.1)
+    np.testing.assert_array_equal(res.seek_times, direct)
