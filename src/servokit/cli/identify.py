@@ -10,8 +10,10 @@ import numpy as np
 import typer
 
 from servokit.cli._app import (
+    ControllerOpt,
     JsonOpt,
     MaxMemoryOpt,
+    PlantOpt,
     PlotOpt,
     app,
     console,
@@ -53,10 +55,8 @@ _IDENTIFY_MAX_FREQ = 100_000
     " max_error_db, max_error_deg (against the plant model).",
 )
 def identify_cmd(
-    plant: Annotated[str, typer.Option("--plant", help="catalogue name or .toml plant")],
-    controller: Annotated[
-        str, typer.Option("--controller", help="book controller name or discrete .toml")
-    ],
+    plant: PlantOpt,
+    controller: ControllerOpt,
     dt: Annotated[
         float | None, typer.Option("--dt", help="PES sampling period [s] (default 1/30 kHz)")
     ] = None,

@@ -7,6 +7,7 @@ import typer
 from servokit.cli._app import (
     JsonOpt,
     MaxMemoryOpt,
+    PlantOpt,
     PlotOpt,
     SeedOpt,
     app,
@@ -68,7 +69,7 @@ def _controller(name: str, dt: float):
     epilog=example("servokit pes --peak-filter 960:0.08:12 --plot pes.png"),
 )
 def pes_cmd(
-    plant: str = typer.Option("hdd-benchmark", "--plant", help="catalogue name or .toml plant"),
+    plant: PlantOpt = "hdd-benchmark",
     controller: str = typer.Option(
         "benchmark",
         "--controller",

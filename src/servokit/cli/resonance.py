@@ -12,9 +12,11 @@ import numpy as np
 import typer
 
 from servokit.cli._app import (
+    ControllerOpt,
     DampingOpt,
     JsonOpt,
     MaxMemoryOpt,
+    PlantOpt,
     PlotOpt,
     app,
     console,
@@ -318,10 +320,8 @@ def _build(fb: Any, kind: str, x: list[float]) -> tuple[control.TransferFunction
     " all_stable, worst_index, worst_plant, min_*_margin_* and their *_index, plants).",
 )
 def margins_cmd(
-    plant: Annotated[str, typer.Option("--plant", help="catalogue name or .toml plant")],
-    controller: Annotated[
-        str, typer.Option("--controller", help="book controller name or discrete .toml")
-    ],
+    plant: PlantOpt,
+    controller: ControllerOpt,
     filters: Annotated[
         list[str] | None,
         typer.Option(

@@ -8,6 +8,7 @@ import numpy as np
 import typer
 
 from servokit.cli._app import JsonOpt, console, emit_json, example, flag_names, sub_app
+from servokit.cli._options import FLAG_RANGES
 from servokit.errors import ServokitValueError
 
 ssa_app = sub_app("ssa", "Self-sensing actuation (book §5.4): bridges, mode damping, adaptive.")
@@ -94,8 +95,9 @@ def _parse_mode(text: str) -> tuple[float, float, float]:
         raise ServokitValueError(
             f"--mode {text!r}: write FREQ_HZ:EPS:KAPPA, e.g. 9103:2:10"
         ) from None
-    if not 1e-6 <= f <= 1e9:
-        raise ServokitValueError(f"--mode {text!r}: FREQ_HZ must be 1e-6..1e9 Hz")
+    lo, hi, unit = FLAG_RANGES["--freq"]  # the range every frequency flag takes
+    if not lo <= f <= hi:
+        raise ServokitValueError(f"--mode {text!r}: FREQ_HZ must be {lo:g}..{hi:g} {unit}")
     for name, v in (("EPS", eps), ("KAPPA", kappa)):
         if not np.isfinite(v) or abs(v) > 1e12 or 0 < abs(v) < 1e-12:
             raise ServokitValueError(
