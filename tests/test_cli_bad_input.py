@@ -802,6 +802,18 @@ CASES: list[tuple[list[str], str]] = [
     (["sweep", "--variations", "DIR"], "--variations"),
     (["sweep", "--variations", "VAR.toml"], "--variations"),
     (["sweep", "--variations", "BADVAR.toml", "--n-variants", "5"], "--variations"),
+    # ---- hostile cases of issue 23 found by a second pass (fixed at the reader)
+    (["fit", "HUGEFRF.csv", "--out", "o"], "FRF_FILE"),  # |H| 1e300: the fit overflowed
+    (["margins", "--plant", "hdd-sampled-data", "--controller", "IMPROPER.toml"], "--controller"),
+    (["export", "controller", "--controller", "IMPROPER.toml"], "--controller"),
+    (["plant", "show", "HUGEF.toml"], "HUGEF.toml"),  # a 1e300 Hz mode
+    *[
+        (args, f)
+        for f in ("BOOL.json", "DTSTR.json", "DTBIG.json")
+        for args in (["sweep", "--design", f], ["export", "feedforward", "--seek", f])
+    ],
+    (["export", "table", "--input", "BOOL.json"], "BOOL.json"),
+    (["export", "table", "--input", "TSTR.json"], "TSTR.json"),
 ]
 
 # Known failures: row id ("settle train --c 0") -> reason; none at present. Strict xfail: a
@@ -854,6 +866,20 @@ def _materialise(args: list[str], where: Path, monkeypatch: pytest.MonkeyPatch) 
     (where / "LATIN.toml").write_bytes('name = "caf\u00e9"\n'.encode("latin-1"))
     (where / "UTF16.toml").write_bytes("[plant]\n".encode("utf-16"))
     (where / "BINARY.json").write_bytes(bytes(range(256)))
+    f = [10.0 * 1.05**k for k in range(150)]
+    (where / "HUGEFRF.csv").write_text(
+        "freq_hz,re,im\n" + "".join(f"{x!r},1e300,1e300\n" for x in f)
+    )
+    (where / "IMPROPER.toml").write_text(
+        'kind = "controller"\nnum = [1.0, 2.0, 3.0]\nden = [1.0]\ndt = 1e-4\n'
+    )
+    (where / "HUGEF.toml").write_text(
+        "gain = 1.0\n[[modes]]\nfreq_hz = 1e300\ndamping = 0.1\nresidue = 1.0\n"
+    )
+    (where / "BOOL.json").write_text('{"input": [true, false], "dt_s": 1e-4}')
+    (where / "DTSTR.json").write_text('{"input": [1.0, -1.0], "dt_s": "1e-4"}')
+    (where / "DTBIG.json").write_text('{"input": [1.0, -1.0], "dt_s": 1e300}')
+    (where / "TSTR.json").write_text('{"gains": ["1", "2"]}')
     # a 20 000-mode plant: its dense discrete model would take ~12 GiB (issue 23)
     if not (where / "BIG.toml").exists():
         modes = "".join(

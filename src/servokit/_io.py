@@ -15,6 +15,8 @@ from collections.abc import Iterator
 from contextlib import contextmanager
 from pathlib import Path
 
+import numpy as np
+
 from servokit.errors import MAX_INPUT_BYTES, ServokitValueError, check_regular_file
 
 __all__ = [
@@ -25,6 +27,7 @@ __all__ = [
     "check_nesting",
     "read_input_text",
     "staged_output",
+    "number_array",
 ]
 
 
@@ -173,6 +176,43 @@ def read_input_text(
     return text
 
 
+def number_array(value: object, what: str) -> np.ndarray:
+    """A JSON value that must be numbers (a number, a list, a list of equal lists) as floats.
+
+    ``json.loads`` hands over booleans, strings and nulls that ``numpy.asarray(...,
+    dtype=float)`` would quietly turn into 1.0, parsed numbers or NaN; they are refused.
+
+    Parameters
+    ----------
+    value : object
+        The parsed JSON value.
+    what : str
+        The flag, file and key it came from (named in the error).
+
+    Returns
+    -------
+    numpy.ndarray
+        The numbers as a float array (ragged lists refused).
+    """
+    stack = [] if isinstance(value, np.ndarray) and value.dtype.kind in "iuf" else [value]
+    while stack:
+        v = stack.pop()
+        if isinstance(v, list):
+            stack.extend(v)
+        elif isinstance(v, bool) or not isinstance(v, int | float):
+            raise ServokitValueError(f"{what} must hold numbers only (found {v!r}); fix the file")
+    try:
+        with np.errstate(over="ignore"):
+            arr = np.asarray(value, dtype=float)
+    except (ValueError, OverflowError):
+        raise ServokitValueError(
+            f"{what} must be a list of numbers or of equal-length lists; fix the file"
+        ) from None
+    if not np.all(np.isfinite(arr)):
+        raise ServokitValueError(f"{what} holds NaN, inf or a number beyond 1e308; fix the file")
+    return arr
+
+
 #: Staging directories of runs in progress: removed by the CLI's interrupt watchdog too,
 #: when it has to end the process before the unwinding reached :func:`staged_output`.
 ACTIVE_STAGES: set[Path] = set()
@@ -215,7 +255,8 @@ def _swap_in(stage: Path, out: Path) -> None:
     )
     old_manifest = out / _MANIFEST
     try:
-        previous = set(json.loads(old_manifest.read_text(encoding="utf-8")))
+        listed = json.loads(old_manifest.read_text(encoding="utf-8"))
+        previous = {r for r in listed if isinstance(r, str)} if isinstance(listed, list) else set()
     except (OSError, ValueError, TypeError):
         previous = set()
     mask = getattr(signal, "pthread_sigmask", None)
@@ -225,7 +266,8 @@ def _swap_in(stage: Path, out: Path) -> None:
             (out / rel).parent.mkdir(parents=True, exist_ok=True)
             os.replace(stage / rel, out / rel)
         for rel in previous - {str(r) for r in files}:
-            if ".." not in Path(rel).parts:
+            # the manifest is a file in the user's directory: never follow it outside
+            if ".." not in Path(rel).parts and not Path(rel).is_absolute():
                 (out / rel).unlink(missing_ok=True)
         write_atomic(out / _MANIFEST, json.dumps(sorted(str(r) for r in files)))
     finally:

@@ -433,8 +433,10 @@ def _read_tables(path: Path) -> list:
             raise ServokitValueError(f"--input {path}: the CSV must hold numbers only") from None
     else:
         raise ServokitValueError(f"--input {path}: use a .json or .csv file")
+    from servokit._io import number_array
+
     try:
-        tables = [FirmwareTable(k, np.asarray(v, dtype=float)) for k, v in items]
+        tables = [FirmwareTable(k, number_array(v, f"table {k!r}")) for k, v in items]
     except (TypeError, ValueError) as exc:
         if isinstance(exc, ServokitValueError):
             raise ServokitValueError(f"--input {path}: {exc}") from None

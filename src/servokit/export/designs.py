@@ -35,20 +35,26 @@ def read_seek_json(path: str | Path, flag: str) -> tuple[np.ndarray, float]:
     """
     import json
 
-    from servokit._io import read_input_text
+    from servokit._io import number_array, read_input_text
 
     text = read_input_text(path, flag)  # regular file, size, encoding, nesting
     try:
         data = json.loads(text)
-        u = np.asarray(data["input"], dtype=float)
-        dt = float(data.get("dt_s", data.get("dt")))
+        raw_u, raw_dt = data["input"], data.get("dt_s", data.get("dt"))
     except (ValueError, KeyError, TypeError, AttributeError):
         raise ServokitValueError(
             f"{flag} {path}: expected the JSON of `servokit seek --json` (keys 'input' and 'dt_s')"
         ) from None
-    if u.ndim != 1 or u.size == 0 or not np.all(np.isfinite(u)):
+    u = number_array(raw_u, f"{flag} {path}: 'input'")
+    if u.ndim != 1 or u.size == 0:
         raise ServokitValueError(f"{flag} {path}: 'input' must be a non-empty list of numbers")
-    return u, check_positive(f"{flag} dt_s", dt, "s")
+    dt_arr = number_array(raw_dt, f"{flag} {path}: 'dt_s'")
+    if dt_arr.ndim != 0:
+        raise ServokitValueError(f"{flag} {path}: 'dt_s' must be one number [s]")
+    dt = check_positive(f"{flag} {path}: 'dt_s'", float(dt_arr), "s")
+    if not 1e-9 <= dt <= 1e3:  # the CLI's --dt range
+        raise ServokitValueError(f"{flag} {path}: 'dt_s' {dt:g} s is outside 1e-09..1000 s")
+    return u, dt
 
 
 def hdd_feedforward(design: int, target: float, n_samples: int | None = None) -> FeedforwardInput:

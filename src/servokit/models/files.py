@@ -49,6 +49,8 @@ __all__ = [
 ]
 
 _PLANT_KEYS = {"name", "gain", "delay", "source", "modes", "kind"}
+#: Highest mode frequency a plant file may give [Hz] (the CLI's --freq limit).
+MAX_MODE_FREQ_HZ = 1e9
 _MODE_KEYS = {"freq_hz", "damping", "residue"}
 _CTRL_KEYS = {"kind", "name", "dt", "gain", "zeros", "poles", "num", "den"}
 
@@ -80,7 +82,8 @@ def _unknown(path: Path, where: str, keys: set[str], allowed: set[str]) -> None:
     if extra:
         raise PlantFileError(
             f"{path}: unknown key '{where}{extra[0]}'; "
-            f"allowed keys are {', '.join(sorted(allowed))}"
+            # quoted: the keys are the file's words, never rewritten into CLI flags
+            f"allowed keys are {', '.join(repr(k) for k in sorted(allowed))}"
         )
 
 
@@ -137,8 +140,12 @@ def load_plant(path: str | Path) -> ModalPlant:
                 f"{path}: field 'modes[{i}].damping' is negative ({vals['damping']}); "
                 "damping ratios must be >= 0"
             )
-        if vals["freq_hz"] < 0:
-            raise PlantFileError(f"{path}: field 'modes[{i}].freq_hz' must be >= 0")
+        if not 0 <= vals["freq_hz"] <= MAX_MODE_FREQ_HZ:
+            # 1e300 Hz overflows every response evaluation (and is never meant)
+            raise PlantFileError(
+                f"{path}: field 'modes[{i}].freq_hz' must be in 0..{MAX_MODE_FREQ_HZ:g} Hz "
+                f"(got {vals['freq_hz']:g})"
+            )
         modes.append(Mode(**vals))
     return ModalPlant(
         gain=gain,
@@ -213,6 +220,16 @@ def load_controller(path: str | Path) -> control.TransferFunction:
     return load_controller_rational(path).to_control()
 
 
+def _require_causal(path: Path, n_zeros: int, n_poles: int, dt: float | None) -> None:
+    """Refuse a discrete controller with more zeros than poles: it needs future samples
+    (no difference equation, state space or firmware realises it)."""
+    if dt is not None and n_zeros > n_poles:
+        raise PlantFileError(
+            f"{path}: the controller is improper ({n_zeros} zeros, {n_poles} poles) and "
+            "cannot run in real time; give at least as many poles as zeros"
+        )
+
+
 def load_controller_rational(path: str | Path) -> RationalTF:
     """:func:`load_controller` without python-control: the same file as coefficients.
 
@@ -250,12 +267,15 @@ def load_controller_rational(path: str | Path) -> RationalTF:
         den = [_number(path, f"den[{i}]", v) for i, v in enumerate(data["den"])]
         if not any(den):
             raise PlantFileError(f"{path}: field 'den' must not be all zeros")
+        degree = [len(np.trim_zeros(c, "f")) - 1 for c in (num, den)]
+        _require_causal(path, degree[0], degree[1], dt)
         return RationalTF(num, den, dt)
     if "gain" not in data:
         raise PlantFileError(f"{path}: missing field 'gain' (or give 'num' and 'den')")
     gain = _number(path, "gain", data["gain"])
     zeros = _roots(path, "zeros", data.get("zeros", []))
     poles = _roots(path, "poles", data.get("poles", []))
+    _require_causal(path, len(zeros), len(poles), dt)
     return rational_zpk(zeros, poles, gain, dt)
 
 

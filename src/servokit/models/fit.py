@@ -312,6 +312,14 @@ def _check(freq_hz: object, response: object, band: tuple[float, float] | None):
         f, H = f[sel], H[sel]
     if np.any(H == 0):
         raise ServokitValueError("response has exact zeros; the relative error is undefined")
+    mag = np.abs(H)
+    if not (np.all(np.isfinite(mag)) and mag.min() >= 1e-100 and mag.max() <= 1e100):
+        # the least-squares normal equations square |H| (and multiply it by s^2): beyond
+        # these bounds they overflow or underflow and no mode survives
+        raise ServokitValueError(
+            f"response magnitudes span {mag.min():.3g}..{mag.max():.3g}, outside "
+            "1e-100..1e100; rescale the FRF (other units)"
+        )
     if f.size < 10:
         raise ServokitValueError(f"{f.size} points in the band; a fit needs at least 10")
     return f, H

@@ -34,7 +34,7 @@ from typing import Any
 
 import numpy as np
 
-from servokit._io import check_data_file
+from servokit._io import check_data_file, decode_text
 from servokit.errors import ServokitTypeError, ServokitValueError
 
 __all__ = ["FRF_MAX_BYTES", "FrfFileError", "read_frf", "save_frf"]
@@ -63,7 +63,10 @@ def _split(line: str, sep: str | None) -> list[str]:
 
 def _csv_columns(path: Path) -> dict[str, np.ndarray]:
     """Columns of a CSV file by lower-case header name; bad cells name their line."""
-    text = path.read_bytes().decode("utf-8-sig", errors="replace")
+    try:  # UTF-8 (BOM or not) or UTF-16/32 with a BOM; binary or Latin-1 refused by name
+        text = decode_text(path.read_bytes(), path, "")
+    except ServokitValueError as exc:
+        raise FrfFileError(str(exc).strip()) from None
     lines = [(i + 1, ln) for i, ln in enumerate(text.splitlines())]
     lines = [(n, ln) for n, ln in lines if ln.strip() and not ln.lstrip().startswith("#")]
     if not lines:

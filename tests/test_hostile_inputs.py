@@ -1,0 +1,65 @@
+"""Hostile inputs that must be *accepted* correctly or must not reach outside the run
+(issue 23, second pass); the refusals are rows of tests/test_cli_bad_input.py."""
+
+from __future__ import annotations
+
+import codecs
+import json
+
+import numpy as np
+import pytest
+
+from servokit._io import number_array, staged_output
+from servokit.errors import ServokitValueError
+from servokit.models import read_frf
+
+
+def _frf_text() -> str:
+    f = 10.0 * 1.05 ** np.arange(40)
+    return "freq_hz,re,im\n" + "".join(f"{x!r},{-1 / x**2!r},1e-9\n" for x in f.tolist())
+
+
+@pytest.mark.parametrize(
+    ("encoding", "bom"), [("utf-16-le", codecs.BOM_UTF16_LE), ("utf-8", codecs.BOM_UTF8)]
+)
+def test_frf_with_a_byte_order_mark_reads_as_the_utf8_file(tmp_path, encoding, bom) -> None:
+    (tmp_path / "plain.csv").write_text(_frf_text())
+    (tmp_path / "marked.csv").write_bytes(bom + _frf_text().encode(encoding))
+    f0, h0 = read_frf(tmp_path / "plain.csv")
+    f1, h1 = read_frf(tmp_path / "marked.csv")
+    np.testing.assert_array_equal(f0, f1)
+    np.testing.assert_array_equal(h0, h1)
+
+
+def test_frf_with_nul_bytes_is_refused_as_binary(tmp_path) -> None:
+    (tmp_path / "nul.csv").write_bytes(_frf_text().encode()[:30] + b"\x00" + b"1,2,3\n")
+    with pytest.raises(ServokitValueError, match=r"nul\.csv: binary data"):
+        read_frf(tmp_path / "nul.csv")
+
+
+def test_a_planted_manifest_never_deletes_outside_the_output_directory(tmp_path) -> None:
+    """The manifest listing a run's files lives in the user's directory: an absolute or
+    non-string entry in it must not make the next run delete anything else."""
+    victim = tmp_path / "victim.txt"
+    victim.write_text("keep me")
+    out = tmp_path / "out"
+    out.mkdir()
+    (out / ".servokit-run.json").write_text(json.dumps([str(victim), 3, "../victim.txt"]))
+    with staged_output(out) as stage:
+        (stage / "results.json").write_text("{}")
+    assert victim.read_text() == "keep me"
+    assert (out / "results.json").exists()
+
+
+@pytest.mark.parametrize(
+    ("value", "found"),
+    [([1.0, True], "True"), (["1"], "'1'"), ([None], "None"), ([[1.0], 2.0], "equal-length")],
+)
+def test_number_array_refuses_what_numpy_would_coerce(value, found) -> None:
+    with pytest.raises(ServokitValueError, match=found):
+        number_array(value, "--input t.json: table 'g'")
+
+
+def test_number_array_keeps_numbers_exactly() -> None:
+    got = number_array([[1, 2.5], [-0.0, 1e-300]], "x")
+    np.testing.assert_array_equal(got, [[1.0, 2.5], [-0.0, 1e-300]])
