@@ -36,6 +36,7 @@ from servokit.errors import (
     check_count,
     check_memory,
     check_range,
+    check_work,
 )
 
 _FLAGS = {
@@ -116,6 +117,13 @@ def sensitivity_cmd(
     plot = plot_target(plot)
     p, ctrl, mr = _loop(plant, controller, multirate, m, max_memory_mb)
     dt, freq = float(ctrl.dt), np.linspace(fmin, fmax, n)
+    if band_limit is not None:  # every alias order up to the band limit, at every frequency
+        check_work(
+            2.0 * n * np.ceil((band_limit + fmax) * dt),
+            what=f"--band-limit {band_limit:g} with --n-freq {n}",
+            limit=_MAX_BAND_CELLS,
+            about="about half a minute",
+        )
     with flag_names(_FLAGS):
         res = _sweep(p, ctrl, dt, freq, mr, tol, band_limit, show=not json_out)
     _render(res, p.name, controller, plot, json_out)
@@ -174,6 +182,9 @@ def _render(res, name: str, controller: str, plot, json_out: bool) -> None:  # n
         return
     _print_table(res, name, res.dt, freq, summary)
 
+
+#: Most (frequency, alias order) cells of a band-limited sweep: ~3e7 take ~10 s here.
+_MAX_BAND_CELLS = 1e8
 
 #: Largest multirate number: the lifted system grows as m states; the book uses m = 2.
 _MAX_MULTIRATE = 64

@@ -250,6 +250,12 @@ def _alias_sums(
     gsum, gabs = g0.copy(), np.abs(g0)
     if band_limit_hz is not None:
         top = int(np.ceil((band_limit_hz + f.max()) * dt))
+        if top > max_terms:  # estimated before the sum: 1e9 Hz would run for hours
+            raise ServokitValueError(
+                f"band_limit_hz={band_limit_hz:g} needs {top} alias terms per frequency, "
+                f"above max_terms={max_terms}; lower band_limit_hz below "
+                f"{max_terms / dt - f.max():.4g} Hz"
+            )
         blocks = [(1, top)]
     else:
         blocks = []
