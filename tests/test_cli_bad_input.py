@@ -817,6 +817,13 @@ CASES: list[tuple[list[str], str]] = [
     # a band limit sums every alias order up to it: estimated before the sum (was a hang)
     (["sensitivity", "--band-limit", "1e9"], "--band-limit"),
     (["sensitivity", "--band-limit", "1e8", "--n-freq", "100000"], "--band-limit"),
+    # integers: one spelling rule (40, 40.0, 4e1 accepted; fractions, hex, words refused)
+    (["plant", "bode", "hdd-benchmark", "--n-freq", "0x10"], "--n-freq"),
+    (["plant", "bode", "hdd-benchmark", "--n-freq", "300.5"], "--n-freq"),
+    (["plant", "bode", "hdd-benchmark", "--n-freq", "1e400"], "--n-freq"),
+    (["sweep", "--n-variants", "2.55e1"], "--n-variants"),
+    (["seek", "--n-samples", "20.5"], "--n-samples"),
+    (["plant", "bode", "hdd-benchmark", "--fmin", "0x10"], "--fmin"),
 ]
 
 # Known failures: row id ("settle train --c 0") -> reason; none at present. Strict xfail: a

@@ -63,3 +63,22 @@ def test_number_array_refuses_what_numpy_would_coerce(value, found) -> None:
 def test_number_array_keeps_numbers_exactly() -> None:
     got = number_array([[1, 2.5], [-0.0, 1e-300]], "x")
     np.testing.assert_array_equal(got, [[1.0, 2.5], [-0.0, 1e-300]])
+
+
+@pytest.mark.parametrize("spelling", ["400", "4e2", "400.0", "+400", "4_00"])
+def test_an_integer_flag_takes_any_spelling_of_an_integer(spelling, monkeypatch, capsys) -> None:
+    from _cli_run import run_cli
+
+    code, out, err, _ = run_cli(
+        ["plant", "bode", "hdd-benchmark", "--n-freq", spelling, "--json"], 60, monkeypatch, capsys
+    )
+    assert code == 0, err
+    assert len(json.loads(out)["freq_hz"]) == 400
+
+
+def test_seek_n_samples_takes_an_integral_float(monkeypatch, capsys) -> None:
+    from _cli_run import run_cli
+
+    code, out, err, _ = run_cli(["seek", "--n-samples", "2e1", "--json"], 60, monkeypatch, capsys)
+    assert code == 0, err
+    assert json.loads(out)["n_samples"] == 20

@@ -15,6 +15,7 @@ __all__ = [
     "check_finite",
     "check_positive",
     "check_count",
+    "parse_int",
     "check_memory",
     "check_plot_path",
     "check_range",
@@ -139,6 +140,37 @@ def check_count(name: str, value: object, *, lo: int = 1, hi: int | None = None)
         rng = f"{lo}..{hi}" if hi is not None else f">= {lo}"
         raise ServokitValueError(f"{name} must be {rng} (got {n})")
     return n
+
+
+def parse_int(name: str, text: str) -> int:
+    """An integer typed on the command line: ``40``, ``+40``, ``1_000``, ``40.0`` or ``4e1``.
+
+    One rule for every integer flag: a number with an integral value is that integer
+    (``1e5`` variants is 100000 variants); a fraction, NaN, inf, hex or a word is refused.
+
+    Parameters
+    ----------
+    name : str
+        The flag (named in the error).
+    text : str
+        The text as typed.
+
+    Returns
+    -------
+    int
+    """
+    s = str(text).strip()
+    try:
+        return int(s)
+    except ValueError:
+        pass
+    try:
+        v = float(s)
+    except ValueError:
+        raise ServokitValueError(f"{name} must be an integer (got {text!r})") from None
+    if not np.isfinite(v) or v != int(v):
+        raise ServokitValueError(f"{name} must be an integer (got {text!r})")
+    return int(v)
 
 
 def check_memory(

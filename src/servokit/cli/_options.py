@@ -333,10 +333,38 @@ def harden(root: Any) -> Any:
         for param in cmd.params:
             _metavar(param)
             _plain_help(param)
-            if _numeric_kind(param) is None:
+            kind = _numeric_kind(param)
+            if kind is None:
                 continue
             param.callback = _number_callback(param.callback)
+            _plain_numbers(param, kind)
     return root
+
+
+def _plain_numbers(param: Any, kind: type) -> None:
+    """One spelling rule for every number flag, before typer converts the text: an integer
+    flag takes ``40``, ``40.0`` or ``4e1`` (:func:`~servokit.errors.parse_int`), and a
+    number that does not parse is refused in plain words, naming the flag."""
+    original = param.process_value
+
+    def process_value(ctx: Any, value: Any) -> Any:
+        from servokit.errors import ServokitValueError, parse_int
+
+        if isinstance(value, str):
+            flag = max(param.opts, key=len)
+            try:
+                value = str(parse_int(flag, value)) if kind is int else _plain_float(value)
+            except (ServokitValueError, ValueError):
+                what = "an integer" if kind is int else "a number"
+                raise typer.BadParameter(f"must be {what} (got {value!r})", ctx, param) from None
+        return original(ctx, value)
+
+    param.process_value = process_value
+
+
+def _plain_float(text: str) -> str:
+    """``text`` as Python reads a float (``1e-3``, ``nan``, ``1_0``), else ValueError."""
+    return repr(float(text))
 
 
 def _plain_help(param: Any) -> None:

@@ -154,9 +154,11 @@ def parse_band_weight(spec: str) -> tuple[float, float, float, int]:
 
 def parse_n(text: str) -> int | str:
     """``--n-samples`` as an integer (``'auto'`` is handled by the caller)."""
+    from servokit.errors import parse_int
+
     try:
-        return int(text)
-    except ValueError:
+        return parse_int("--n-samples", text)
+    except ServokitValueError:
         raise ServokitValueError(
             f"--n-samples must be an integer or 'auto', got {text!r}"
         ) from None
