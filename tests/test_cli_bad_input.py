@@ -824,6 +824,15 @@ CASES: list[tuple[list[str], str]] = [
     (["sweep", "--n-variants", "2.55e1"], "--n-variants"),
     (["seek", "--n-samples", "20.5"], "--n-samples"),
     (["plant", "bode", "hdd-benchmark", "--fmin", "0x10"], "--fmin"),
+    # the flag the user typed, not the library's parameter: a notch above Nyquist
+    ([*MARG, "--filter", "notch:4000:0.1"], "--filter notch:4000:0.1"),
+    # a bound beyond any float (near Nyquist) or an underflowing --alpha-db
+    (["limits", "waterbed", "--freq", "12499"], "--freq"),
+    (["limits", "waterbed", "--alpha-db", "-1e300"], "--alpha-db"),
+    # --freq shapes only the lead-lag controller: refused with any other, never ignored
+    ([*IVC, "--freq", "1e5"], "--freq"),
+    (["switching", "cost-map", "--plant", "hdd-sampled-data", "--controller", "eq-4.69",
+      "--freq", "300"], "--freq"),  # fmt: skip
 ]
 
 # Known failures: row id ("settle train --c 0") -> reason; none at present. Strict xfail: a

@@ -82,3 +82,12 @@ def test_seek_n_samples_takes_an_integral_float(monkeypatch, capsys) -> None:
     code, out, err, _ = run_cli(["seek", "--n-samples", "2e1", "--json"], 60, monkeypatch, capsys)
     assert code == 0, err
     assert json.loads(out)["n_samples"] == 20
+
+
+def test_an_unsettled_seek_says_so_in_words(monkeypatch, capsys) -> None:
+    """N = 3 leaves the benchmark's resonances ringing: never ``inf ms`` (issue 23)."""
+    from _cli_run import run_cli
+
+    code, out, err, _ = run_cli(["seek", "--n-samples", "3"], 60, monkeypatch, capsys)
+    assert code == 0, err
+    assert "does not settle" in out and "inf" not in out

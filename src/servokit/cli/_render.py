@@ -137,3 +137,23 @@ def fail(message: str) -> None:
     """Print one line on stderr and exit with status 2."""
     typer.echo(f"servokit: error: {message}", err=True)
     raise typer.Exit(code=2)
+
+
+def ms(seconds: float | None, digits: int = 6) -> str:
+    """A settling or seek time for the console: ``"0.340909 ms"``, or ``"does not settle"``
+    for an unsettled (infinite or null) one -- never ``inf ms`` or a last sample.
+
+    Parameters
+    ----------
+    seconds : float or None
+        The time [s]; inf, NaN or None when the response never settles.
+    digits : int
+        Significant digits.
+
+    Returns
+    -------
+    str
+    """
+    if seconds is None or not np.isfinite(seconds):
+        return "does not settle"
+    return f"{seconds * 1e3:.{digits}g} ms"

@@ -70,6 +70,19 @@ def _lti(loop):  # noqa: ANN001, ANN202
     )
 
 
+
+def _check_waterbed_range(alpha_db: float, ratio: float, freq: float) -> None:
+    """Refuse an --alpha-db / --freq pair whose (6.20) bound ``-alpha_db * ratio`` [dB] no
+    float holds (near Nyquist the ratio phi1 / (pi - phi1) grows without limit)."""
+    if alpha_db < -6000:
+        raise ServokitValueError(f"--alpha-db must be >= -6000 dB (got {alpha_db:g})")
+    bound_db = -alpha_db * ratio
+    if bound_db > 6000:
+        raise ServokitValueError(
+            f"--alpha-db {alpha_db:g} up to --freq {freq:g} Hz bounds ||S|| by {bound_db:.4g} dB, "
+            "beyond any float (no loop meets it); relax --alpha-db or lower --freq"
+        )
+
 @limits_app.command(
     "waterbed",
     epilog=example("servokit limits waterbed --alpha-db -40 --freq 1000 --dt 4e-5"),
@@ -95,8 +108,9 @@ def waterbed_cmd(
         raise ServokitValueError(
             f"--freq {freq:g} Hz must be below the Nyquist frequency {0.5 / dt:g} Hz of --dt"
         )
-    alpha = 10 ** (alpha_db / 20)
     phi1 = waterbed_phi1(freq, 1.0 / dt)
+    _check_waterbed_range(alpha_db, phi1 / (np.pi - phi1), freq)
+    alpha = 10 ** (alpha_db / 20)
     bound = waterbed_lower_bound(alpha, phi1)
     if plot is not None:
         from servokit.limits.plots import waterbed_plot

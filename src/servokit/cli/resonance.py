@@ -383,7 +383,8 @@ def _filter_chain(filters: list[str] | None, dt: float) -> list[Any]:
     chain = []
     for spec in filters or []:
         tf, f0 = parse_filter(spec)
-        chain.append(discretize_filter(tf, dt, f0))
+        with _flags(freq_hz=f"--filter {spec}: FREQ", dt="the loop's dt"):  # not --freq
+            chain.append(discretize_filter(tf, dt, f0))
     return chain
 
 

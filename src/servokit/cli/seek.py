@@ -34,6 +34,7 @@ from servokit.cli._options import (
     TargetOpt,
     u_max_option,
 )
+from servokit.cli._render import ms
 from servokit.cli._requests import SEEK_FLAGS, SeekFlags, SeekJob, seek_job
 from servokit.errors import DEFAULT_MAX_MEMORY_MB
 
@@ -161,7 +162,7 @@ def render_seek(job: SeekJob, run: Any) -> None:
         return
     console.print(
         f"{req.method.upper()} seek of {req.target:g} on {job.label}: N = {ff.N}, worst-case "
-        f"seek time {out.worst * 1e3:.6g} ms ({data['worst_plant']}, {len(req.plants)} plant(s)"
+        f"seek time {ms(out.worst)} ({data['worst_plant']}, {len(req.plants)} plant(s)"
         f"{'' if req.simulate_delay else ', input delay not simulated'})"
     )
 

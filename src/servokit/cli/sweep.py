@@ -41,6 +41,7 @@ from servokit.cli._options import (
     refuse_inapplicable,
     u_max_option,
 )
+from servokit.cli._render import ms
 from servokit.cli._requests import SEEK_FLAGS, SeekFlags, check_method, check_target, seek_job
 from servokit.errors import ServokitValueError, check_count, check_memory, check_positive
 
@@ -410,8 +411,8 @@ def render_sweep(job: SweepJob, res: Any, elapsed: float) -> None:
         return
     console.print(
         f"{d.source}: {n} plants ({res.backend}, chunks of {res.chunk_size}, ~"
-        f"{res.chunk_mb:.0f} MB each) in {elapsed:.1f} s; seek time p50 {pct['p50'] * 1e3:.4f} "
-        f"ms, p99 {pct['p99'] * 1e3:.4f} ms, worst {data['worst_seek_time_s'] * 1e3:.4f} ms "
+        f"{res.chunk_mb:.0f} MB each) in {elapsed:.1f} s; seek time p50 {ms(pct['p50'], 5)}"
+        f", p99 {ms(pct['p99'], 5)}, worst {ms(data['worst_seek_time_s'], 5)} "
         f"(plant {res.worst_index}); {res.n_unsettled} unsettled"
         + (f"; input limited at {job.n_clipped} sample(s)" if job.actuator is not None else "")
     )

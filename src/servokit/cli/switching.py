@@ -93,6 +93,7 @@ def _build_loop(
         check_state_size(n, what=f"--plant {plant} at --dt {dt:g}", max_memory_mb=max_memory_mb)
         pd = p.discretize(dt)
         return switched_loop(pd, lead_lag(pd, freq))
+    refuse_inapplicable("--controller", controller, {"freq": ("--freq", ("lead-lag",))})
     ctrl = load_controller(controller, dt)
     n = discrete_states(p, float(ctrl.dt), controller_states(ctrl))
     check_state_size(n, what=f"--plant {plant}", max_memory_mb=max_memory_mb)
