@@ -833,6 +833,13 @@ CASES: list[tuple[list[str], str]] = [
     ([*IVC, "--freq", "1e5"], "--freq"),
     (["switching", "cost-map", "--plant", "hdd-sampled-data", "--controller", "eq-4.69",
       "--freq", "300"], "--freq"),  # fmt: skip
+    # an unstable disturbance filter: |H|^2 equals the mirrored one's, the variance does not
+    ([*VAR, "--dist-den", "-0.01,1"], "--dist-den"),
+    (["limits", "variance", "--num", "3", "--den", "1,-0.5", "--dist-num", "1", "--dist-den",
+      "1,-2", "--dt", "1e-4"], "--dist-den"),  # fmt: skip
+    # an empty entry in a coefficient list is a typo, not a skipped coefficient
+    ([*VAR, "--dist-den", "0.01,,1"], "--dist-den"),
+    (["limits", "bode-integral", "--num", "1,,2", "--den", "1,0.5"], "--num"),
 ]
 
 # Known failures: row id ("settle train --c 0") -> reason; none at present. Strict xfail: a

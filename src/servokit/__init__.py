@@ -23,8 +23,27 @@ Sub-packages follow the book's design phases (each is imported on first use, e.g
 * :mod:`servokit.robust` — deprecated alias of :mod:`servokit.seek`.
 """
 
-from importlib import import_module
-from typing import Any
+import signal as _signal
+import sys as _sys
+
+
+def _interrupted_while_starting(*_: object) -> None:
+    """Ctrl-C while the ``servokit`` command is still importing (before its own handling is
+    installed): the one interrupt line and exit 130, not a ``KeyboardInterrupt`` traceback."""
+    import os
+
+    os.write(2, b"servokit: interrupted\n")
+    os._exit(130)
+
+
+# only for the `servokit` command itself (a library user's Ctrl-C stays theirs); the
+# command's main() replaces it with the full handling (servokit.cli._signals)
+if _sys.argv and _sys.argv[0].rsplit("/", 1)[-1] == "servokit":
+    if _signal.getsignal(_signal.SIGINT) is _signal.default_int_handler:
+        _signal.signal(_signal.SIGINT, _interrupted_while_starting)
+
+from importlib import import_module  # noqa: E402
+from typing import Any  # noqa: E402
 
 __version__ = "0.1.0"
 __all__ = [

@@ -159,7 +159,11 @@ def main() -> None:
     _install_interrupt_handling()
     from servokit.cli import _discover
 
-    _discover()
+    try:
+        _discover()  # imports every command module: Ctrl-C may land here too
+    except KeyboardInterrupt:
+        announce_interrupt()
+        sys.exit(EXIT_INTERRUPTED)
     usage = _usage_errors()
     # numpy/matplotlib warnings are held back: on an error only the one error line shows
     with warnings.catch_warnings(record=True) as caught:

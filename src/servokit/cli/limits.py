@@ -40,6 +40,10 @@ DtOpt = Annotated[
 
 
 def _coeffs(text: str, flag: str) -> np.ndarray:
+    if any(not v.strip() for v in text.split(",")) and text.strip():
+        raise ServokitValueError(
+            f"{flag} {text!r}: an entry is empty; give numbers, comma-separated"
+        )
     try:
         vals = np.array([float(v) for v in text.split(",") if v.strip()])
     except ValueError:
@@ -236,6 +240,13 @@ def _disturbance(dist_num: str, dist_den: str, dt: float | None):  # noqa: ANN20
             "--dist-num/--dist-den: a continuous disturbance filter must be strictly proper "
             "(fewer --dist-num than --dist-den coefficients): white noise through it has "
             "unbounded variance"
+        )
+    poles = np.roots(_coeffs(dist_den, "--dist-den"))
+    unstable = poles[np.abs(poles) > 1 + 1e-12] if dt is not None else poles[poles.real > 1e-12]
+    if unstable.size:  # white noise through it grows without bound
+        raise ServokitValueError(
+            f"--dist-den: the disturbance filter has an unstable pole at {unstable[0]:.4g}; "
+            "a stationary disturbance needs a stable filter (mirror the pole: same spectrum)"
         )
     return dist
 
