@@ -87,3 +87,15 @@ def test_bad_record(judge_file, tmp_path):
     csv.write_text("1,2,3\n")
     out = runner.invoke(app, ["settle", "judge", "--judge", str(judge_file), "--record", str(csv)])
     assert isinstance(out.exception, ServokitError) and "--record" in str(out.exception)
+
+
+def test_evaluate_text_never_prints_nan(judge_file):
+    """A method with no seek judged without a failure has no mean delay: JSON null, and
+    words in the table -- never "nan samples" (issue 23)."""
+    args = ["settle", "evaluate", "--judge", str(judge_file), "--n-seeks", "2"]
+    data = json.loads(runner.invoke(app, [*args, "--json"]).stdout)
+    text = runner.invoke(app, args).stdout
+    assert "nan" not in text
+    for m in data["methods"]:
+        line = next(ln for ln in text.splitlines() if ln.strip().startswith(m["method"]))
+        assert ("n/a" in line) == (m["mean_delay_samples"] is None), line

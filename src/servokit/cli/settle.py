@@ -281,8 +281,12 @@ def evaluate_cmd(
     for s in stats:
         console.print(
             f"{s.method:>28}: failures {s.failures:3d}, mean N_judge - N0 "
-            f"{s.mean_delay:.2f} samples"
+            + (f"{s.mean_delay:.2f} samples" if np.isfinite(s.mean_delay) else _NO_MEAN)
         )
+
+
+#: The mean delay when no seek was judged without a failure (never "nan samples").
+_NO_MEAN = "n/a (no seek judged without a failure)"
 
 
 @settle_app.command(
