@@ -840,6 +840,17 @@ CASES: list[tuple[list[str], str]] = [
     # an empty entry in a coefficient list is a typo, not a skipped coefficient
     ([*VAR, "--dist-den", "0.01,,1"], "--dist-den"),
     (["limits", "bode-integral", "--num", "1,,2", "--den", "1,0.5"], "--num"),
+    # a name the system cannot look at (over 255 bytes): the flag, not a bare OS error
+    *[
+        (args, flag)
+        for args, flag in (
+            (["plant", "bode", "hdd-benchmark", "--plot", "a" * 300 + ".png"], "--plot"),
+            (["export", "table", "--input", "u.txt", "--out", "a" * 300], "--out"),
+            (["fit", "FRF.csv", "--out", "a" * 300], "--out"),
+            (["reproduce", "--case", "hdd-seek", "--out", "a" * 300], "--out"),
+            (["settle", "train", "--judge", "a" * 300 + ".skops"], "--judge"),
+        )
+    ],
 ]
 
 # Known failures: row id ("settle train --c 0") -> reason; none at present. Strict xfail: a

@@ -22,11 +22,14 @@ __all__ = [
     "check_work",
     "check_out_dir",
     "check_input_file",
+    "path_errors",
     "DEFAULT_MAX_MEMORY_MB",
 ]
 
 import os
 import stat
+from collections.abc import Iterator
+from contextlib import contextmanager
 from pathlib import Path
 
 import numpy as np
@@ -270,7 +273,12 @@ def check_plot_path(path: str | Path, flag: str = "--plot") -> Path:
         If ``path`` is a directory, does not end ``.png``/``.svg`` (case-insensitive), lies
         in a missing directory, or the file (or its directory) is not writable.
     """
-    p = Path(path)
+    with path_errors(flag, path):
+        return _check_plot_path(Path(path), path, flag)
+
+
+def _check_plot_path(p: Path, path: str | Path, flag: str) -> Path:
+    """:func:`check_plot_path` once the path can be looked at."""
     if str(path).endswith(("/", "\\")) or p.is_dir():
         raise ServokitValueError(
             f"{flag} {path} is a directory; give a file name ending .png or .svg"
@@ -283,6 +291,28 @@ def check_plot_path(path: str | Path, flag: str = "--plot") -> Path:
         )
     _check_writable(flag, p)
     return p
+
+
+@contextmanager
+def path_errors(flag: str, path: str | Path) -> Iterator[None]:
+    """Refuse a path the system cannot even look at (a name over 255 bytes, a loop of
+    symlinks, /proc) naming the flag, instead of a bare OS error.
+
+    Parameters
+    ----------
+    flag : str
+        The flag that named the path.
+    path : str or Path
+        The path as typed.
+
+    Yields
+    ------
+    None
+    """
+    try:
+        yield
+    except OSError as exc:
+        raise ServokitValueError(f"{flag} {path}: {exc.strerror or exc}") from None
 
 
 def _check_writable(flag: str, p: Path) -> None:
@@ -306,9 +336,14 @@ def check_out_dir(path: str | Path, flag: str = "--out") -> Path:
     -------
     Path
     """
-    p = Path(path)
     if str(path) == "":
         raise ServokitValueError(f"{flag} is empty; give a directory name")
+    with path_errors(flag, path):
+        return _check_out_dir(Path(path), path, flag)
+
+
+def _check_out_dir(p: Path, path: str | Path, flag: str) -> Path:
+    """:func:`check_out_dir` once the path can be looked at."""
     if p.exists() and not p.is_dir():
         raise ServokitValueError(f"{flag} {path} is an existing file; give a directory")
     existing = p

@@ -81,6 +81,13 @@ def _load(path: Path):
 
 def _check_out_file(out: Path, flag: str = "--judge") -> Path:
     """Refuse an unusable judge file to write before training (nothing is written)."""
+    from servokit.errors import path_errors
+
+    with path_errors(flag, out):
+        return _check_out_path(out, flag)
+
+
+def _check_out_path(out: Path, flag: str) -> Path:
     if str(out).endswith(("/", "\\")) or out.is_dir():
         raise ServokitValueError(f"{flag} {out} is a directory; give a file name ending .skops")
     if out.suffix != ".skops":
