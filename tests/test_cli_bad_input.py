@@ -813,6 +813,16 @@ CASES: list[tuple[list[str], str]] = [
         for args in (["sweep", "--design", f], ["export", "feedforward", "--seek", f])
     ],
     (["export", "table", "--input", "BOOL.json"], "BOOL.json"),
+    # 100 001 rows: counted before a cell is parsed (1.5e6 rows ran loopshape for minutes)
+    *[
+        (args, "TALL.csv")
+        for args in (
+            ["fit", "TALL.csv", "--out", "o"],
+            ["loopshape", "TALL.csv", "--dt", "1e-4", "--out", "o"],
+            ["report", "--plant", "hdd-benchmark", "--frf", "TALL.csv"],
+        )
+    ],
+    (["fit", "FLAT.csv", "--out", "o"], "FRF_FILE"),  # no rigid body, no mode: was max() of []
     (["export", "table", "--input", "TSTR.json"], "TSTR.json"),
     # a band limit sums every alias order up to it: estimated before the sum (was a hang)
     (["sensitivity", "--band-limit", "1e9"], "--band-limit"),
@@ -913,6 +923,11 @@ def _materialise(args: list[str], where: Path, monkeypatch: pytest.MonkeyPatch) 
     (where / "HUGEF.toml").write_text(
         "gain = 1.0\n[[modes]]\nfreq_hz = 1e300\ndamping = 0.1\nresidue = 1.0\n"
     )
+    if "TALL.csv" in args:  # 1.3 MB: only for its rows
+        (where / "TALL.csv").write_text("freq_hz,re,im\n" + "".join(
+            f"{10 + k},-1e-6,1e-9\n" for k in range(100_001)
+        ))  # fmt: skip
+    (where / "FLAT.csv").write_text("freq_hz,re,im\n" + "".join(f"{x!r},1,0\n" for x in f))
     (where / "BOOL.json").write_text('{"input": [true, false], "dt_s": 1e-4}')
     (where / "DTSTR.json").write_text('{"input": [1.0, -1.0], "dt_s": "1e-4"}')
     (where / "DTBIG.json").write_text('{"input": [1.0, -1.0], "dt_s": 1e300}')

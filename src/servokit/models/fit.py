@@ -443,6 +443,11 @@ def _prune(fit, t: _Trial, n_low: int) -> _Trial:  # noqa: ANN001
 
 def _result(f, H, t: _Trial, friction: bool, name: str, bic: dict[int, float]) -> ModalFit:  # noqa: ANN001
     w, z, b, T = t.layout.split(t.theta)
+    if not t.layout.rigid and t.layout.n_modes == 0:
+        raise ServokitValueError(
+            "the response shows neither a rigid body (-40 dB/decade at low frequency) nor a "
+            "resonance, so no modal plant describes it; check the file (or its band)"
+        )
     std = _std(t)
     n, r = t.layout.n_modes, int(t.layout.rigid)
     sw, sz = std[:n] * w, std[n : 2 * n] * z  # d/dlog x = x d/dx

@@ -37,10 +37,13 @@ import numpy as np
 from servokit._io import check_data_file, decode_text
 from servokit.errors import ServokitTypeError, ServokitValueError
 
-__all__ = ["FRF_MAX_BYTES", "FrfFileError", "read_frf", "save_frf"]
+__all__ = ["FRF_MAX_BYTES", "FRF_MAX_POINTS", "FrfFileError", "read_frf", "save_frf"]
 
 #: Largest FRF file read unless the caller raises it [bytes] (a measured FRF is kilobytes).
 FRF_MAX_BYTES = 64 * 1024 * 1024
+#: Most frequency points an FRF may hold (a fine measured sweep has a few thousand; the
+#: fit's Jacobian and every loop-shaping constraint grow with the count).
+FRF_MAX_POINTS = 100_000
 
 #: Response column pairs and how each becomes a complex number.
 _PAIRS: tuple[tuple[str, str], ...] = (("re", "im"), ("mag_db", "phase_deg"), ("mag", "phase_rad"))
@@ -71,6 +74,11 @@ def _csv_columns(path: Path) -> dict[str, np.ndarray]:
     lines = [(n, ln) for n, ln in lines if ln.strip() and not ln.lstrip().startswith("#")]
     if not lines:
         raise FrfFileError(f"{path}: no header row; the first line must name the columns")
+    if len(lines) - 1 > FRF_MAX_POINTS:  # counted before a cell is parsed
+        raise FrfFileError(
+            f"{path}: {len(lines) - 1} rows, above the {FRF_MAX_POINTS} frequency points "
+            "an FRF may hold; decimate it"
+        )
     head_no, head = lines[0]
     sep = next((s for s in (",", ";", "\t") if s in head), None)  # None: whitespace
     header = [h.lower() for h in _split(head, sep)]
@@ -254,6 +262,11 @@ def read_frf(
         raise FrfFileError(f"{path}: columns have different lengths ({n}); give equal lengths")
     freq = _frequencies(path, cols)
     resp = _response(path, cols)
+    if freq.size > FRF_MAX_POINTS:  # .npz/.mat: every fit and loop evaluation scales with it
+        raise FrfFileError(
+            f"{path}: {freq.size} frequency points, above the {FRF_MAX_POINTS} an FRF may "
+            "hold; decimate it"
+        )
     if freq.size < 2:
         raise FrfFileError(f"{path}: {freq.size} frequency point(s); an FRF needs at least 2")
     return freq, resp
