@@ -91,3 +91,11 @@ def test_an_unsettled_seek_says_so_in_words(monkeypatch, capsys) -> None:
     code, out, err, _ = run_cli(["seek", "--n-samples", "3"], 60, monkeypatch, capsys)
     assert code == 0, err
     assert "does not settle" in out and "inf" not in out
+
+
+def test_a_format_field_after_a_dot_is_not_rewritten_into_a_flag() -> None:
+    """``qM.N`` names a fixed-point format, not the --n-samples parameter ``N``."""
+    from servokit.cli._app import internal_names_to_flags
+
+    assert internal_names_to_flags("use qM.N with --format c") == "use qM.N with --format c"
+    assert internal_names_to_flags("N = 2 is too few") == "--n-samples = 2 is too few"

@@ -240,7 +240,9 @@ def internal_names_to_flags(message: str) -> str:
 
     for name in sorted(PARAM_FLAGS, key=len, reverse=True):
         if "_" in name or name != name.lower() or name in ("workers", "substeps"):
-            message = re.sub(rf"(?<![\w'-]){re.escape(name)}(?![\w'-])", PARAM_FLAGS[name], message)
+            # not after a dot: "qM.N" or "modes[0].freq_hz" name a format or a file's field
+            pattern = rf"(?<![\w'.-]){re.escape(name)}(?![\w'-])"
+            message = re.sub(pattern, PARAM_FLAGS[name], message)
     return message
 
 

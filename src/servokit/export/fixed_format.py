@@ -94,8 +94,9 @@ def parse_qformat(text: str) -> QFormat:
     fmt = QFormat(int(match[1]), int(match[2]))
     if fmt.frac_bits < 1 or not 4 <= fmt.word_bits <= 32:
         raise ServokitValueError(
-            f"--precision {text!r}: a word of 1 + M + N = {fmt.word_bits} bits; "
-            "use 4 to 32 bits with N >= 1"
+            # no bare "N": the CLI would read it as the --n-samples parameter
+            f"--precision {text!r}: a word of {fmt.word_bits} bits (sign, integer and "
+            f"{fmt.frac_bits} fraction bits); use 4 to 32 bits with at least 1 fraction bit"
         )
     return fmt
 

@@ -107,10 +107,16 @@ class AdmissibleSet:
         """Vertices (counter-clockwise, shape (v, 2)) of a bounded 2-D set."""
         if self.dim != 2:
             raise ServokitValueError(f"polygon() needs a 2-D set (this one has {self.dim} dims)")
-        from scipy.spatial import HalfspaceIntersection
+        from scipy.spatial import HalfspaceIntersection, QhullError
 
         centre = self.chebyshev_centre()
-        hs = HalfspaceIntersection(np.hstack([self.H, -self.h[:, None]]), centre)
+        try:
+            hs = HalfspaceIntersection(np.hstack([self.H, -self.h[:, None]]), centre)
+        except QhullError:  # a sliver the float geometry cannot resolve: say so, not a trace
+            raise ServokitValueError(
+                "the 2-D admissible set is too thin for qhull to draw (the plant's state "
+                "scales differ by many decades); rescale the plant (gain) or --u-max"
+            ) from None
         v = hs.intersections
         order = np.argsort(np.arctan2(v[:, 1] - centre[1], v[:, 0] - centre[0]))
         return v[order]
