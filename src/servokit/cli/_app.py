@@ -160,7 +160,7 @@ def main() -> None:
     from servokit.cli import _discover
 
     try:
-        _discover()  # imports every command module: Ctrl-C may land here too
+        _discover(sys.argv[1:])  # imports the command's module: Ctrl-C may land here too
     except KeyboardInterrupt:
         announce_interrupt()
         sys.exit(EXIT_INTERRUPTED)
