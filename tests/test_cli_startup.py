@@ -152,3 +152,35 @@ def test_lazy_exports_import_a_name_on_first_use() -> None:
         [sys.executable, "-c", code], capture_output=True, text=True, timeout=120, check=True
     ).stdout
     assert out.startswith("ok") and "no_such_name" in out
+
+
+#: The switching commands and ``export ivc``: loops from numpy data (the plant's ZOH,
+#: the controller's coefficients, the lead-lag and the book loops without python-control).
+#: scipy.linalg (Lyapunov, balancing, expm) and, for the admissible set's LPs and the
+#: §3.3.2 delay fit, scipy.optimize are still imported: the right tools, ~0.2 s each.
+CHEAP_SWITCHING = (
+    ["switching", "admissible-set", "--plant", "hdd-benchmark", "--controller", "lead-lag",
+     "--freq", "500", "--dt", "3.7879e-5", "--u-max", "0.02", "--condition", "-16:3.9e4"],
+    ["switching", "cost-map", "--plant", "hdd-benchmark", "--controller", "lead-lag",
+     "--freq", "500", "--dt", "3.7879e-5", "--position", "-60", "--vel-range", "-1e5:1e5",
+     "--acc-range", "-1e9:1e9"],
+    ["switching", "ivc", "--plant", "hdd-sampled-data", "--controller", "eq-4.69",
+     "--method", "jmin"],
+    "export ivc --method pole-zero --precision q15 --format c".split(),
+)
+
+
+def test_switching_commands_run_without_heavy_libraries(tmp_path) -> None:  # noqa: ANN001
+    proc = subprocess.run(  # in a scratch directory: the export writes files
+        [sys.executable, "-c", _RUN % (CHEAP_SWITCHING, HEAVY)],
+        cwd=tmp_path,
+        capture_output=True,
+        text=True,
+        timeout=300,
+        check=True,
+    )
+    codes, _, loaded = proc.stdout.rsplit("RESULT ", 1)[1].strip().partition("] ")
+    assert codes.strip("[]") == ", ".join(["0"] * len(CHEAP_SWITCHING)), proc.stderr
+    assert loaded.strip() == "", f"imported by a switching command: {loaded}"
+    assert "IVC admissible" in proc.stdout and "IVC gain K" in proc.stdout
+    assert (tmp_path / "firmware" / "ivc.c").is_file()
