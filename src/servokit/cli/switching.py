@@ -18,6 +18,7 @@ from servokit.cli._app import (
     flag_names,
     load_plant,
     plot_target,
+    started,
     sub_app,
     wrote,
 )
@@ -345,6 +346,8 @@ def admissible_cmd(
         what=f"--t-max {t_max} with {N} states",
         max_memory_mb=max_memory_mb,
     )
+    # the LPs take a second or more: say so once every argument has passed its checks
+    started("switching admissible-set", f"O_inf of {N} states, horizons up to {t_max} samples")
     res = admissible_conditions(loop, u_max, pts, t_max=t_max)
     _admissible_render(res, pts, u_max, plot, json_out)
 
