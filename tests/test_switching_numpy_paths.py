@@ -134,12 +134,7 @@ def test_place_controller_data_places_the_poles_as_python_control_sees_them(
 )
 def test_lead_lag_data_is_python_controls_lead_lag(dt, fc_frac, r, lag, plant) -> None:
     fc = fc_frac / dt  # below a third of Nyquist (1/(6 dt))
-    if plant == "rigid":
-        pd = StateSpaceData(*_rigid(dt), dt)
-    elif plant == "pade":
-        pd = pade_double_integrator_data(dt, 0.4 * dt)
-    else:
-        pd = get_plant(plant).discretize_data(dt)
+    pd = _plant(plant, dt)
     c = lead_lag_data(pd, fc, r, lag=lag)
     ref = _lead_lag_control(pd.to_control(), fc, r, lag)
     np.testing.assert_array_equal(c.numerator, ref.num[0][0])
@@ -152,15 +147,19 @@ def test_lead_lag_data_crosses_over_at_fc(plant, dt) -> None:
     # independent: unit loop gain at fc with the plant by a state-space solve. The design
     # normalises with ss2tf's polynomials (as python-control did), which lose digits when
     # fc dt is small: fine at the book's periods, 2 % off for hdd-benchmark at dt = 1e-6
-    if plant == "rigid":
-        pd = StateSpaceData(*_rigid(dt), dt)
-    elif plant == "pade":
-        pd = pade_double_integrator_data(dt, 0.4 * dt)
-    else:
-        pd = get_plant(plant).discretize_data(dt)
+    pd = _plant(plant, dt)
     c = lead_lag_data(pd, 500.0)
     z = np.exp(2j * np.pi * 500.0 * dt)
     assert abs(pd(z)[0, 0] * c(z)) == pytest.approx(1.0, rel=1e-6)
+
+
+def _plant(name: str, dt: float) -> StateSpaceData:
+    """A rigid body (python-control's ZOH), the Padé plant or a catalogue plant at ``dt``."""
+    if name == "rigid":
+        return StateSpaceData(*_rigid(dt), dt)
+    if name == "pade":
+        return pade_double_integrator_data(dt, 0.4 * dt)
+    return get_plant(name).discretize_data(dt)
 
 
 def _rigid(dt: float) -> tuple:

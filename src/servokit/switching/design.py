@@ -12,6 +12,12 @@ builds that structure with the unknowns explicit:
 - :func:`place_controller`: the controller ``Nc / Dc`` of order m whose closed loop has the
   given poles, from the Diophantine equation ``Dp Dc + Np Nc = prod (z - p_i)`` (linear in
   the controller coefficients: n + m equations, 2m + 1 unknowns, square for m = n - 1).
+
+Each builder has a ``*_data`` twin returning servokit's numpy LTI data
+(:class:`~servokit.models.rational.StateSpaceData`, :class:`~servokit.models.rational.RationalTF`)
+with python-control's arithmetic reproduced bit for bit (``c2d`` ZOH, ``ss2tf``, transfer
+function algebra, Tustin), so the switching commands start without importing
+python-control (issue 23); the python-control versions convert those.
 """
 
 from __future__ import annotations
@@ -41,11 +47,32 @@ def pade_double_integrator(
 ) -> control.StateSpace:
     """ZOH discretisation of ``gain / s^2`` behind a first-order Padé delay.
 
+    Parameters
+    ----------
+    dt, delay, gain, damping
+        As :func:`pade_double_integrator_data`.
+
+    Returns
+    -------
+    control.StateSpace
+        Discrete plant with states [position, velocity, Padé state].
+    """
+    return pade_double_integrator_data(dt, delay, gain, damping).to_control()
+
+
+def pade_double_integrator_data(
+    dt: float, delay: float, gain: float = 1.0, damping: float = 0.0
+) -> StateSpaceData:
+    """ZOH discretisation of ``gain / s^2`` behind a first-order Padé delay, as numpy arrays
+    (:func:`pade_double_integrator` without python-control).
+
     With ``damping = b > 0`` the mechanics is ``gain / (s (s + b))`` (viscous friction or
     a velocity loop: the rigid-body pole moves from 0 to -b).
 
     States ``[position, velocity, w]`` where ``w`` is the Padé state
     (``Td/2 w' = u - w``, delayed input ``2 w - u``): ``w = 0`` means no stored input.
+    The ZOH is ``expm([[A, B], [0, 0]] dt)`` (:func:`~servokit.models._zoh.zoh_pair`), the
+    arithmetic of python-control's ``c2d(sys, dt, "zoh")``: the same matrices bit for bit.
 
     Parameters
     ----------
@@ -57,34 +84,6 @@ def pade_double_integrator(
         Acceleration per unit input (e.g. [m/s^2/A]).
     damping : float
         Velocity damping ``b`` [1/s] of ``gain / (s (s + b))``; 0 is the double integrator.
-
-    Returns
-    -------
-    control.StateSpace
-        Discrete plant with states [position, velocity, Padé state]
-        (:func:`pade_double_integrator_data` converted).
-    """
-    return pade_double_integrator_data(dt, delay, gain, damping).to_control()
-
-
-def pade_double_integrator_data(
-    dt: float, delay: float, gain: float = 1.0, damping: float = 0.0
-) -> StateSpaceData:
-    """:func:`pade_double_integrator` as numpy arrays (python-control left unloaded).
-
-    The ZOH is ``expm([[A, B], [0, 0]] dt)`` (:func:`~servokit.models._zoh.zoh_pair`), the
-    arithmetic of python-control's ``c2d(sys, dt, "zoh")``: the same matrices bit for bit.
-
-    Parameters
-    ----------
-    dt : float
-        Sampling period [s].
-    delay : float
-        Delay Td approximated by Padé [s] (> 0).
-    gain : float
-        Acceleration per unit input.
-    damping : float
-        Velocity damping ``b`` [1/s].
 
     Returns
     -------
@@ -140,23 +139,15 @@ def place_controller(
 ) -> control.TransferFunction:
     """Controller ``Nc/Dc`` of ``order`` placing the closed-loop poles (Diophantine equation).
 
-    :func:`place_controller_data` as a python-control ``TransferFunction``.
-
     Parameters
     ----------
-    plant_d : control.StateSpace or StateSpaceData
-        Discrete SISO plant.
-    poles : sequence of complex
-        The n + order closed-loop poles (conjugate pairs complete).
-    order : int
-        Controller order.
-    fixed_poles : sequence of complex
-        Controller poles imposed (e.g. an integrator at 1).
+    plant_d, poles, order, fixed_poles
+        As :func:`place_controller_data`.
 
     Returns
     -------
     control.TransferFunction
-        The controller Nc/Dc.
+        :func:`place_controller_data`'s controller, converted.
     """
     return place_controller_data(plant_d, poles, order, fixed_poles).to_control()
 
@@ -234,23 +225,15 @@ def lead_lag(
 ) -> control.TransferFunction:
     """A second-order lead-lag controller with its gain crossover at ``crossover_hz``.
 
-    :func:`lead_lag_data` as a python-control ``TransferFunction``.
-
     Parameters
     ----------
-    plant_d : control.StateSpace or StateSpaceData
-        Discrete plant (sets dt and the gain normalisation).
-    crossover_hz : float
-        Gain crossover [Hz].
-    lead_ratio : float
-        Ratio r of the lead pole and zero to the crossover.
-    lag : bool
-        Include the lag pair (fc/5, fc/50).
+    plant_d, crossover_hz, lead_ratio, lag
+        As :func:`lead_lag_data`.
 
     Returns
     -------
     control.TransferFunction
-        The discrete controller.
+        :func:`lead_lag_data`'s controller, converted.
     """
     return lead_lag_data(plant_d, crossover_hz, lead_ratio, lag=lag).to_control()
 
