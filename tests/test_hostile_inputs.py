@@ -99,3 +99,21 @@ def test_a_format_field_after_a_dot_is_not_rewritten_into_a_flag() -> None:
 
     assert internal_names_to_flags("use qM.N with --format c") == "use qM.N with --format c"
     assert internal_names_to_flags("N = 2 is too few") == "--n-samples = 2 is too few"
+
+
+def test_an_admissible_set_qhull_cannot_draw_is_one_line(tmp_path, monkeypatch, capsys) -> None:
+    """A plant whose states differ by decades: the 2-D slice is a sliver qhull rejects.
+    Known only after the LPs (so not a bad-input row: a start line may precede it), it
+    ends in one error line naming --u-max, never a QhullError traceback."""
+    from _cli_run import run_cli
+
+    monkeypatch.chdir(tmp_path)
+    (tmp_path / "P.toml").write_text(
+        "gain = 1.0\ndelay = 1e-5\n[[modes]]\nfreq_hz = 0.0\ndamping = 0.0\nresidue = 1.0\n"
+        "[[modes]]\nfreq_hz = 4000.0\ndamping = 0.05\nresidue = -0.5\n"
+    )
+    args = ["switching", "admissible-set", "--plant", "P.toml", "--dt", "1e-4", "--freq", "100"]
+    code, out, err, _ = run_cli(args, 60, monkeypatch, capsys)
+    lines = [ln for ln in err.splitlines() if ln.startswith("servokit:")]
+    assert code == 2 and out == "" and "Traceback" not in err, err
+    assert len(lines) == 1 and "--u-max" in lines[0], err
