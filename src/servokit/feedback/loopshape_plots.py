@@ -13,7 +13,7 @@ __all__ = ["loopshape_plot"]
 
 def _draw_set(ax_mag, ax_ph, ax_ny, f, L, color, label):
     """One line per plant on each axes, as one collection per axes (54 plants x 3 axes
-    were 162 line artists per set, a third of the figure's CPU)."""
+    were 162 line artists per set, a quarter of the figure's CPU)."""
     from matplotlib.collections import LineCollection
 
     curves = (
