@@ -69,3 +69,29 @@ def test_png_level_is_faster_and_lossless(tmp_path: Path, monkeypatch) -> None:
     assert 0 < PNG_COMPRESS_LEVEL < 6  # Pillow's default is 6
     with Image.open(path) as img:
         np.testing.assert_array_equal(np.asarray(img), rendered)
+
+
+def test_held_out_histogram_same_pixels_as_bars(tmp_path: Path, monkeypatch) -> None:
+    # the robust-seek histogram draws each design as one filled outline; touching bars
+    # without edges cover the same pixels
+    from servokit.cases import robust_seek
+
+    rng = np.random.default_rng(3)
+    times = {
+        panel: {name: rng.normal(mu, 5e-5, 300) for name, mu in (("a", 1e-3), ("b", 1.1e-3))}
+        for panel in ("1 track", "10 tracks")
+    }
+    times["1 track"]["a"][:3] = np.inf  # unsettled plants are left out
+    path = robust_seek._histogram(times, tmp_path / "outline.png")
+    hist = plt.Axes.hist
+    drawn: list[str] = []
+
+    def bars(self, x, *args, histtype="bar", **kwargs):
+        drawn.append(histtype)
+        return hist(self, x, *args, **kwargs)  # matplotlib's default bars
+
+    monkeypatch.setattr(plt.Axes, "hist", bars)
+    ref = robust_seek._histogram(times, tmp_path / "bars.png")
+    assert drawn == ["stepfilled"] * 4
+    with Image.open(path) as new, Image.open(ref) as old:
+        np.testing.assert_array_equal(np.asarray(new), np.asarray(old))
