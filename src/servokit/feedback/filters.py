@@ -39,7 +39,9 @@ __all__ = [
     "complex_lag",
     "complex_lag_coefficients",
     "lead_lag",
+    "lead_lag_coefficients",
     "lag",
+    "lag_coefficients",
     "pi_controller",
     "peak_filter",
     "peak_filter_coefficients",
@@ -269,10 +271,30 @@ def lead_lag(
     control.TransferFunction
         The continuous controller.
     """
+    return control.tf(*lead_lag_coefficients(gain, zero_hz, pole_hz))
+
+
+def lead_lag_coefficients(
+    gain: float, zero_hz: float = 50.0, pole_hz: float = 30000.0
+) -> tuple[np.ndarray, np.ndarray]:
+    """Numerator and denominator of :func:`lead_lag` (5.91), without python-control.
+
+    Parameters
+    ----------
+    gain : float
+        KCV (> 0).
+    zero_hz, pole_hz : float
+        Double zero and pole frequencies [Hz].
+
+    Returns
+    -------
+    num, den : numpy.ndarray
+        Coefficients in descending powers of s.
+    """
     k = check_positive("gain", gain)
     w_z = TWO_PI * check_positive("zero_hz", zero_hz, "Hz")
     w_p = TWO_PI * check_positive("pole_hz", pole_hz, "Hz")
-    return control.tf(k * np.array([1.0, 2.0 * w_z, w_z * w_z]), [1.0, w_p, 0.0])
+    return k * np.array([1.0, 2.0 * w_z, w_z * w_z]), np.array([1.0, w_p, 0.0])
 
 
 def lag(gain: float, zero_hz: float = 30000.0, pole_hz: float = 900.0) -> control.TransferFunction:
@@ -290,10 +312,30 @@ def lag(gain: float, zero_hz: float = 30000.0, pole_hz: float = 900.0) -> contro
     control.TransferFunction
         The continuous lag.
     """
+    return control.tf(*lag_coefficients(gain, zero_hz, pole_hz))
+
+
+def lag_coefficients(
+    gain: float, zero_hz: float = 30000.0, pole_hz: float = 900.0
+) -> tuple[np.ndarray, np.ndarray]:
+    """Numerator and denominator of :func:`lag` (5.96), without python-control.
+
+    Parameters
+    ----------
+    gain : float
+        KCM (> 0).
+    zero_hz, pole_hz : float
+        Zero and pole frequencies [Hz].
+
+    Returns
+    -------
+    num, den : numpy.ndarray
+        Coefficients in descending powers of s.
+    """
     k = check_positive("gain", gain)
     w_z = TWO_PI * check_positive("zero_hz", zero_hz, "Hz")
     w_p = TWO_PI * check_positive("pole_hz", pole_hz, "Hz")
-    return control.tf([k, k * w_z], [1.0, w_p])
+    return np.array([k, k * w_z]), np.array([1.0, w_p])
 
 
 def pi_controller(gain: float, corner_hz: float) -> control.TransferFunction:
