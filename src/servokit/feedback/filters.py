@@ -30,6 +30,7 @@ import numpy as np
 
 from servokit._lazy import control
 from servokit.errors import ServokitValueError, check_finite, check_positive
+from servokit.models.rational import RationalTF
 
 __all__ = [
     "notch",
@@ -50,6 +51,7 @@ __all__ = [
     "ZERO_PLACEMENTS",
     "pseudo_plant",
     "discretize_filter",
+    "discretize_filter_data",
     "tustin_coefficients",
 ]
 
@@ -512,6 +514,33 @@ def discretize_filter(filt: control.LTI, dt: float, freq_hz: float) -> control.L
     h, f = _tustin_rate(dt, freq_hz)
     fd = control.sample_system(filt, h, method="tustin", prewarp_frequency=TWO_PI * f)
     _check_not_degenerate(fd.num[0][0], fd.den[0][0], h, f)
+    return fd
+
+
+def discretize_filter_data(filt: RationalTF, dt: float, freq_hz: float) -> RationalTF:
+    """:func:`discretize_filter` of numpy coefficients, python-control left unloaded.
+
+    :meth:`RationalTF.tustin <servokit.models.rational.RationalTF.tustin>` is
+    python-control's prewarped Tustin arithmetic: the coefficients are
+    :func:`discretize_filter`'s bit for bit.
+
+    Parameters
+    ----------
+    filt : RationalTF
+        Continuous filter.
+    dt : float
+        Sampling period [s].
+    freq_hz : float
+        Prewarping frequency [Hz], below the Nyquist frequency.
+
+    Returns
+    -------
+    RationalTF
+        The discrete filter with ``dt``.
+    """
+    h, f = _tustin_rate(dt, freq_hz)
+    fd = filt.tustin(h, TWO_PI * f)
+    _check_not_degenerate(fd.numerator, fd.denominator, h, f)
     return fd
 
 
