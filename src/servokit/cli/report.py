@@ -12,11 +12,11 @@ from servokit.cli._app import (
     app,
     console,
     example,
-    load_controller,
     load_plant,
     started,
     wrote,
 )
+from servokit.cli._options import load_controller_data
 from servokit.errors import ServokitValueError, check_count
 
 #: largest ``--seek`` JSON read [bytes] (a seek result with 10^6 seek times is ~20 MB)
@@ -115,6 +115,8 @@ def report_cmd(
     )
 
     nominal = load_plant(plant)
+    # every input read and checked first (a user's mistake fails before the start line),
+    # the margins, sensitivities and figures computed after it
     sections: list[Any] = []
     notes = [f"Plant: {plant}."]
     if frf is not None:
@@ -122,18 +124,24 @@ def report_cmd(
 
         sections.append(FitSection(*read_frf(frf), nominal))
         notes.append(f"Measured frequency response: {frf}.")
+    loop = None
     if controller is not None:
-        ctrl = load_controller(controller)
-        plants = _plant_set(nominal, variations, n_plants)
-        sections += [MarginsSection(plants, ctrl), SensitivitySection(plants, ctrl)]
+        # numpy coefficients: python-control left unloaded (issue 23)
+        loop = load_controller_data(controller), _plant_set(nominal, variations, n_plants)
         notes.append(
             f"Controller: {controller}; plant set: nominal"
             + (f" and {n_plants} Monte-Carlo plants of {variations}." if variations else ".")
         )
+    seek_section = None if seek is None else _seek_section(seek)
     if seek is not None:
-        sections.append(_seek_section(seek))
         notes.append(f"Seek times: {seek}.")
-    started("report", f"{len(sections)} section(s) -> {out}")
+    n_sections = len(sections) + 2 * (loop is not None) + (seek_section is not None)
+    started("report", f"{n_sections} section(s) -> {out}")
+    if loop is not None:
+        ctrl, plants = loop
+        sections += [MarginsSection(plants, ctrl), SensitivitySection(plants, ctrl)]
+    if seek_section is not None:
+        sections.append(seek_section)
     out.parent.mkdir(parents=True, exist_ok=True)
     design_report(out, sections, title=title, notes=notes)
     console.print(f"{len(sections)} section(s)")
