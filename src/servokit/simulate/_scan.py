@@ -83,9 +83,11 @@ def forced_outputs(
     the block starts by ``x[(b+1)L] = A^L x[bL] + [A^(L-1) B ... B] u_b`` (one step per
     block), the outputs inside every block at once from them and the block's inputs,
     ``y_b = [C A^j] x[bL] + T u_b + D u_b`` with ``T`` the lower block-Toeplitz matrix of
-    the Markov parameters ``C A^k B``.  The same sums grouped differently: the outputs
-    agree with the step-by-step recursion to rounding (~1e-14 relative for a stable
-    system, tests/test_numpy_loops.py).
+    the Markov parameters ``C A^k B``.  The same sums grouped differently: for a stable
+    system the outputs agree with the step-by-step recursion to rounding (1e-11 of the
+    largest output, ~1e-13 for the PES loop; tests/test_numpy_loops.py).  The rounding
+    of ``A^L`` enters every block, which a defective eigenvalue on the unit circle (a
+    rigid body in open loop) amplifies: ~1e-10 after 700 samples; use it for stable loops.
 
     Parameters
     ----------

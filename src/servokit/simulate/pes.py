@@ -117,6 +117,8 @@ def welch_psd(x: np.ndarray, fs: float, nperseg: int) -> tuple[np.ndarray, np.nd
     m = check_count("nperseg", nperseg, lo=1, hi=x.size)
     fac = np.linspace(-np.pi, np.pi, m + 1)  # scipy's general_cosine, sym=False
     win = (np.zeros(m + 1) + 0.5 * np.cos(0.0 * fac) + 0.5 * np.cos(1.0 * fac))[:-1]
+    if m == 1:  # scipy's length guard: a one-point window is [1]
+        win = np.ones(1)
     scale = 1.0 / (fs * (win * win).sum())
     step = m - m // 2
     n_seg = (x.size - m // 2) // step
