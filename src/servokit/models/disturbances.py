@@ -33,7 +33,7 @@ import numpy as np
 from servokit._lazy import control
 from servokit._lazy import scipy_signal as signal
 from servokit.errors import ServokitValueError, check_count, check_positive
-from servokit.models._zoh import modal_transition, modal_zoh
+from servokit.models._zoh import damped_pair, modal_zoh
 from servokit.models.lti_response import lti_response
 
 __all__ = ["BenchmarkDisturbances", "DisturbanceRecord", "band_powers", "disturbance_magnitude"]
@@ -213,7 +213,7 @@ class BenchmarkDisturbances:
         """Impulse responses of the ZOH resonators, one row each, ``n`` samples [track].
 
         ``h[k] = C Phi(k Ts) Gamma``, ``k >= 0``: the exact ZOH of each resonator in closed
-        form at every lag (:func:`~servokit.models._zoh.modal_transition`, no powers
+        form at every lag (:func:`~servokit.models._zoh.modal_transition`'s first row, no powers
         accumulated), one sample ahead of the held response ``(b1 z + b2)/(z^2 + a1 z +
         a2)``: the sequence the generator has always produced (``lfilter([b1, b2], [1,
         a1, a2])`` reads the coefficients in powers of ``z^-1``); a shift leaves the
@@ -233,9 +233,10 @@ class BenchmarkDisturbances:
         z = np.asarray(self.flutter_damping, dtype=float)
         r = np.asarray(self.flutter_peak_track, dtype=float) * 2 * z * w * w
         _, gamma = modal_zoh(w, z, r, self.dt)
-        t = self.dt * np.arange(n)
-        phi = modal_transition(w[:, None], z[:, None], t[None, :])  # (m, n, 2, 2)
-        return phi[..., 0, 0] * gamma[:, None, 0] + phi[..., 0, 1] * gamma[:, None, 1]
+        sigma = (z * w)[:, None]
+        # the first row of modal_transition's Phi = [[EC + sigma ES, ES], ...] at every lag
+        ec, es = damped_pair(w[:, None], sigma, self.dt * np.arange(n)[None, :])
+        return (ec + sigma * es) * gamma[:, None, 0] + es * gamma[:, None, 1]
 
     def _flutter_sequence(self, whites: list[np.ndarray]) -> np.ndarray:
         """The sum of the resonators driven by their white sequences, by FFT convolution.
