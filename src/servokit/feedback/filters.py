@@ -283,20 +283,24 @@ def lead_lag_coefficients(
 
     Parameters
     ----------
-    gain : float
-        KCV (> 0).
-    zero_hz, pole_hz : float
-        Double zero and pole frequencies [Hz].
+    gain, zero_hz, pole_hz : float
+        KCV (> 0), double zero and pole frequencies [Hz], as :func:`lead_lag`.
 
     Returns
     -------
     num, den : numpy.ndarray
-        Coefficients in descending powers of s.
+        ``K [1, 2 wz, wz^2]`` and ``[1, wp, 0]``, descending powers of s.
     """
+    k, w_z, w_p = _gain_corners(gain, zero_hz, pole_hz)
+    return k * np.array([1.0, 2.0 * w_z, w_z * w_z]), np.array([1.0, w_p, 0.0])
+
+
+def _gain_corners(gain: float, zero_hz: float, pole_hz: float) -> tuple[float, float, float]:
+    """``K`` (> 0) and the zero and pole corners [rad/s] of a lead-lag or lag."""
     k = check_positive("gain", gain)
     w_z = TWO_PI * check_positive("zero_hz", zero_hz, "Hz")
     w_p = TWO_PI * check_positive("pole_hz", pole_hz, "Hz")
-    return k * np.array([1.0, 2.0 * w_z, w_z * w_z]), np.array([1.0, w_p, 0.0])
+    return k, w_z, w_p
 
 
 def lag(gain: float, zero_hz: float = 30000.0, pole_hz: float = 900.0) -> control.TransferFunction:
@@ -324,19 +328,15 @@ def lag_coefficients(
 
     Parameters
     ----------
-    gain : float
-        KCM (> 0).
-    zero_hz, pole_hz : float
-        Zero and pole frequencies [Hz].
+    gain, zero_hz, pole_hz : float
+        KCM (> 0), zero and pole frequencies [Hz], as :func:`lag`.
 
     Returns
     -------
     num, den : numpy.ndarray
-        Coefficients in descending powers of s.
+        ``[K, K wz]`` and ``[1, wp]``, descending powers of s.
     """
-    k = check_positive("gain", gain)
-    w_z = TWO_PI * check_positive("zero_hz", zero_hz, "Hz")
-    w_p = TWO_PI * check_positive("pole_hz", pole_hz, "Hz")
+    k, w_z, w_p = _gain_corners(gain, zero_hz, pole_hz)
     return np.array([k, k * w_z]), np.array([1.0, w_p])
 
 

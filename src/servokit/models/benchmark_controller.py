@@ -102,12 +102,8 @@ def benchmark_controller_data(
 
     Parameters
     ----------
-    crossover_hz : float
-        Gain crossover on the nominal plant [Hz].
-    dt : float
-        Sampling period [s].
-    notches : tuple of (freq_hz, zero_damping, pole_damping)
-        As :func:`benchmark_controller`.
+    crossover_hz, dt, notches : float, float, tuple
+        As :func:`benchmark_controller` (crossover [Hz], sampling period [s], notches).
     zoh : {"modal", "expm"}
         The plant's exact ZOH at the crossover (:meth:`ModalPlant.discretize_data`):
         closed form per mode (numpy only; the gain agrees to ~1e-15) or
