@@ -60,6 +60,7 @@ TARGETS = {
     "sweep.n1e5_share_outside_simulation": ("<", 0.5),
     "dask.dask_2_workers_over_in_process_2_threads": ("<=", 1.0),
     "dask.dask_1_worker_over_in_process_1_thread": ("<=", 1.0),
+    "dask.large_dask_1_worker_over_in_process_1_thread": ("<=", 1.0),
     "dask.dask_2_workers_speedup_vs_1_worker": (">=", 1.2),
     "demo.total_cpu_s": ("<", 8.0),
     "demo.max_relative_difference": ("<=", 1e-12),
@@ -96,7 +97,9 @@ def main() -> None:
         "qp": lambda: qp.constrained_fsc((100, 300) if q else qp.STEPS),
         "sensitivity": lambda: sensitivity.sensitivity(2000 if q else 10_000),
         "sweep": lambda: sweep.sweeps((10_000,) if q else (100_000, 1_000_000)),
-        "dask": lambda: sweep.dask_scaling(20_000 if q else 100_000, 1 if q else 3),
+        "dask": lambda: sweep.dask_scaling(
+            20_000 if q else 100_000, 1 if q else 3, 40_000 if q else 1_000_000
+        ),
         "demo": lambda: demo.demo(1 if q else 2),
         "margins": lambda: margins.margins(7 if q else 25),
         "margins_accuracy": margins.accuracy,

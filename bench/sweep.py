@@ -120,14 +120,17 @@ def _timed_sweep(vset, ff, n: int, client=None, **kw) -> tuple[object, float, fl
     return res, wall, _cpu(client) - c0
 
 
-def dask_scaling(n: int = 100_000, rounds: int = 2) -> dict:
+def dask_scaling(n: int = 100_000, rounds: int = 2, n_large: int = 0) -> dict:
     """Wall seconds of one sweep of ``n`` variants in-process (1 and 2 threads) and on
     Dask: a local cluster of 1 and of 2 single-threaded workers, and an external
     scheduler (a LocalCluster of 2 workers in another process, passed by address).
     One cluster is alive at a time; its start-up is timed apart (paid once per session);
     best of ``rounds``, its runs alternating with the in-process ones; CPU seconds summed
     over this process and the workers; the seek times must be identical on every
-    backend."""
+    backend. With ``n_large``, the 1-worker cluster and one in-process thread also run
+    a sweep of ``n_large`` variants (``rounds`` times, in turn): Dask's cost per sweep
+    is a fixed few tens of ms of round trips, visible at 10^5 variants (1.3 s), not at
+    10^6."""
     import logging
 
     logging.getLogger("distributed").setLevel(logging.ERROR)
@@ -157,6 +160,8 @@ def dask_scaling(n: int = 100_000, rounds: int = 2) -> dict:
                     w0, c0 = best.get(label, (float("inf"), float("inf")))
                     best[label] = (min(w0, wall), min(c0, cpu))
                     out[f"{label}_chunk_size"] = res.chunk_size
+            if n_large and name == "dask_1_worker":
+                _large_pair(vset, ff, n_large, rounds, client, best)
         finally:
             client.close()
             if proc is not None:
@@ -171,8 +176,33 @@ def dask_scaling(n: int = 100_000, rounds: int = 2) -> dict:
         out["dask_2_workers_s"] / out["in_process_2_threads_s"]
     )
     out["dask_2_workers_speedup_vs_1_worker"] = out["dask_1_worker_s"] / out["dask_2_workers_s"]
+    if n_large:
+        out["large_variants"] = n_large
+        out["large_dask_1_worker_over_in_process_1_thread"] = (
+            out["large_dask_1_worker_s"] / out["large_in_process_1_thread_s"]
+        )
+        # wall = fixed + per-variant time, from the two sizes
+        extra_small = out["dask_1_worker_s"] - out["in_process_1_thread_s"]
+        extra_large = out["large_dask_1_worker_s"] - out["large_in_process_1_thread_s"]
+        out["dask_1_worker_fixed_cost_s"] = (n_large * extra_small - n * extra_large) / (
+            n_large - n
+        )
     out["same_numbers"] = True
     return out
+
+
+def _large_pair(vset, ff, n: int, rounds: int, client, best: dict) -> None:
+    """``n`` variants in-process on one thread and on the 1-worker ``client``, in turn;
+    the best wall/CPU of each into ``best`` (labels ``large_*``)."""
+    ref = None
+    for _ in range(rounds):
+        for label, kw in (("large_in_process_1_thread", {"threads": 1}),
+                          ("large_dask_1_worker", {"client": client})):  # fmt: skip
+            res, wall, cpu = _timed_sweep(vset, ff, n, **kw)
+            ref = res.seek_times if ref is None else ref
+            assert np.array_equal(res.seek_times, ref)
+            w0, c0 = best.get(label, (float("inf"), float("inf")))
+            best[label] = (min(w0, wall), min(c0, cpu))
 
 
 if __name__ == "__main__":

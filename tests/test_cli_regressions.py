@@ -73,7 +73,7 @@ def test_warnings_before_an_error_are_dropped(monkeypatch, capsys) -> None:
             raise ServokitValueError("--fail: broken on purpose")
 
     monkeypatch.setattr(app_module, "app", tiny)
-    monkeypatch.setattr(servokit.cli, "_discover", lambda: None)
+    monkeypatch.setattr(servokit.cli, "_discover", lambda argv=None: None)
     monkeypatch.setattr("sys.argv", ["servokit"])
     with pytest.raises(SystemExit) as exc:
         app_module.main()

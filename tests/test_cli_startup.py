@@ -154,6 +154,66 @@ def test_lazy_exports_import_a_name_on_first_use() -> None:
     assert out.startswith("ok") and "no_such_name" in out
 
 
+def _registered_names(source: str) -> set[str]:
+    """Top-level command names a CLI module's source registers: ``sub_app("name", ...)``
+    and ``@app.command("name", ...)`` (their first argument, a string literal)."""
+    import ast
+
+    names = set()
+    for node in ast.walk(ast.parse(source)):
+        if not isinstance(node, ast.Call) or not node.args:
+            continue
+        func = node.func
+        first = node.args[0]
+        is_sub = isinstance(func, ast.Name) and func.id == "sub_app"
+        is_cmd = (
+            isinstance(func, ast.Attribute)
+            and func.attr == "command"
+            and isinstance(func.value, ast.Name)
+            and func.value.id == "app"
+        )
+        if (is_sub or is_cmd) and isinstance(first, ast.Constant):
+            names.add(first.value)
+    return names
+
+
+def test_command_modules_table_matches_the_sources_and_the_tree() -> None:
+    """``main`` imports only the module of the command run: the table must name, for
+    every top-level command, the module that registers it (a new command missing from
+    the table still works, through the import-everything path, but starts slower)."""
+    from pathlib import Path
+
+    import typer.main
+
+    import servokit.cli
+    from servokit.cli import COMMAND_MODULES
+
+    package = Path(servokit.cli.__file__).parent
+    found = {}
+    for path in sorted(package.glob("[!_]*.py")):
+        for name in _registered_names(path.read_text()):
+            found[name] = path.stem
+    assert found == COMMAND_MODULES
+    servokit.cli._discover()
+    tree = typer.main.get_command(servokit.cli.app)
+    assert set(tree.commands) == set(COMMAND_MODULES)
+
+
+def test_running_one_command_imports_only_its_module() -> None:
+    code = (
+        "import sys, servokit.cli\n"
+        "sys.argv = ['servokit', 'limits', 'dynamic-range', '--stroke-m', '0.03',"
+        " '--accuracy-m', '3e-9']\n"
+        "try:\n    servokit.cli.main()\nexcept SystemExit as e:\n    assert e.code == 0\n"
+        "print(sorted(m for m in sys.modules if m.startswith('servokit.cli.')"
+        " and not m.rsplit('.', 1)[1].startswith('_')))\n"
+    )
+    out = subprocess.run(
+        [sys.executable, "-c", code], capture_output=True, text=True, timeout=120, check=True
+    ).stdout
+    assert out.strip().splitlines()[-1] == "['servokit.cli.limits']"
+
+
 #: Commands whose loops now run on numpy coefficients (issue 23: pes, dual-stage, identify
 #: imported python-control for a controller or a filter); scipy.linalg is listed per command
 #: where it is still honest (dual-stage: the plant zeros from the Rosenbrock pencil).

@@ -159,7 +159,7 @@ def main() -> None:
     _install_interrupt_handling()
     from servokit.cli import _discover
 
-    _discover()
+    _discover(sys.argv[1:])
     usage = _usage_errors()
     # numpy/matplotlib warnings are held back: on an error only the one error line shows
     with warnings.catch_warnings(record=True) as caught:
