@@ -156,3 +156,22 @@ def test_reproduce_start_line_and_pure_json(tmp_path) -> None:
     lines = proc.stderr.splitlines()
     assert lines[0] == "reproduce: 1 case(s) on up to 1 process(es) -> o/", lines
     assert lines[1].startswith("[1/1] resonance-filters done")
+
+
+#: ``switching admissible-set`` prints a start line before its LPs (a second or more).
+ADMISSIBLE_CASES = [(a, f) for a, f in CASES if list(a[:2]) == ["switching", "admissible-set"]]
+
+
+@pytest.mark.parametrize(("args", "flag"), [_param(a, f) for a, f in ADMISSIBLE_CASES])
+def test_a_refused_admissible_set_prints_no_start_line(args, flag, tmp_path, monkeypatch, capsys):
+    test_a_refused_request_prints_no_start_line(args, flag, tmp_path, monkeypatch, capsys)
+
+
+def test_admissible_set_says_what_it_computes_and_stdout_keeps_its_json(monkeypatch, capsys):
+    monkeypatch.setenv(PROGRESS_ENV, "1")
+    args = ["switching", "admissible-set", "--plant", "hdd-benchmark", "--controller",
+            "lead-lag", "--dt", "3.7879e-5", "--t-max", "100", "--json"]  # fmt: skip
+    code, out, err, _ = run_cli(args, HANG_S, monkeypatch, capsys)
+    assert code == 0, err
+    assert err == "switching admissible-set: O_inf of 17 states, horizons up to 100 samples\n"
+    assert json.loads(out)["t_star"] == 82

@@ -214,6 +214,107 @@ def test_running_one_command_imports_only_its_module() -> None:
     assert out.strip().splitlines()[-1] == "['servokit.cli.limits']"
 
 
+#: The switching commands and ``export ivc``: loops from numpy data (the plant's ZOH,
+#: the controller's coefficients, the lead-lag and the book loops without python-control).
+#: scipy.linalg (Lyapunov, balancing, expm) and, for the admissible set's LPs and the
+#: §3.3.2 delay fit, scipy.optimize are still imported: the right tools, ~0.2 s each.
+CHEAP_SWITCHING = (
+    ["switching", "admissible-set", "--plant", "hdd-benchmark", "--controller", "lead-lag",
+     "--freq", "500", "--dt", "3.7879e-5", "--u-max", "0.02", "--condition", "-16:3.9e4"],
+    ["switching", "cost-map", "--plant", "hdd-benchmark", "--controller", "lead-lag",
+     "--freq", "500", "--dt", "3.7879e-5", "--position", "-60", "--vel-range", "-1e5:1e5",
+     "--acc-range", "-1e9:1e9"],
+    ["switching", "ivc", "--plant", "hdd-sampled-data", "--controller", "eq-4.69",
+     "--method", "jmin"],
+    "export ivc --method pole-zero --precision q15 --format c".split(),
+)
+
+
+def test_switching_commands_run_without_heavy_libraries(tmp_path) -> None:  # noqa: ANN001
+    proc = subprocess.run(  # in a scratch directory: the export writes files
+        [sys.executable, "-c", _RUN % (CHEAP_SWITCHING, HEAVY)],
+        cwd=tmp_path,
+        capture_output=True,
+        text=True,
+        timeout=300,
+        check=True,
+    )
+    codes, _, loaded = proc.stdout.rsplit("RESULT ", 1)[1].strip().partition("] ")
+    assert codes.strip("[]") == ", ".join(["0"] * len(CHEAP_SWITCHING)), proc.stderr
+    assert loaded.strip() == "", f"imported by a switching command: {loaded}"
+    assert "IVC admissible" in proc.stdout and "IVC gain K" in proc.stdout
+    assert (tmp_path / "firmware" / "ivc.c").is_file()
+
+
+#: Commands whose SciPy use was more than their computation needed (issue 23): the FSC
+#: design takes each mode's ZOH in closed form and factorises with numpy.linalg, so a seek
+#: design loads none of these SciPy subpackages (scipy.linalg alone costs 0.2-0.3 s).
+CHEAP_SCIPY = (
+    ["seek", "--target", "1", "--method", "fsc", "--n-samples", "26"],
+    ["sweep", "--method", "fsc", "--tracks", "1", "--n-variants", "100"],
+    "export feedforward --method fsc --target 10 --format c --out fw".split(),
+)
+SCIPY_SUBPACKAGES = ("scipy.linalg", "scipy.integrate", "scipy.optimize", "scipy.interpolate")
+
+
+def test_fsc_commands_run_without_scipy_subpackages(tmp_path) -> None:  # noqa: ANN001
+    proc = subprocess.run(
+        [sys.executable, "-c", _RUN % (CHEAP_SCIPY, HEAVY + SCIPY_SUBPACKAGES)],
+        cwd=tmp_path,
+        capture_output=True,
+        text=True,
+        timeout=120,
+        check=True,
+    )
+    codes, _, loaded = proc.stdout.rsplit("RESULT ", 1)[1].strip().partition("] ")
+    assert codes.strip("[]") == ", ".join(["0"] * len(CHEAP_SCIPY)), proc.stderr
+    assert loaded.strip() == "", f"imported by an FSC design: {loaded}"
+    assert (tmp_path / "fw" / "hdd_ff.c").is_file()
+
+
+#: Commands that need SciPy's own algorithms (AAA and least squares, DOP853, QUADPACK):
+#: their start line (``SERVOKIT_PROGRESS=1``) comes before the SciPy subpackage loads.
+LATE_SCIPY = (
+    (["fit", "FRF", "--out", "fitted", "--modes", "2"], "scipy.interpolate"),
+    (["ssa", "adaptive", "--duration", "2e-4"], "scipy.integrate"),
+    (["limits", "variance", "--num", "40000", "--den", "1,300,0", "--dist-num", "1",
+      "--dist-den", "0.01,1"], "scipy.integrate"),
+)  # fmt: skip
+
+_ORDER = r"""
+import importlib.abc, sys
+class Finder(importlib.abc.MetaPathFinder):
+    def find_spec(self, name, path, target=None):
+        if name == %r:
+            print("IMPORT", name, file=sys.stderr, flush=True)
+sys.meta_path.insert(0, Finder())
+sys.argv = ["servokit", *%r]
+import servokit.cli
+servokit.cli.main()
+"""
+
+
+def test_scipy_commands_start_before_importing_scipy(tmp_path) -> None:  # noqa: ANN001
+    import os
+    from pathlib import Path
+
+    frf = str(Path(__file__).resolve().parents[1] / "examples" / "data" / "stage_frf.csv")
+    for argv, module in LATE_SCIPY:
+        argv = [frf if a == "FRF" else a for a in argv]
+        proc = subprocess.run(  # a fresh interpreter each: the import order is the point
+            [sys.executable, "-c", _ORDER % (module, argv)],
+            cwd=tmp_path,
+            capture_output=True,
+            text=True,
+            timeout=120,
+            env={**os.environ, "SERVOKIT_PROGRESS": "1"},
+        )
+        assert proc.returncode == 0, proc.stderr
+        lines = proc.stderr.splitlines()
+        start = next(i for i, line in enumerate(lines) if line.startswith(f"{argv[0]}"))
+        assert f"IMPORT {module}" in lines[start + 1 :], proc.stderr  # loaded, after the line
+
+
 #: Commands whose loops now run on numpy coefficients (issue 23: pes, dual-stage, identify
 #: imported python-control for a controller or a filter); scipy.linalg is listed per command
 #: where it is still honest (dual-stage: the plant zeros from the Rosenbrock pencil).

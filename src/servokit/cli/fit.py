@@ -7,7 +7,17 @@ from typing import Annotated
 
 import typer
 
-from servokit.cli._app import JsonOpt, PlotOpt, app, console, emit_json, example, plot_target, wrote
+from servokit.cli._app import (
+    JsonOpt,
+    PlotOpt,
+    app,
+    console,
+    emit_json,
+    example,
+    plot_target,
+    started,
+    wrote,
+)
 from servokit.errors import ServokitValueError, check_count, check_input_file, check_out_dir
 
 PLANT_FILE = "plant.toml"
@@ -160,7 +170,10 @@ def fit_cmd(
     except ServokitValueError as exc:
         raise ServokitValueError(f"FRF_FILE {exc}") from None
     try:
-        fit = fit_modal(freq, resp, n_modes=n_modes, band=f_band, name=Path(src).stem)
+        fit = fit_modal(
+            freq, resp, n_modes=n_modes, band=f_band, name=Path(src).stem,
+            started=lambda what: started("fit", f"{what} -> {out_dir / PLANT_FILE}"),
+        )  # fmt: skip
     except ServokitValueError as exc:
         flag = "--modes" if "n_modes" in str(exc) else "--band" if f_band else "FRF_FILE"
         raise ServokitValueError(f"{flag}: {str(exc).replace('n_modes', '--modes')}") from None

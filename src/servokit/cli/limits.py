@@ -16,6 +16,7 @@ from servokit.cli._app import (
     example,
     flag_names,
     plot_target,
+    started,
     sub_app,
     wrote,
 )
@@ -190,7 +191,9 @@ def variance_cmd(
     loop = _loop(num, den, dt)
     dist = _disturbance(dist_num, dist_den, dt)
     with flag_names(_VARIANCE_FLAGS):
-        res = variance_against_bound(loop, dist, delta=delta, k=k)
+        res = variance_against_bound(
+            loop, dist, delta=delta, k=k, started=lambda what: started("limits variance", what)
+        )
     if plot is not None:
         from servokit.limits.plots import variance_plot
 

@@ -7,7 +7,7 @@ from typing import Annotated
 import numpy as np
 import typer
 
-from servokit.cli._app import JsonOpt, console, emit_json, example, flag_names, sub_app
+from servokit.cli._app import JsonOpt, console, emit_json, example, flag_names, started, sub_app
 from servokit.cli._options import FLAG_RANGES
 from servokit.errors import ServokitValueError
 
@@ -163,6 +163,8 @@ def adaptive_cmd(
         raise ServokitValueError(f"--duration must be in (0, 0.02] s (got {duration})")
     if not 1 <= n_modes <= 4:
         raise ServokitValueError(f"--n-modes must be 1..4 (got {n_modes})")
+    # SciPy's ODE solver (DOP853) is the slow part of the start: its import costs 0.5 s
+    started("ssa adaptive", f"integrating {duration:g} s of a {n_modes}-mode beam (DOP853)")
     run = simulate_adaptive(
         cantilever_beam(n_modes),
         AdaptiveGains(),

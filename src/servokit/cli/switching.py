@@ -16,9 +16,9 @@ from servokit.cli._app import (
     emit_json,
     example,
     flag_names,
-    load_controller,
     load_plant,
     plot_target,
+    started,
     sub_app,
     wrote,
 )
@@ -26,6 +26,7 @@ from servokit.cli._options import (
     check_state_size,
     controller_states,
     discrete_states,
+    load_controller_data,
     refuse_inapplicable,
 )
 from servokit.errors import (
@@ -70,9 +71,13 @@ def _build_loop(
     plant: str, controller: str, freq: float, dt: float | None, max_memory_mb: float
 ) -> SwitchedLoop:
     """Discretise the plant at the controller's (or --dt) period and close the loop; a
-    plant whose discrete loop would not fit --max-memory-mb is refused before it is built."""
+    plant whose discrete loop would not fit --max-memory-mb is refused before it is built.
+
+    Plant, controller and lead-lag are numpy data (the plant's exact ZOH by
+    ``scipy.linalg.expm``, as :meth:`~servokit.models.ModalPlant.discretize`): the same
+    matrices bit for bit, python-control left unloaded (start-up, issue 23)."""
     from servokit.switching import switched_loop
-    from servokit.switching.design import lead_lag
+    from servokit.switching.design import lead_lag_data
 
     if dt is not None:
         check_positive("--dt", dt, "s")
@@ -91,12 +96,12 @@ def _build_loop(
             )
         n = discrete_states(p, dt, _LEAD_LAG_STATES)
         check_state_size(n, what=f"--plant {plant} at --dt {dt:g}", max_memory_mb=max_memory_mb)
-        pd = p.discretize(dt)
-        return switched_loop(pd, lead_lag(pd, freq))
-    ctrl = load_controller(controller, dt)
+        pd = p.discretize_data(dt)
+        return switched_loop(pd, lead_lag_data(pd, freq))
+    ctrl = load_controller_data(controller, dt)
     n = discrete_states(p, float(ctrl.dt), controller_states(ctrl))
     check_state_size(n, what=f"--plant {plant}", max_memory_mb=max_memory_mb)
-    return switched_loop(p.discretize(float(ctrl.dt)), ctrl)
+    return switched_loop(p.discretize_data(float(ctrl.dt)), ctrl)
 
 
 #: States of the 'lead-lag' controller (a lead, a lag and an integrator at most).
@@ -341,6 +346,8 @@ def admissible_cmd(
         what=f"--t-max {t_max} with {N} states",
         max_memory_mb=max_memory_mb,
     )
+    # the LPs take a second or more: say so once every argument has passed its checks
+    started("switching admissible-set", f"O_inf of {N} states, horizons up to {t_max} samples")
     res = admissible_conditions(loop, u_max, pts, t_max=t_max)
     _admissible_render(res, pts, u_max, plot, json_out)
 

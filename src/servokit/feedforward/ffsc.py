@@ -33,8 +33,8 @@ import numpy as np
 
 from servokit.errors import ServokitTypeError, ServokitValueError, check_finite
 from servokit.feedforward.fsc import final_state_control, lifted_model
-from servokit.models._zoh import zoh_pair
-from servokit.models.modal import ModalPlant, modal_matrices
+from servokit.models._zoh import block_diagonal, modal_zoh
+from servokit.models.modal import ModalPlant
 
 __all__ = [
     "StepsBelowOrderError",
@@ -185,7 +185,12 @@ def augmented_design_model(plant: ModalPlant, dt: float) -> tuple[np.ndarray, np
     """Exact ZOH of ``plant`` (delay ignored) augmented with ``1/(z-1)``, eqs. (2.38)-(2.41).
 
     The state is ``[x_d, u_c]`` with ``x_d`` in the modal order of
-    :meth:`ModalPlant.to_statespace` (``[q_i, dq_i/dt]`` per mode).
+    :meth:`ModalPlant.to_statespace` (``[q_i, dq_i/dt]`` per mode). Each mode's ZOH is
+    the closed form of :func:`~servokit.models._zoh.modal_zoh` (equal to
+    ``scipy.linalg.expm`` of the mode's Van Loan matrix to ~1e-13 of each row, which
+    ``tests/test_fsc_numpy_core.py`` checks), so that a seek design never imports
+    scipy.linalg, whose import alone costs a command's start-up a fifth of a second
+    (issue 23).
 
     Parameters
     ----------
@@ -205,12 +210,11 @@ def augmented_design_model(plant: ModalPlant, dt: float) -> tuple[np.ndarray, np
     n_modal : int
         Number ``n`` of modal states (twice the number of modes); ``u_c`` is state ``n``.
     """
-    Ac, Bc, _ = modal_matrices(*plant.arrays())
-    Ad, Bd = zoh_pair(Ac, Bc, dt)
-    n = Ad.shape[0]
+    Phis, Gammas = modal_zoh(*plant.arrays(), dt)
+    n = 2 * Phis.shape[0]
     A = np.zeros((n + 1, n + 1))
-    A[:n, :n] = Ad
-    A[:n, n] = Bd[:, 0]
+    A[:n, :n] = block_diagonal(Phis)
+    A[:n, n] = Gammas.reshape(n)
     A[n, n] = 1.0
     B = np.zeros(n + 1)
     B[n] = 1.0

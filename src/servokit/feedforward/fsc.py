@@ -17,6 +17,11 @@ minimum-Euclidean-norm solution of ``(Sigma R^{-1}) V = X``; its rows are equili
 minimum-norm solution is taken from a QR factorisation of the transposed matrix.  The
 final-state residual is checked row-wise against the size of each equation
 (||Sigma_i|| ||U|| + |x_i|) before returning.
+
+Start-up (issue 23): the factorisations are numpy's LAPACK (``numpy.linalg.qr``, the same
+Householder QR as ``scipy.linalg.qr``, and the triangular solves of :func:`_solve_upper`),
+so that a seek design does not import scipy.linalg, whose import alone costs a command a
+fifth of a second.  ``tests/test_fsc.py`` compares them with the SciPy routines.
 """
 
 from __future__ import annotations
@@ -24,7 +29,6 @@ from __future__ import annotations
 from dataclasses import dataclass
 
 import numpy as np
-import scipy  # scipy.linalg is loaded by SciPy on first use (start-up)
 
 from servokit.errors import ServokitTypeError, ServokitValueError, check_finite
 
@@ -56,6 +60,20 @@ def _as_system(A: object, B: object) -> tuple[np.ndarray, np.ndarray]:
     if B.shape[0] != n:
         raise ServokitValueError(f"B must have {n} rows to match A, got {B.shape[0]}")
     return A, B
+
+
+def _solve_upper(R: np.ndarray, b: np.ndarray, *, trans: bool = False) -> np.ndarray:
+    """``R^{-1} b`` (or ``R^{-T} b``) for an upper-triangular, non-singular ``R``.
+
+    ``numpy.linalg.solve`` factorises ``R = P L U`` with partial pivoting; below the
+    diagonal of an upper-triangular matrix every entry is an exact zero, so no row is
+    swapped, ``L = I`` and ``U = R`` exactly, and the solve is the back substitution of
+    ``scipy.linalg.solve_triangular`` (equal to rounding, tested).  ``R^T`` is lower
+    triangular: reversing the order of rows and columns makes it upper triangular again.
+    """
+    if not trans:
+        return np.linalg.solve(R, b)
+    return np.linalg.solve(R.T[::-1, ::-1], b[::-1])[::-1]
 
 
 def _as_steps(N: object) -> int:
@@ -150,7 +168,7 @@ def min_norm_final_state(
         If ``Sigma`` is (numerically) rank deficient or the residual check fails.
     """
     n, N = Sigma.shape
-    M = Sigma if R is None else scipy.linalg.solve_triangular(R, Sigma.T, trans="T").T
+    M = Sigma if R is None else _solve_upper(R, Sigma.T, trans=True).T
     # Row equilibration: scaling equation i by 1/||M_i|| leaves the solution unchanged but
     # makes the QR below insensitive to the very different units of the states.
     row_norm = np.linalg.norm(M, axis=1)
@@ -162,15 +180,15 @@ def min_norm_final_state(
         )
     Ms = M / row_norm[:, None]
     Xs = X / row_norm
-    Qf, Rf = scipy.linalg.qr(Ms.T, mode="economic")
+    Qf, Rf = np.linalg.qr(Ms.T, mode="reduced")
     diag = np.abs(np.diag(Rf))
     if diag.min() <= _RANK_TOL * max(diag.max(), 1.0) * np.sqrt(N):
         raise ServokitValueError(
             "the reachability matrix is rank deficient: the pair (A, B) is not controllable "
             f"in N={N} steps (or numerically uncontrollable); check A and B, or use a larger N"
         )
-    V = Qf @ scipy.linalg.solve_triangular(Rf, Xs, trans="T")
-    U = V if R is None else scipy.linalg.solve_triangular(R, V)
+    V = Qf @ _solve_upper(Rf, Xs, trans=True)
+    U = V if R is None else _solve_upper(R, V)
     if not np.all(np.isfinite(U)):
         raise ServokitValueError(
             "final-state control produced a non-finite input; rescale the model"
@@ -264,15 +282,15 @@ def final_state_control(
             raise ServokitValueError(f"Q must be ({N}, {N}) to match N, got {Qm.shape}")
         if not np.allclose(Qm, Qm.T, rtol=1e-10, atol=0.0):
             raise ServokitValueError("Q must be symmetric; pass (Q + Q.T) / 2")
-        try:
-            R = scipy.linalg.cholesky(Qm, lower=False)
+        try:  # numpy returns the lower factor L = R^T
+            R = np.linalg.cholesky(Qm).T
         except np.linalg.LinAlgError:
             raise ServokitValueError("Q must be positive definite (Cholesky failed)") from None
     elif Q_factor is not None:
         W = check_finite("Q_factor", Q_factor)
         if W.ndim != 2 or W.shape[1] != N or W.shape[0] < N:
             raise ServokitValueError(f"Q_factor must be (M, {N}) with M >= {N}, got {W.shape}")
-        R = scipy.linalg.qr(W, mode="r")[0][:N]
+        R = np.linalg.qr(W, mode="r")[:N]
         if np.min(np.abs(np.diag(R))) <= 1e-14 * np.max(np.abs(np.diag(R))):
             raise ServokitValueError("Q_factor must have full column rank (Q = W^T W singular)")
     # x[N] - A^N x[0] by N matrix-vector products (never A^N as a matrix power).

@@ -287,6 +287,7 @@ def variance_against_bound(
     *,
     delta: float = 0.5,
     k: int = 1,
+    started: Callable[[str], None] | None = None,
 ) -> VarianceComparison:
     """The roll-off bandwidth of ``loop``, the output variance under ``disturbance`` and its
     lower bound, (6.13)-(6.16).
@@ -299,6 +300,10 @@ def variance_against_bound(
         Shaping filter ``D`` of unit-variance white noise, with the loop's time base.
     delta, k : float, int
         Roll-off constants of (6.14).
+    started : callable, optional
+        Called with a one-line description once the loop is checked (stable) and its
+        roll-off bandwidth found, before the quadratures (whose SciPy import is most of a
+        short run: a command's start line, issue 23).
 
     Returns
     -------
@@ -322,6 +327,8 @@ def variance_against_bound(
             f"unstable (pole at {complex(worst):.4g})"
         )
     omega_hz = rolloff_bandwidth(loop, delta=delta, k=k)
+    if started is not None:
+        started(f"roll-off bandwidth {omega_hz:.4g} Hz; integrating (6.13) and (6.16)")
     try:
         vb = variance_lower_bound(disturbance, omega_hz, delta=delta, k=k, dt=dt)
     except ServokitValueError as exc:

@@ -21,6 +21,7 @@ import numpy as np
 import scipy  # scipy.linalg is loaded by SciPy on first use (start-up)
 
 __all__ = [
+    "block_diagonal",
     "damped_pair",
     "delayed_zoh",
     "expm_batched",
@@ -151,7 +152,8 @@ def damped_pair(w: np.ndarray, sigma: np.ndarray, t: np.ndarray) -> tuple[np.nda
     over = q < 0
     if np.any(over):
         a = np.sqrt(np.maximum(-q, 0.0))
-        with np.errstate(divide="ignore", invalid="ignore"):
+        # (entries that are not overdamped give inf/nan here, dropped by np.where below)
+        with np.errstate(divide="ignore", invalid="ignore", over="ignore"):
             slow = np.exp(-(w * w) / (a + sigma) * t)  # e^{(a - sigma) t}
             fast = -np.expm1(-2.0 * a * t)  # 1 - e^{-2 a t}
             ec_o = 0.5 * slow * (2.0 - fast)
@@ -263,6 +265,26 @@ def modal_delayed_zoh(
     Phis, Gs = modal_zoh(w[None], zeta[None], r[None], times)
     Gold = np.einsum("...ij,...j->...i", Phis[1], Gs[2])
     return Phis[0], Gs[1], Gold, d
+
+
+def block_diagonal(blocks: np.ndarray) -> np.ndarray:
+    """The block-diagonal matrix (m k, m k) of a stack of ``m`` square blocks (m, k, k).
+
+    Parameters
+    ----------
+    blocks : ndarray (m, k, k)
+        The diagonal blocks in order (e.g. the per-mode ``Phi`` of :func:`modal_zoh`).
+
+    Returns
+    -------
+    ndarray (m k, m k)
+        Zero outside the blocks.
+    """
+    blocks = np.asarray(blocks, dtype=float)
+    m, k = blocks.shape[0], blocks.shape[-1]
+    out = np.zeros((m, k, m, k))
+    out[np.arange(m), :, np.arange(m), :] = blocks
+    return out.reshape(m * k, m * k)
 
 
 def split_delay(dt: float, delay: float) -> tuple[int, float]:

@@ -26,6 +26,7 @@ Parameter uncertainties are the standard deviations of the linearised covariance
 from __future__ import annotations
 
 import warnings
+from collections.abc import Callable
 from dataclasses import dataclass
 from functools import partial
 from typing import Literal
@@ -329,6 +330,7 @@ def fit_modal(
     max_delay: float | None = None,
     max_modes: int = MAX_AUTO_MODES,
     name: str = "fitted",
+    started: Callable[[str], None] | None = None,
 ) -> ModalFit:
     """Fit a modal plant with delay (eq. 2.73) to an FRF (method in the module docstring).
 
@@ -355,6 +357,10 @@ def fit_modal(
         Largest number of resonances ``n_modes="auto"`` tries.
     name : str
         Name of the fitted plant.
+    started : callable, optional
+        Called with a one-line description once the data and arguments are checked,
+        before the fit (whose SciPy imports are most of a small fit's time: a command's
+        start line, issue 23).
 
     Returns
     -------
@@ -368,6 +374,9 @@ def fit_modal(
     if n_modes != "auto":
         n_modes = check_count("n_modes", n_modes, lo=0)
     max_modes = check_count("max_modes", max_modes, lo=0)
+    if started is not None:
+        what = "0.." + str(max_modes) if n_modes == "auto" else str(n_modes)
+        started(f"fitting {what} resonance(s) to {f.size} points")
     # small dense problems: BLAS threads only contend (a loaded 2-core box ran 50x slower)
     with threadpool_limits(limits=1):
         return _fit(f, H, n_modes, delay, rigid_body, friction, max_delay, max_modes, name)

@@ -24,7 +24,7 @@ from typing import TYPE_CHECKING, Literal
 import numpy as np
 
 from servokit.errors import ServokitTypeError, ServokitValueError
-from servokit.models._zoh import delayed_zoh, modal_delayed_zoh
+from servokit.models._zoh import block_diagonal, delayed_zoh, modal_delayed_zoh
 from servokit.models.rational import StateSpaceData
 
 if TYPE_CHECKING:
@@ -301,9 +301,7 @@ class ModalPlant:
             raise ServokitValueError(f"method must be 'expm' or 'modal' (got {method!r})")
         Phis, Gns, Gos, d = modal_delayed_zoh(w, z, r, dt, self.delay)
         n = 2 * w.size
-        Phi = np.zeros((n, n))
-        for i in range(w.size):  # block diagonal, one 2x2 block per mode
-            Phi[2 * i : 2 * i + 2, 2 * i : 2 * i + 2] = Phis[i]
+        Phi = block_diagonal(Phis)  # one 2x2 block per mode
         return _with_delay_line(Phi, Gns.reshape(n, 1), Gos.reshape(n, 1), d, C, dt)
 
     def __str__(self) -> str:

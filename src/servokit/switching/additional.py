@@ -35,7 +35,7 @@ from collections.abc import Sequence
 from dataclasses import dataclass
 
 import numpy as np
-import scipy.linalg  # scipy.signal is loaded by SciPy on first use (start-up)
+import scipy  # scipy.linalg and scipy.signal load on first use (start-up)
 
 from servokit._lazy import control
 from servokit.errors import ServokitValueError, check_count, check_finite

@@ -13,12 +13,14 @@ from __future__ import annotations
 
 from functools import lru_cache
 
-from servokit._lazy import control
+import numpy as np
+
+from servokit.models.rational import StateSpaceData
 from servokit.switching.design import (
     fit_delay_ratio,
-    lead_lag,
-    pade_double_integrator,
-    place_controller,
+    lead_lag_data,
+    pade_double_integrator_data,
+    place_controller_data,
 )
 from servokit.switching.loop import SwitchedLoop, switched_loop
 
@@ -109,8 +111,8 @@ def book_loop(
         The closed loop of (3.17) (plant and controller matrices).
     """
     r = delay_ratio(tuple(plant_zeros)) if ratio is None else ratio
-    plant = pade_double_integrator(dt, r * dt)
-    return switched_loop(plant, place_controller(plant, expand_poles(poles)))
+    plant = pade_double_integrator_data(dt, r * dt)  # numpy: python-control left unloaded
+    return switched_loop(plant, place_controller_data(plant, expand_poles(poles)))
 
 
 def jmin_loop(dt: float = DT, crossover_hz: float = 250.0) -> SwitchedLoop:
@@ -130,5 +132,9 @@ def jmin_loop(dt: float = DT, crossover_hz: float = 250.0) -> SwitchedLoop:
     SwitchedLoop
         The closed loop of (3.17) (plant and controller matrices).
     """
-    rigid = control.c2d(control.ss([[0, 1], [0, 0]], [[0], [1]], [[1, 0]], 0), dt, "zoh")
-    return switched_loop(rigid, lead_lag(rigid, crossover_hz))
+    from servokit.models._zoh import zoh_pair
+
+    # python-control's c2d(ss(...), dt, "zoh") arithmetic: expm([[A, B], [0, 0]] dt)
+    phi, gam = zoh_pair(np.array([[0.0, 1.0], [0.0, 0.0]]), np.array([[0.0], [1.0]]), dt)
+    rigid = StateSpaceData(phi, gam, [[1.0, 0.0]], [[0.0]], dt)
+    return switched_loop(rigid, lead_lag_data(rigid, crossover_hz))

@@ -12,6 +12,12 @@ builds that structure with the unknowns explicit:
 - :func:`place_controller`: the controller ``Nc / Dc`` of order m whose closed loop has the
   given poles, from the Diophantine equation ``Dp Dc + Np Nc = prod (z - p_i)`` (linear in
   the controller coefficients: n + m equations, 2m + 1 unknowns, square for m = n - 1).
+
+Each builder has a ``*_data`` twin returning servokit's numpy LTI data
+(:class:`~servokit.models.rational.StateSpaceData`, :class:`~servokit.models.rational.RationalTF`)
+with python-control's arithmetic reproduced bit for bit (``c2d`` ZOH, ``ss2tf``, transfer
+function algebra, Tustin), so the switching commands start without importing
+python-control (issue 23); the python-control versions convert those.
 """
 
 from __future__ import annotations
@@ -22,8 +28,18 @@ import numpy as np
 
 from servokit._lazy import control
 from servokit.errors import ServokitValueError, check_positive
+from servokit.models.rational import RationalTF, StateSpaceData, as_state_space_data
 
-__all__ = ["pade_double_integrator", "fit_delay_ratio", "place_controller", "lead_lag", "notch"]
+__all__ = [
+    "pade_double_integrator",
+    "pade_double_integrator_data",
+    "fit_delay_ratio",
+    "place_controller",
+    "place_controller_data",
+    "lead_lag",
+    "lead_lag_data",
+    "notch",
+]
 
 
 def pade_double_integrator(
@@ -31,11 +47,32 @@ def pade_double_integrator(
 ) -> control.StateSpace:
     """ZOH discretisation of ``gain / s^2`` behind a first-order Padé delay.
 
+    Parameters
+    ----------
+    dt, delay, gain, damping
+        As :func:`pade_double_integrator_data`.
+
+    Returns
+    -------
+    control.StateSpace
+        Discrete plant with states [position, velocity, Padé state].
+    """
+    return pade_double_integrator_data(dt, delay, gain, damping).to_control()
+
+
+def pade_double_integrator_data(
+    dt: float, delay: float, gain: float = 1.0, damping: float = 0.0
+) -> StateSpaceData:
+    """ZOH discretisation of ``gain / s^2`` behind a first-order Padé delay, as numpy arrays
+    (:func:`pade_double_integrator` without python-control).
+
     With ``damping = b > 0`` the mechanics is ``gain / (s (s + b))`` (viscous friction or
     a velocity loop: the rigid-body pole moves from 0 to -b).
 
     States ``[position, velocity, w]`` where ``w`` is the Padé state
     (``Td/2 w' = u - w``, delayed input ``2 w - u``): ``w = 0`` means no stored input.
+    The ZOH is ``expm([[A, B], [0, 0]] dt)`` (:func:`~servokit.models._zoh.zoh_pair`), the
+    arithmetic of python-control's ``c2d(sys, dt, "zoh")``: the same matrices bit for bit.
 
     Parameters
     ----------
@@ -50,15 +87,18 @@ def pade_double_integrator(
 
     Returns
     -------
-    control.StateSpace
+    StateSpaceData
         Discrete plant with states [position, velocity, Padé state].
     """
+    from servokit.models._zoh import zoh_pair
+
     dt = check_positive("dt", dt, "s")
     td = check_positive("delay", delay, "s")
     a = np.array([[0.0, 1.0, 0.0], [0.0, -damping, 2.0 * gain], [0.0, 0.0, -2.0 / td]])
     b = np.array([[0.0], [-gain], [2.0 / td]])
     c = np.array([[1.0, 0.0, 0.0]])
-    return control.c2d(control.ss(a, b, c, 0), dt, "zoh")
+    phi, gam = zoh_pair(a, b, dt)
+    return StateSpaceData(phi, gam, c, np.zeros((1, 1)), dt)
 
 
 def fit_delay_ratio(zeros: Sequence[float]) -> float:
@@ -82,7 +122,7 @@ def fit_delay_ratio(zeros: Sequence[float]) -> float:
         raise ServokitValueError("zeros must hold the plant's two discrete zeros")
 
     def miss(ratio: float) -> float:
-        z = np.sort(np.real(control.zeros(pade_double_integrator(1.0, ratio))))
+        z = np.sort(np.real(pade_double_integrator_data(1.0, ratio).zeros()))
         return float(np.sum(((z - 1) / (z + 1) - (target - 1) / (target + 1)) ** 2))
 
     from scipy.optimize import minimize_scalar
@@ -99,6 +139,37 @@ def place_controller(
 ) -> control.TransferFunction:
     """Controller ``Nc/Dc`` of ``order`` placing the closed-loop poles (Diophantine equation).
 
+    Parameters
+    ----------
+    plant_d, poles, order, fixed_poles
+        As :func:`place_controller_data`.
+
+    Returns
+    -------
+    control.TransferFunction
+        :func:`place_controller_data`'s controller, converted.
+    """
+    return place_controller_data(plant_d, poles, order, fixed_poles).to_control()
+
+
+def _ss2tf(plant_d: object) -> RationalTF:
+    """A SISO state space as coefficients: ``den = det(zI - A)``,
+    ``num = det(zI - A + B C) + (D - 1) den`` (SciPy's ``ss2tf``, which python-control
+    calls without slycot: the same coefficients bit for bit)."""
+    ss = as_state_space_data(plant_d)
+    den = np.poly(ss.A)
+    num = np.poly(ss.A - ss.B @ ss.C[:1]) + (ss.D[0, 0] - 1.0) * den
+    return RationalTF(num, den, ss.dt)
+
+
+def place_controller_data(
+    plant_d: object,
+    poles: Sequence[complex],
+    order: int = 2,
+    fixed_poles: Sequence[complex] = (),
+) -> RationalTF:
+    """:func:`place_controller` as numpy coefficients (python-control left unloaded).
+
     The loop is ``u = C (r - y)``, so the characteristic polynomial is
     ``Dp Dc + Np Nc`` (monic). ``Dc = F Dc'`` with the ``fixed_poles`` in F (e.g. an
     integrator at z = 1). Needs ``len(poles) == n + order`` and a unique solution
@@ -106,7 +177,7 @@ def place_controller(
 
     Parameters
     ----------
-    plant_d : control.StateSpace
+    plant_d : StateSpaceData or control.StateSpace
         Discrete SISO plant.
     poles : sequence of complex
         The n + order closed-loop poles (conjugate pairs complete).
@@ -117,12 +188,12 @@ def place_controller(
 
     Returns
     -------
-    control.TransferFunction
-        The controller Nc/Dc.
+    RationalTF
+        The controller Nc/Dc at the plant's period.
     """
-    tf = control.ss2tf(plant_d)
-    dp = np.asarray(tf.den[0][0], dtype=float)
-    npoly = np.asarray(tf.num[0][0], dtype=float) / dp[0]
+    tf = _ss2tf(plant_d)
+    dp = tf.denominator
+    npoly = tf.numerator / dp[0]
     dp = dp / dp[0]
     n = len(dp) - 1
     poles = np.asarray(poles, dtype=complex)
@@ -146,13 +217,41 @@ def place_controller(
         )
     sol = np.linalg.solve(M, rhs)
     den = np.convolve(fixed, np.concatenate([[1.0], sol[:free]]))
-    return control.tf(sol[free:], den, plant_d.dt)
+    return RationalTF(sol[free:], den, tf.dt)
 
 
 def lead_lag(
     plant_d: control.StateSpace, crossover_hz: float, lead_ratio: float = 3.0, *, lag: bool = True
 ) -> control.TransferFunction:
     """A second-order lead-lag controller with its gain crossover at ``crossover_hz``.
+
+    Parameters
+    ----------
+    plant_d, crossover_hz, lead_ratio, lag
+        As :func:`lead_lag_data`.
+
+    Returns
+    -------
+    control.TransferFunction
+        :func:`lead_lag_data`'s controller, converted.
+    """
+    return lead_lag_data(plant_d, crossover_hz, lead_ratio, lag=lag).to_control()
+
+
+def _corner(w: float) -> RationalTF:
+    """``s / w + 1`` as python-control's ``tf("s") / w + 1`` computes it (``[1, w] / [w]``)."""
+    return RationalTF([1.0, 0.0], [1.0]) * RationalTF([1.0], [w]) + 1.0
+
+
+def _over(a: RationalTF, b: RationalTF) -> RationalTF:
+    """``a / b`` with python-control's coefficients (``num_a den_b / (den_a num_b)``)."""
+    return a * RationalTF(b.denominator, b.numerator, b.dt)
+
+
+def lead_lag_data(
+    plant_d: object, crossover_hz: float, lead_ratio: float = 3.0, *, lag: bool = True
+) -> RationalTF:
+    """:func:`lead_lag` as numpy coefficients (python-control left unloaded).
 
     Lead: zero at fc/r, pole at r fc with r = ``lead_ratio`` (53 deg of lead at fc for
     r = 3); lag: zero at fc/5, pole at fc/50 (integral-like gain at low frequency).
@@ -161,7 +260,7 @@ def lead_lag(
 
     Parameters
     ----------
-    plant_d : control.StateSpace
+    plant_d : StateSpaceData or control.StateSpace
         Discrete plant (sets dt and the gain normalisation).
     crossover_hz : float
         Gain crossover [Hz].
@@ -172,25 +271,27 @@ def lead_lag(
 
     Returns
     -------
-    control.TransferFunction
+    RationalTF
         The discrete controller.
     """
     fc = check_positive("crossover_hz", crossover_hz, "Hz")
-    dt = float(plant_d.dt)
+    plant = _ss2tf(plant_d)
+    dt = plant.dt
     if fc >= 0.5 / dt / 3:
         raise ServokitValueError(
             f"crossover_hz must be below a third of Nyquist ({0.5 / dt / 3:g} Hz)"
         )
     w = 2 * np.pi * fc
-    s = control.tf("s")
     r = check_positive("lead_ratio", lead_ratio)
-    shape = (s / (w / r) + 1) / (s / (r * w) + 1)
+    # the coefficient arithmetic of python-control's (s/(w/r) + 1)/(s/(r w) + 1) ..., so
+    # the controller (and the IVC gains on its states) are the same bit for bit
+    shape = _over(_corner(w / r), _corner(r * w))
     if lag:  # without it: a first-order lead only (a PD with roll-off)
-        shape = shape * (s / (w / 5) + 1) / (s / (w / 50) + 1)
-    c = control.c2d(shape, dt, "tustin")
+        shape = _over(shape * _corner(w / 5), _corner(w / 50))
+    c = shape.tustin(dt)
     z = np.exp(1j * w * dt)
-    mag = abs(complex(control.evalfr(control.ss2tf(plant_d), z) * control.evalfr(c, z)))
-    return c / mag
+    mag = abs(complex(plant(z) * c(z)))
+    return RationalTF(c.numerator, c.denominator * mag, dt)
 
 
 def notch(

@@ -16,10 +16,11 @@ from __future__ import annotations
 from dataclasses import dataclass
 
 import numpy as np
-import scipy.linalg
+import scipy  # scipy.linalg loads on first use (start-up)
 
 from servokit._lazy import control
 from servokit.errors import ServokitTypeError, ServokitValueError
+from servokit.models.rational import RationalTF, StateSpaceData
 
 __all__ = [
     "SwitchedLoop",
@@ -112,15 +113,25 @@ class SwitchedLoop:
         return np.linalg.eigvals(self.A)
 
 
-def _as_discrete_ss(name: str, sys: object) -> control.StateSpace:
-    if isinstance(sys, control.TransferFunction):
-        sys = control.ss(sys)
-    if not isinstance(sys, control.StateSpace):
-        raise ServokitTypeError(
-            f"{name} must be a python-control StateSpace or TransferFunction "
-            f"(got {type(sys).__name__})"
-        )
-    if sys.dt is None or sys.dt is True or not sys.dt:
+def _as_discrete_ss(name: str, sys: object) -> StateSpaceData:
+    """``sys`` as discrete numpy matrices: servokit's own LTI data as they are (a
+    :class:`RationalTF` by the companion form python-control's ``ss`` also builds), a
+    python-control system converted (python-control is imported only for one)."""
+    if isinstance(sys, RationalTF):
+        sys = sys.to_state_space()
+    elif not isinstance(sys, StateSpaceData):
+        if isinstance(sys, control.TransferFunction):
+            sys = control.ss(sys)
+        if not isinstance(sys, control.StateSpace):
+            raise ServokitTypeError(
+                f"{name} must be a python-control StateSpace or TransferFunction, or "
+                f"servokit's StateSpaceData or RationalTF (got {type(sys).__name__})"
+            )
+        if sys.dt is None or sys.dt is True:  # continuous, or discrete with no period
+            sys = StateSpaceData(sys.A, sys.B, sys.C, sys.D, 0.0)
+        else:
+            sys = StateSpaceData(sys.A, sys.B, sys.C, sys.D, sys.dt)
+    if not sys.dt:
         raise ServokitValueError(f"{name} must be discrete with a numeric dt; discretise it first")
     return sys
 
@@ -130,11 +141,11 @@ def switched_loop(plant_d: object, controller_d: object) -> SwitchedLoop:
 
     Parameters
     ----------
-    plant_d : control.StateSpace or control.TransferFunction
+    plant_d : control.StateSpace, control.TransferFunction, StateSpaceData or RationalTF
         Discrete, strictly proper plant with one input (one or more outputs, e.g. the
         PMR of §3.4.2). Its state coordinates are the xp the IVC
         gain acts on, so pass a state space when the states have a physical meaning.
-    controller_d : control.StateSpace or control.TransferFunction
+    controller_d : control.StateSpace, control.TransferFunction, StateSpaceData or RationalTF
         Discrete controller with the same ``dt``, one output, driven by ``r - y``.
 
     Returns
@@ -157,7 +168,7 @@ def switched_loop(plant_d: object, controller_d: object) -> SwitchedLoop:
         raise ServokitValueError("plant must be strictly proper (D = 0) for the loop of (3.17)")
     if c.nstates == 0:
         raise ServokitValueError("controller has no states; IVC needs a dynamic controller")
-    mats = [np.asarray(M, dtype=float) for M in (p.A, p.B, p.C, c.A, c.B, c.C, c.D)]
+    mats = [np.array(M, dtype=float) for M in (p.A, p.B, p.C, c.A, c.B, c.C, c.D)]  # writable
     loop = SwitchedLoop(*mats, dt=float(p.dt))
     if not np.all(np.isfinite(loop.A)):
         raise ServokitValueError("plant or controller holds NaN/inf coefficients")
