@@ -313,3 +313,82 @@ def test_scipy_commands_start_before_importing_scipy(tmp_path) -> None:  # noqa:
         lines = proc.stderr.splitlines()
         start = next(i for i, line in enumerate(lines) if line.startswith(f"{argv[0]}"))
         assert f"IMPORT {module}" in lines[start + 1 :], proc.stderr  # loaded, after the line
+
+
+#: Commands whose loops now run on numpy coefficients (issue 23: pes, dual-stage, identify
+#: imported python-control for a controller or a filter); scipy.linalg is listed per command
+#: where it is still honest (dual-stage: the plant zeros from the Rosenbrock pencil).
+CHEAP_LOOPS = (
+    (["pes", "--peak-filter", "960:0.08:12", "--n-revolutions", "20"], ("scipy.linalg",)),
+    (["pes", "--json", "--n-revolutions", "20"], ("scipy.linalg",)),
+    (["dual-stage", "--method", "inverse", "--json"], ()),
+    (["dual-stage", "--method", "gain", "--structure", "cms"], ()),
+    (
+        "identify --plant vcm-dual-stage --controller table-5.2 --fmin 1000 --fmax 3000 "
+        "--freq-step 1000".split(),
+        ("scipy.linalg",),
+    ),
+)
+
+_RUN_ONE = r"""
+import sys
+import servokit.cli
+sys.argv = ["servokit", *%r]
+try:
+    servokit.cli.main()
+except SystemExit as exc:
+    code = exc.code
+print("\nRESULT", code, " ".join(m for m in %r if m in sys.modules))
+"""
+
+#: ``report`` draws its figures (matplotlib is needed) but loads it after the start line,
+#: and never loads python-control: the start line is recorded with what was imported then
+_REPORT = r"""
+import os, sys
+os.environ["SERVOKIT_PROGRESS"] = "1"
+seen = []
+class Err:
+    def write(self, text):
+        if text.startswith("report:"):
+            seen.append("matplotlib" in sys.modules)
+        return sys.__stderr__.write(text)
+    def flush(self):
+        sys.__stderr__.flush()
+    def isatty(self):
+        return False
+sys.stderr = Err()
+import servokit.cli
+sys.argv = ["servokit", "report", "--plant", "hdd-sampled-data", "--controller", "eq-4.69",
+            "--out", "design"]
+try:
+    servokit.cli.main()
+except SystemExit as exc:
+    code = exc.code
+print("\nRESULT", code, seen, " ".join(m for m in %r if m in sys.modules))
+"""
+
+
+def test_numpy_loop_commands_run_without_heavy_libraries(tmp_path) -> None:  # noqa: ANN001
+    for argv, also in CHEAP_LOOPS:
+        proc = subprocess.run(
+            [sys.executable, "-c", _RUN_ONE % (argv, HEAVY + ("scipy.optimize", *also))],
+            cwd=tmp_path,
+            capture_output=True,
+            text=True,
+            timeout=300,
+            check=True,
+        )
+        code, _, loaded = proc.stdout.rsplit("RESULT ", 1)[1].strip().partition(" ")
+        assert code == "0", (argv, proc.stderr)
+        assert loaded.strip() == "", f"{' '.join(argv)} imported {loaded}"
+    proc = subprocess.run(
+        [sys.executable, "-c", _REPORT % (("control", "scipy.signal", "scipy.stats"),)],
+        cwd=tmp_path,
+        capture_output=True,
+        text=True,
+        timeout=300,
+        check=True,
+    )
+    result = proc.stdout.rsplit("RESULT ", 1)[1].strip()
+    assert result == "0 [False]", f"report: exit, matplotlib at the start line, heavy: {result}"
+    assert (tmp_path / "design" / "report.html").stat().st_size > 10_000

@@ -107,5 +107,5 @@ def test_sphinx_builds_the_api_docs(tmp_path: Path) -> None:
     docs = Path(__file__).resolve().parents[1] / "docs"
     assert build_main(["-q", "-b", "html", "-d", str(tmp_path / "doctrees"), str(docs),
                        str(tmp_path / "html")]) == 0  # fmt: skip
-    page = (tmp_path / "html" / "generated" / "servokit.export.html").read_text()
+    page = (tmp_path / "html" / "reference" / "generated" / "servokit.export.html").read_text()
     assert "write_export" in page

@@ -27,7 +27,7 @@ from servokit.feedback.loopshape_problem import (
     model_resonances,
     packed_grid,
 )
-from servokit.feedback.loopshape_socp import StepData, _valleys, solve_step
+from servokit.feedback.loopshape_socp import StepData, WarmStart, _valleys, solve_step
 from servokit.models import HDD_BENCHMARK_TS as DT
 from servokit.models import benchmark_controller, hdd_benchmark_variants
 
@@ -105,10 +105,10 @@ def _worst_row(d: StepData, theta: np.ndarray, tau: float) -> float:
     return float(min(worst))
 
 
-def _same_optimum(d: StepData, pb) -> dict:
-    """Generated and one-program optimum agree; every row holds at both."""
+def _same_optimum(d: StepData, pb, warm: socp.WarmStart | None = None) -> dict:
+    """Generated (from ``warm``) and one-program optimum agree; every row holds at both."""
     stats: dict = {}
-    gen = solve_step(d, stats=stats)
+    gen = solve_step(d, stats=stats, warm=warm)
     assert gen is not None
     assert "one_program" not in stats  # the generated programs were solved
     # the one program of every row as before (1e-6 / 1e-7) and at the generation's 1e-8
@@ -171,3 +171,47 @@ def test_valleys_are_local_minima_per_segment() -> None:
     keep[4] = False  # a left-out neighbour does not count: 5 becomes a valley, 3 does not
     np.testing.assert_array_equal(np.nonzero(_valleys(v, seg, keep))[0], [1, 5, 7])
     np.testing.assert_array_equal(np.nonzero(_valleys(v, seg, v < 1.5))[0], [1, 4, 7])
+
+
+def _all_keys(d: StepData) -> np.ndarray:
+    """The keys of every row of the step's masks (as :class:`WarmStart` holds them)."""
+    xk, F = d.basis.polys(d.theta_k)
+    lin, _ = socp._candidates(d, F, xk / F)
+    return socp._keys(d, lin)
+
+
+def test_warm_start_from_the_previous_step() -> None:
+    # a second step started from the rows binding at the first: the same optimum as
+    # the program of every row, in fewer programs than a cold start
+    pb, theta0, tab = _problem((0, 6, 12), 1.0, 600, fixed_order_structure(12))
+    warm = WarmStart()
+    first = solve_step(_data(pb, theta0, tab, phase1=False, rho=0.3), warm=warm)
+    assert first is not None and 0 < warm.keys.size
+    assert np.isin(warm.keys, _all_keys(_data(pb, theta0, tab, phase1=False, rho=0.3))).all()
+    theta1 = first[0]
+    d = _data(pb, theta1, pb.table(theta1), phase1=False, rho=0.3)
+    stats = _same_optimum(d, pb, warm)
+    cold: dict = {}
+    solve_step(d, stats=cold)
+    assert len(stats["rows"]) <= len(cold["rows"])
+
+
+@pytest.mark.slow
+@settings(max_examples=8, deadline=None)
+@given(
+    frac=st.floats(0.0, 1.0),
+    seed=st.integers(0, 2**31),
+    stray=st.integers(0, 50),
+    rho=st.floats(0.02, 0.5),
+    phase1=st.booleans(),
+)
+def test_warm_start_any_rows_same_optimum(frac, seed, stray, rho, phase1) -> None:
+    # whatever rows the warm start holds (a random share of the masks' rows, keys of no
+    # row), the generation ends at the optimum of every row
+    pb, theta0, tab = _problem((0, 6, 12), 1.0, 300, fixed_order_structure(12))
+    d = _data(pb, theta0, tab, phase1=phase1, rho=rho)
+    keys = _all_keys(d)
+    rng = np.random.default_rng(seed)
+    pick = keys[rng.random(keys.size) < frac]
+    junk = rng.integers(keys.max() + 1, keys.max() + 10**6, stray)
+    _same_optimum(d, pb, WarmStart(np.concatenate([pick, junk]).astype(np.int64)))

@@ -53,13 +53,15 @@ def _count_draws(fig) -> list[int]:
 
 
 def test_one_draw_per_file_and_the_same_pixels(tmp_path: Path) -> None:
-    # the old save (tight_layout, then savefig with tight_layout's placeholder engine)
-    # drew every figure twice; save_figure draws once and writes the same image
+    # the plain save (tight_layout at the file's dpi, then savefig with tight_layout's
+    # placeholder engine) draws every figure twice; save_figure draws once and writes
+    # the same image
     import io
 
     import numpy as np
 
     old = _fig()
+    old.set_dpi(110)
     old.tight_layout()
     buf = io.BytesIO()
     old.savefig(buf, dpi=110, metadata={"Title": figure_title(old)}, format="png")
@@ -75,3 +77,30 @@ def test_one_draw_per_file_and_the_same_pixels(tmp_path: Path) -> None:
         draws = _count_draws(fig)
         save_figure(fig, tmp_path / "g.png")
     assert draws[0] == 2  # one per format
+
+
+def test_each_label_measured_once(tmp_path: Path) -> None:
+    # the layout pass and the draw share one renderer at the file's dpi, so the text
+    # extent of each string is computed once (laid out at 100 dpi and drawn at 110,
+    # every string was measured twice)
+    from matplotlib.backends.backend_agg import RendererAgg
+
+    measured: list[tuple[str, float]] = []
+    original = RendererAgg.get_text_width_height_descent
+
+    def counted(self, s, prop, ismath):
+        measured.append((s, self.dpi))
+        return original(self, s, prop, ismath)
+
+    fig, ax = plt.subplots()
+    ax.semilogx([1, 10, 100], [1, 2, 3], label="data")
+    ax.set_xlabel("Frequency [Hz]")
+    ax.legend()
+    RendererAgg.get_text_width_height_descent = counted
+    try:
+        save_figure(fig, tmp_path / "f.png", dpi=120)
+    finally:
+        RendererAgg.get_text_width_height_descent = original
+    assert measured
+    assert {dpi for _, dpi in measured} == {120}
+    assert len(measured) == len(set(measured))

@@ -20,7 +20,6 @@ from servokit.cli._app import (
     emit_json,
     example,
     flag_names,
-    load_controller,
     load_plant,
     plot_target,
     progress,
@@ -30,6 +29,7 @@ from servokit.cli._options import (
     check_state_size,
     controller_states,
     discrete_states,
+    load_controller_data,
     old_name,
     renamed,
 )
@@ -119,12 +119,13 @@ def _excitation_grid(fmin: float, fmax: float, step: float) -> np.ndarray:
 
 
 def _identify_controller(controller: str, fs: float, typed: str) -> Any:
-    """The controller at the PES period 1/fs; a period it cannot take names the flag typed."""
-    from servokit.models import get_discrete_controller
+    """The controller at the PES period 1/fs; a period it cannot take names the flag typed
+    (numpy coefficients: python-control left unloaded, issue 23)."""
+    from servokit.models import get_discrete_rational
 
-    load_controller(controller)  # an unknown name or a bad file names --controller
+    load_controller_data(controller)  # an unknown name or a bad file names --controller
     try:
-        return get_discrete_controller(controller, dt=1.0 / fs)
+        return get_discrete_rational(controller, dt=1.0 / fs)
     except ServokitValueError as exc:
         raise ServokitValueError(f"{typed}: {exc}") from None
 

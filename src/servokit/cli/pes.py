@@ -14,12 +14,16 @@ from servokit.cli._app import (
     console,
     emit_json,
     example,
-    load_controller,
     load_plant,
     plot_target,
     wrote,
 )
-from servokit.cli._options import check_state_size, controller_states, discrete_states
+from servokit.cli._options import (
+    check_state_size,
+    controller_states,
+    discrete_states,
+    load_controller_data,
+)
 from servokit.errors import DEFAULT_MAX_MEMORY_MB, ServokitValueError, check_memory
 
 _PEAK_FORM = "FREQ_HZ:DAMPING:DEPTH_DB, e.g. 960:0.08:12"
@@ -57,11 +61,12 @@ def _peak_spec(text: str, dt: float):
 
 
 def _controller(name: str, dt: float):
+    """The controller as numpy coefficients (python-control left unloaded, issue 23)."""
     if name == "benchmark":
-        from servokit.models import benchmark_controller
+        from servokit.models import benchmark_controller_data
 
-        return benchmark_controller(dt=dt)
-    return load_controller(name, dt)
+        return benchmark_controller_data(dt=dt)
+    return load_controller_data(name, dt)
 
 
 @app.command(
@@ -101,14 +106,14 @@ def pes_cmd(
     spec = _peak_spec(peak_filter, bd.dt) if peak_filter is not None else None
     p, c = _loop(plant, controller, spec, n_revolutions, bd, max_memory_mb)
     res = track_following_pes(
-        p, c, bd.generate(n_revolutions, seed=seed), max_memory_mb=max_memory_mb
+        p, c, bd.generate(n_revolutions, seed=seed), max_memory_mb=max_memory_mb, zoh="modal"
     )
     _render(res, plot, json_out)
 
 
 def _loop(plant: str, controller: str, spec, n_revolutions: int, bd, max_memory_mb: float):  # noqa: ANN001, ANN202
     """Plant and controller (peak filter added), their run's size checked before building."""
-    from servokit.feedback.peak_filtered import peak_filtered_controller
+    from servokit.feedback.peak_filtered import peak_filtered_data
 
     p = load_plant(plant)
     c = _controller(controller, bd.dt)
@@ -121,7 +126,7 @@ def _loop(plant: str, controller: str, spec, n_revolutions: int, bd, max_memory_
         max_memory_mb=max_memory_mb,
     )
     if spec is not None:
-        c = peak_filtered_controller(c, p.discretize(bd.dt), spec)
+        c = peak_filtered_data(c, p.discretize_data(bd.dt, method="modal"), spec)
     return p, c
 
 

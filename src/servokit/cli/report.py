@@ -12,11 +12,11 @@ from servokit.cli._app import (
     app,
     console,
     example,
-    load_controller,
     load_plant,
     started,
     wrote,
 )
+from servokit.cli._options import load_controller_data
 from servokit.errors import ServokitValueError, check_count
 
 #: largest ``--seek`` JSON read [bytes] (a seek result with 10^6 seek times is ~20 MB)
@@ -65,6 +65,46 @@ def _plant_set(nominal: Any, variations: Path | None, n_plants: int) -> list[Any
     return [nominal, *box.monte_carlo(n_plants)]
 
 
+def _read_inputs(
+    plant: str, frf: Path | None, controller: str | None, variations: Path | None,
+    n_plants: int, seek: Path | None,
+) -> tuple[list[Any], Any, Any, list[str]]:  # fmt: skip
+    """The fit section, the loop ``(controller, plants)``, the seek section and the notes:
+    every file read and checked, nothing slow computed yet."""
+    from servokit.report.design import FitSection
+
+    nominal = load_plant(plant)
+    fit: list[Any] = []
+    notes = [f"Plant: {plant}."]
+    if frf is not None:
+        from servokit.models import read_frf
+
+        fit.append(FitSection(*read_frf(frf), nominal))
+        notes.append(f"Measured frequency response: {frf}.")
+    loop = None
+    if controller is not None:
+        # numpy coefficients: python-control left unloaded (issue 23)
+        loop = load_controller_data(controller), _plant_set(nominal, variations, n_plants)
+        notes.append(
+            f"Controller: {controller}; plant set: nominal"
+            + (f" and {n_plants} Monte-Carlo plants of {variations}." if variations else ".")
+        )
+    seek_section = None if seek is None else _seek_section(seek)
+    if seek is not None:
+        notes.append(f"Seek times: {seek}.")
+    return fit, loop, seek_section, notes
+
+
+def _loop_sections(loop: Any) -> list[Any]:
+    """Margins and sensitivity over the plant set (after the start line: the slow part)."""
+    if loop is None:
+        return []
+    from servokit.report.design import MarginsSection, SensitivitySection
+
+    ctrl, plants = loop
+    return [MarginsSection(plants, ctrl), SensitivitySection(plants, ctrl)]
+
+
 @app.command(
     "report",
     epilog=example(
@@ -107,34 +147,16 @@ def report_cmd(
     check_count("--n-plants", n_plants, lo=1, hi=10_000)
     if frf is None and controller is None and seek is None:
         raise ServokitValueError("give at least one of --frf, --controller, --seek to report on")
-    from servokit.report.design import (
-        FitSection,
-        MarginsSection,
-        SensitivitySection,
-        design_report,
-    )
-
-    nominal = load_plant(plant)
-    sections: list[Any] = []
-    notes = [f"Plant: {plant}."]
-    if frf is not None:
-        from servokit.models import read_frf
-
-        sections.append(FitSection(*read_frf(frf), nominal))
-        notes.append(f"Measured frequency response: {frf}.")
-    if controller is not None:
-        ctrl = load_controller(controller)
-        plants = _plant_set(nominal, variations, n_plants)
-        sections += [MarginsSection(plants, ctrl), SensitivitySection(plants, ctrl)]
-        notes.append(
-            f"Controller: {controller}; plant set: nominal"
-            + (f" and {n_plants} Monte-Carlo plants of {variations}." if variations else ".")
-        )
-    if seek is not None:
-        sections.append(_seek_section(seek))
-        notes.append(f"Seek times: {seek}.")
-    started("report", f"{len(sections)} section(s) -> {out}")
+    # every input read and checked first (a user's mistake fails before the start line),
+    # the margins, sensitivities and figures computed after it
+    fit, loop, seek_section, notes = _read_inputs(plant, frf, controller, variations,
+                                                  n_plants, seek)  # fmt: skip
+    n_sections = len(fit) + 2 * (loop is not None) + (seek_section is not None)
+    started("report", f"{n_sections} section(s) -> {out}")
+    sections = [*fit, *_loop_sections(loop), *([seek_section] if seek_section else [])]
     out.parent.mkdir(parents=True, exist_ok=True)
+    from servokit.report.design import design_report
+
     design_report(out, sections, title=title, notes=notes)
     console.print(f"{len(sections)} section(s)")
     wrote(out)

@@ -48,6 +48,13 @@ This module holds the controllers (:func:`vcm_controller`, :func:`pzt_controller
 :class:`Cascade` of factors), the unstated parameters (:class:`Unknowns`) and the two
 filter factors of the example; :mod:`servokit.feedback.dual_stage_design` evaluates them
 against Table 5.4 and searches the unknowns.
+
+The factors are numpy coefficients (:class:`~servokit.models.rational.RationalTF`, built
+from the filters' ``*_coefficients`` twins) and the plant zeros come from the Rosenbrock
+pencil python-control solves (:meth:`~servokit.models.rational.StateSpaceData.zeros`),
+so evaluating a design never imports python-control (``servokit dual-stage`` start-up,
+issue 23); :func:`zero_pole_pair`, :func:`peak_filter_addon` and :meth:`Cascade.tf` still
+return python-control transfer functions, with the same coefficients.
 """
 
 from __future__ import annotations
@@ -61,14 +68,16 @@ import numpy as np
 from servokit._lazy import control
 from servokit.errors import ServokitValueError
 from servokit.feedback.filters import (
-    complex_lag,
-    inverse_pair,
-    lag,
-    lead_lag,
-    notch,
-    peak_filter,
+    complex_lag_coefficients,
+    inverse_pair_coefficients,
+    lag_coefficients,
+    lead_lag_coefficients,
+    notch_coefficients,
+    peak_filter_coefficients,
 )
 from servokit.models import ModalPlant, pzt_active_suspension, vcm_dual_stage
+from servokit.models.modal import modal_matrices
+from servokit.models.rational import RationalTF, StateSpaceData
 
 __all__ = [
     "METHODS",
@@ -148,7 +157,16 @@ def zero_pole_pair(
         ``(s^2 + 2 zeta_z wz s + wz^2) / (s^2 + 2 zeta_p wp s + wp^2)``, continuous, DC
         gain ``(f_z / f_p)^2``.
     """
-    pair = inverse_pair(zero_hz, pole_hz, zero_damping=zero_damping, pole_damping=pole_damping)
+    return _pair(zero_hz, pole_hz, zero_damping, pole_damping).to_control()
+
+
+def _pair(zero_hz: float, pole_hz: float, zero_damping: float, pole_damping: float) -> RationalTF:
+    """:func:`zero_pole_pair` as numpy coefficients."""
+    pair = RationalTF(
+        *inverse_pair_coefficients(
+            zero_hz, pole_hz, zero_damping=zero_damping, pole_damping=pole_damping
+        )
+    )
     return pair * (zero_hz / pole_hz) ** 2
 
 
@@ -173,7 +191,12 @@ def peak_filter_addon(
     control.TransferFunction
         The continuous factor ``1 + F(s)``, multiplying the baseline controller.
     """
-    return 1 + peak_filter(freq_hz, damping, gain, phi)
+    return _addon(freq_hz, damping, gain, phi).to_control()
+
+
+def _addon(freq_hz: float, damping: float, gain: float, phi: float) -> RationalTF:
+    """:func:`peak_filter_addon` as numpy coefficients (python-control's ``1 + F`` sum)."""
+    return 1 + RationalTF(*peak_filter_coefficients(freq_hz, damping, gain, phi))
 
 
 @dataclass(frozen=True)
@@ -181,7 +204,7 @@ class Cascade:
     """A controller as a product of factors (evaluated factor by factor: the product's
     polynomial coefficients would span ~70 orders of magnitude)."""
 
-    factors: tuple[control.TransferFunction, ...]
+    factors: tuple[RationalTF, ...]
     names: tuple[str, ...] = field(default=())
 
     @property
@@ -197,13 +220,21 @@ class Cascade:
 
     def tf(self) -> control.TransferFunction:
         """The product as one python-control transfer function."""
-        out = self.factors[0]
+        out = self.factors[0].to_control()
         for f in self.factors[1:]:
-            out = out * f
+            out = out * f.to_control()
         return out
 
 
 # ------------------------------------------------------------------ the controllers
+def _lead_lag(gain: float) -> RationalTF:
+    return RationalTF(*lead_lag_coefficients(gain))
+
+
+def _lag(gain: float, **corners_hz: float) -> RationalTF:
+    return RationalTF(*lag_coefficients(gain, **corners_hz))
+
+
 def _mode_damping(plant: ModalPlant, freq_hz: float, rel: float = 0.01) -> float | None:
     for m in plant.modes:
         if abs(m.freq_hz - freq_hz) <= rel * freq_hz:
@@ -221,7 +252,8 @@ def _zero_damping(zeros: dict[float, float], freq_hz: float, rel: float = 0.01) 
 @lru_cache(maxsize=8)
 def plant_zeros(plant: ModalPlant) -> dict[float, float]:
     """Complex zeros of the modal plant in the upper half plane: {freq [Hz]: damping}."""
-    z = control.zeros(plant.to_statespace())
+    A, B, C = modal_matrices(*plant.arrays())  # plant.to_statespace() without python-control
+    z = StateSpaceData(A, B, C, np.zeros((1, 1))).zeros()
     z = z[(np.imag(z) > 0) & (np.abs(z) < TWO_PI * 1e6)]
     return {float(abs(v) / TWO_PI): float(-v.real / abs(v)) for v in z}
 
@@ -230,9 +262,10 @@ def _notches(plant: ModalPlant, freqs: tuple[float, ...], u: Unknowns) -> list:
     out = []
     for f in freqs:
         zr = u.notch_depth_damping or _mode_damping(plant, f) or u.extra_notch_depth_damping
-        out.append(
-            notch(f, zr, filter_freq_hz=u.notch_freq_ratio * f, filter_damping=u.notch_damping)
+        num, den = notch_coefficients(
+            f, zr, filter_freq_hz=u.notch_freq_ratio * f, filter_damping=u.notch_damping
         )
+        out.append(RationalTF(num, den))
     return out
 
 
@@ -243,7 +276,7 @@ def _pairs(plant: ModalPlant, pairs: tuple[tuple[float, float], ...], u: Unknown
         zz = _mode_damping(plant, fz)
         zp = _zero_damping(zeros, fp)
         out.append(
-            zero_pole_pair(
+            _pair(
                 fz,
                 fp,
                 u.pair_pole_damping if zz is None else zz,
@@ -284,19 +317,19 @@ def vcm_controller(method: str, u: Unknowns = Unknowns(), *, baseline: bool = Fa
     """
     pv = vcm_dual_stage()
     if _check_method(method) == "gain":
-        return Cascade((lead_lag(5.0), *_notches(pv, (4449, 6412, 7141, 8600), u)))
+        return Cascade((_lead_lag(5.0), *_notches(pv, (4449, 6412, 7141, 8600), u)))
     if method == "inverse":
         pairs = ((4449, 4775), (6412, 5691), (7141, 6973), (8599, 7515))
-        return Cascade((lead_lag(3.3302), *_pairs(pv, pairs, u)))
+        return Cascade((_lead_lag(3.3302), *_pairs(pv, pairs, u)))
     notches = _notches(pv, (3800, 4449), u)
     if baseline:
-        return Cascade((lead_lag(4.9175), *notches))
+        return Cascade((_lead_lag(4.9175), *notches))
     return Cascade(
         (
-            lead_lag(u.kcv_phase),
+            _lead_lag(u.kcv_phase),
             *notches,
-            peak_filter_addon(4449, 0.015, 0.1778, 2.5414),
-            complex_lag(6900, 0.1, 1.1519),
+            _addon(4449, 0.015, 0.1778, 2.5414),
+            RationalTF(*complex_lag_coefficients(6900, 0.1, 1.1519)),
         )
     )
 
@@ -327,20 +360,20 @@ def pzt_controller(method: str, u: Unknowns = Unknowns(), *, baseline: bool = Fa
     """
     pm = pzt_active_suspension()
     if _check_method(method) == "gain":
-        return Cascade((lag(0.18), *_notches(pm, (2484, 5461, 6074, 9103, 12000), u)))
+        return Cascade((_lag(0.18), *_notches(pm, (2484, 5461, 6074, 9103, 12000), u)))
     if method == "inverse":
         pairs = ((2484, 2751), (5461, 5686), (6074, 6646), (9103, 9549), (12000, 11672))
-        return Cascade((lag(0.2473), *_pairs(pm, pairs, u)))
+        return Cascade((_lag(0.2473), *_pairs(pm, pairs, u)))
     first = _pairs(pm, ((2484, 2751),), u)
     if baseline:
-        return Cascade((lag(0.1737), *first))
-    lead = zero_pole_pair(4600, 8000, 0.03, 0.7)
-    first_order_lag = lag(6074 / 15000, zero_hz=15000, pole_hz=6074)  # unit DC gain
+        return Cascade((_lag(0.1737), *first))
+    lead = _pair(4600, 8000, 0.03, 0.7)
+    first_order_lag = _lag(6074 / 15000, zero_hz=15000, pole_hz=6074)  # unit DC gain
     return Cascade(
         (
-            lag(u.kcm_phase),
+            _lag(u.kcm_phase),
             *first,
-            peak_filter_addon(2484, 0.02, 0.1585, 4.2603),
+            _addon(2484, 0.02, 0.1585, 4.2603),
             lead,
             *_pairs(pm, ((6074, 6646),), u),
             first_order_lag,

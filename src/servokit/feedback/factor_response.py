@@ -29,6 +29,7 @@ for discrete ones.
 
 from __future__ import annotations
 
+import sys
 from collections.abc import Callable
 from dataclasses import dataclass, field
 from typing import Any
@@ -404,9 +405,10 @@ def make_factor(item: Any) -> Factor:
             raise ServokitValueError("loop must be single-input single-output")
         build = _tf_factor if isinstance(item, RationalTF) else _ss_factor
         return build(item, _timebase(item))
-    import control
-
-    if isinstance(item, control.LTI):
+    # an object of python-control exists only once python-control is loaded: a callable or
+    # ModalPlant factor leaves it unloaded (start-up, issue 23)
+    control = sys.modules.get("control")
+    if control is not None and isinstance(item, control.LTI):
         if not (item.ninputs == 1 and item.noutputs == 1):
             raise ServokitValueError("loop must be single-input single-output")
         return _lti_factor(item)

@@ -30,6 +30,7 @@ import numpy as np
 
 from servokit._lazy import control
 from servokit.errors import ServokitValueError, check_finite, check_positive
+from servokit.models.rational import RationalTF
 
 __all__ = [
     "notch",
@@ -39,7 +40,9 @@ __all__ = [
     "complex_lag",
     "complex_lag_coefficients",
     "lead_lag",
+    "lead_lag_coefficients",
     "lag",
+    "lag_coefficients",
     "pi_controller",
     "peak_filter",
     "peak_filter_coefficients",
@@ -48,6 +51,7 @@ __all__ = [
     "ZERO_PLACEMENTS",
     "pseudo_plant",
     "discretize_filter",
+    "discretize_filter_data",
     "tustin_coefficients",
 ]
 
@@ -269,10 +273,34 @@ def lead_lag(
     control.TransferFunction
         The continuous controller.
     """
+    return control.tf(*lead_lag_coefficients(gain, zero_hz, pole_hz))
+
+
+def lead_lag_coefficients(
+    gain: float, zero_hz: float = 50.0, pole_hz: float = 30000.0
+) -> tuple[np.ndarray, np.ndarray]:
+    """Numerator and denominator of :func:`lead_lag` (5.91), without python-control.
+
+    Parameters
+    ----------
+    gain, zero_hz, pole_hz : float
+        KCV (> 0), double zero and pole frequencies [Hz], as :func:`lead_lag`.
+
+    Returns
+    -------
+    num, den : numpy.ndarray
+        ``K [1, 2 wz, wz^2]`` and ``[1, wp, 0]``, descending powers of s.
+    """
+    k, w_z, w_p = _gain_corners(gain, zero_hz, pole_hz)
+    return k * np.array([1.0, 2.0 * w_z, w_z * w_z]), np.array([1.0, w_p, 0.0])
+
+
+def _gain_corners(gain: float, zero_hz: float, pole_hz: float) -> tuple[float, float, float]:
+    """``K`` (> 0) and the zero and pole corners [rad/s] of a lead-lag or lag."""
     k = check_positive("gain", gain)
     w_z = TWO_PI * check_positive("zero_hz", zero_hz, "Hz")
     w_p = TWO_PI * check_positive("pole_hz", pole_hz, "Hz")
-    return control.tf(k * np.array([1.0, 2.0 * w_z, w_z * w_z]), [1.0, w_p, 0.0])
+    return k, w_z, w_p
 
 
 def lag(gain: float, zero_hz: float = 30000.0, pole_hz: float = 900.0) -> control.TransferFunction:
@@ -290,10 +318,26 @@ def lag(gain: float, zero_hz: float = 30000.0, pole_hz: float = 900.0) -> contro
     control.TransferFunction
         The continuous lag.
     """
-    k = check_positive("gain", gain)
-    w_z = TWO_PI * check_positive("zero_hz", zero_hz, "Hz")
-    w_p = TWO_PI * check_positive("pole_hz", pole_hz, "Hz")
-    return control.tf([k, k * w_z], [1.0, w_p])
+    return control.tf(*lag_coefficients(gain, zero_hz, pole_hz))
+
+
+def lag_coefficients(
+    gain: float, zero_hz: float = 30000.0, pole_hz: float = 900.0
+) -> tuple[np.ndarray, np.ndarray]:
+    """Numerator and denominator of :func:`lag` (5.96), without python-control.
+
+    Parameters
+    ----------
+    gain, zero_hz, pole_hz : float
+        KCM (> 0), zero and pole frequencies [Hz], as :func:`lag`.
+
+    Returns
+    -------
+    num, den : numpy.ndarray
+        ``[K, K wz]`` and ``[1, wp]``, descending powers of s.
+    """
+    k, w_z, w_p = _gain_corners(gain, zero_hz, pole_hz)
+    return np.array([k, k * w_z]), np.array([1.0, w_p])
 
 
 def pi_controller(gain: float, corner_hz: float) -> control.TransferFunction:
@@ -470,6 +514,33 @@ def discretize_filter(filt: control.LTI, dt: float, freq_hz: float) -> control.L
     h, f = _tustin_rate(dt, freq_hz)
     fd = control.sample_system(filt, h, method="tustin", prewarp_frequency=TWO_PI * f)
     _check_not_degenerate(fd.num[0][0], fd.den[0][0], h, f)
+    return fd
+
+
+def discretize_filter_data(filt: RationalTF, dt: float, freq_hz: float) -> RationalTF:
+    """:func:`discretize_filter` of numpy coefficients, python-control left unloaded.
+
+    :meth:`RationalTF.tustin <servokit.models.rational.RationalTF.tustin>` is
+    python-control's prewarped Tustin arithmetic: the coefficients are
+    :func:`discretize_filter`'s bit for bit.
+
+    Parameters
+    ----------
+    filt : RationalTF
+        Continuous filter.
+    dt : float
+        Sampling period [s].
+    freq_hz : float
+        Prewarping frequency [Hz], below the Nyquist frequency.
+
+    Returns
+    -------
+    RationalTF
+        The discrete filter with ``dt``.
+    """
+    h, f = _tustin_rate(dt, freq_hz)
+    fd = filt.tustin(h, TWO_PI * f)
+    _check_not_degenerate(fd.numerator, fd.denominator, h, f)
     return fd
 
 

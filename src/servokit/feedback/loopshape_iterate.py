@@ -56,7 +56,7 @@ from servokit.feedback.loopshape_problem import (
     modal_banks,
     pid_notch_structure,
 )
-from servokit.feedback.loopshape_socp import Basis, StepData, solve_step
+from servokit.feedback.loopshape_socp import Basis, StepData, WarmStart, solve_step
 
 __all__ = ["LoopshapeResult", "loopshape", "certify_models"]
 
@@ -135,6 +135,7 @@ class _Problem:
         self.tr_idx = np.unique(np.linspace(0, n - 1, min(n, 150)).astype(int))
         self.floor_idx: np.ndarray | None = None
         self.floor_w: np.ndarray | None = None
+        self.warm = WarmStart()  # rows binding at the last step (loopshape_socp)
 
     def set_floor(self, theta0: np.ndarray, f_c: float, keep: float | None) -> None:
         """Keep ``|L| ≥ keep |L_0|`` at 40 log-spaced grid points below ``0.7 f_c``."""
@@ -204,7 +205,7 @@ def _step(pb: _Problem, st: _State, f_t: float | None, s_hard: float, s_goal: fl
             floor_idx=pb.floor_idx,
             floor_w=pb.floor_w,
         )
-        out = solve_step(data)
+        out = solve_step(data, warm=pb.warm)
         if out is None:
             return None
         bad = _violations(pb, out[0], st.theta, s_lin) & ~s_mask

@@ -12,11 +12,20 @@ __all__ = ["loopshape_plot"]
 
 
 def _draw_set(ax_mag, ax_ph, ax_ny, f, L, color, label):
-    for k, row in enumerate(L):
-        lab = label if k == 0 else None
-        ax_mag.semilogx(f, 20 * np.log10(np.abs(row)), color=color, lw=0.6, alpha=0.6, label=lab)
-        ax_ph.semilogx(f, np.degrees(np.angle(row)), color=color, lw=0.6, alpha=0.6, label=lab)
-        ax_ny.plot(row.real, row.imag, color=color, lw=0.6, alpha=0.6, label=lab)
+    """One line per plant on each axes, as one collection per axes (54 plants x 3 axes
+    were 162 line artists per set, a quarter of the figure's CPU)."""
+    from matplotlib.collections import LineCollection
+
+    curves = (
+        (ax_mag, np.broadcast_to(f, L.shape), 20 * np.log10(np.abs(L))),
+        (ax_ph, np.broadcast_to(f, L.shape), np.degrees(np.angle(L))),
+        (ax_ny, L.real, L.imag),
+    )
+    for ax, x, y in curves:
+        lines = LineCollection(
+            np.stack([x, y], axis=-1), colors=color, linewidths=0.6, alpha=0.6, label=label
+        )
+        ax.add_collection(lines)
 
 
 def loopshape_plot(
@@ -56,6 +65,7 @@ def loopshape_plot(
     ax_mag = fig.add_subplot(2, 2, 1)
     ax_ph = fig.add_subplot(2, 2, 3, sharex=ax_mag)
     ax_ny = fig.add_subplot(1, 2, 2)
+    ax_mag.set_xscale("log")
     colors = ("tab:gray", "tab:blue", "tab:orange") if len(controllers) > 1 else ("tab:blue",)
     for (label, K), color in zip(controllers.items(), colors, strict=False):
         _draw_set(ax_mag, ax_ph, ax_ny, freq_hz, responses * K[None, :], color, label)

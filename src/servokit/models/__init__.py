@@ -4,6 +4,7 @@ sets, the built-in catalogue, the book's controllers and TOML plant/controller f
 from servokit.models.benchmark_controller import (
     BENCHMARK_NOTCHES,
     benchmark_controller,
+    benchmark_controller_data,
     ieej_benchmark_loop,
     ieej_example_controller,
 )
@@ -64,6 +65,7 @@ __all__ = [
     "band_powers",
     "disturbance_magnitude",
     "benchmark_controller",
+    "benchmark_controller_data",
     "ieej_benchmark_loop",
     "ieej_benchmark_plant",
     "ieej_example_controller",

@@ -27,6 +27,7 @@ from servokit._lazy import control
 from servokit.errors import ServokitValueError, check_positive
 from servokit.models.catalogue import HDD_BENCHMARK_TS, hdd_benchmark, ieej_benchmark_plant
 from servokit.models.modal import ModalPlant
+from servokit.models.rational import RationalTF
 
 __all__ = [
     "BENCHMARK_NOTCHES",
@@ -36,6 +37,7 @@ __all__ = [
     "IEEJ_NOTCHES",
     "IEEJ_PID_NUM",
     "benchmark_controller",
+    "benchmark_controller_data",
     "ieej_benchmark_loop",
     "ieej_example_controller",
 ]
@@ -77,20 +79,55 @@ def benchmark_controller(
     Returns
     -------
     TransferFunction
+        Discrete ``C(z)`` at ``dt`` (:func:`benchmark_controller_data`, the same
+        coefficients).
+    """
+    c = benchmark_controller_data(crossover_hz, dt=dt, notches=notches, zoh="expm")
+    return c.to_control()
+
+
+def benchmark_controller_data(
+    crossover_hz: float = 1000.0,
+    *,
+    dt: float = HDD_BENCHMARK_TS,
+    notches: tuple[tuple[float, float, float], ...] = BENCHMARK_NOTCHES,
+    zoh: str = "modal",
+) -> RationalTF:
+    """:func:`benchmark_controller` as numpy coefficients, python-control left unloaded.
+
+    The prewarped Tustin map of :meth:`RationalTF.tustin` is python-control's
+    ``sample_system(..., "tustin", prewarp_frequency)`` arithmetic, and the products are
+    the same polynomial products, so with ``zoh="expm"`` the coefficients are
+    :func:`benchmark_controller`'s bit for bit (tests/test_numpy_loops.py).
+
+    Parameters
+    ----------
+    crossover_hz, dt, notches : float, float, tuple
+        As :func:`benchmark_controller` (crossover [Hz], sampling period [s], notches).
+    zoh : {"modal", "expm"}
+        The plant's exact ZOH at the crossover (:meth:`ModalPlant.discretize_data`):
+        closed form per mode (numpy only; the gain agrees to ~1e-15) or
+        ``scipy.linalg.expm`` (what :func:`benchmark_controller` uses).
+
+    Returns
+    -------
+    RationalTF
         Discrete ``C(z)`` at ``dt``.
     """
     fc = check_positive("crossover_hz", crossover_hz, "Hz")
     h = check_positive("dt", dt, "s")
     wc = 2 * np.pi * fc
-    pid = control.tf([1.0, wc / 8], [1.0, 0.0]) * control.tf(
+    pid = RationalTF([1.0, wc / 8], [1.0, 0.0]) * RationalTF(
         [1 / (wc / 3), 1.0], [1 / (3 * wc), 1.0]
     )
-    c = _tustin(pid, h, fc)
+    c = pid.tustin(h, 2 * np.pi * fc)
     for f, z, zd in notches:
         w = 2 * np.pi * f
-        c = c * _tustin(control.tf([1.0, 2 * z * w, w * w], [1.0, 2 * zd * w, w * w]), h, f)
+        notch = RationalTF([1.0, 2 * z * w, w * w], [1.0, 2 * zd * w, w * w])
+        c = c * notch.tustin(h, 2 * np.pi * f)
     z_c = np.exp(1j * wc * h)
-    gain = 1.0 / abs(complex(c(z_c)) * complex(hdd_benchmark().discretize(h)(z_c)))
+    plant = hdd_benchmark().discretize_data(h, method=zoh)
+    gain = 1.0 / abs(complex(c(z_c)) * complex(plant(z_c)[0, 0]))
     return c * gain
 
 

@@ -27,6 +27,7 @@ import numpy as np
 
 from servokit.errors import ServokitValueError
 from servokit.models.modal import ModalPlant
+from servokit.models.rational import RationalTF, StateSpaceData
 
 __all__ = [
     "FitSection",
@@ -45,16 +46,21 @@ def loop_factors(plant: ModalPlant, controller: Any) -> list[Any]:
     ----------
     plant : ModalPlant
         Plant (its delay included).
-    controller : control.LTI
+    controller : control.LTI, RationalTF or StateSpaceData
         Controller, continuous or discrete.
 
     Returns
     -------
     list
-        ``[plant, controller]`` or ``[plant.discretize(dt), controller]``.
+        ``[plant, controller]`` or ``[plant.discretize(dt), controller]``; for a numpy-only
+        controller (:mod:`servokit.models.rational`) the plant's ZOH as numpy arrays too
+        (:meth:`~servokit.models.ModalPlant.discretize_data`, the same matrices), so the
+        loop never loads python-control.
     """
     dt = getattr(controller, "dt", None)
     if dt not in (None, 0, True) and dt:
+        if isinstance(controller, RationalTF | StateSpaceData):
+            return [plant.discretize_data(float(dt)), controller]
         return [plant.discretize(float(dt)), controller]
     return [plant, controller]
 
@@ -140,7 +146,7 @@ class MarginsSection:
     ----------
     plants : sequence of ModalPlant
         The plant set (nominal first, by convention).
-    controller : control.LTI
+    controller : control.LTI or RationalTF
         The feedback controller.
     """
 
@@ -282,7 +288,7 @@ class SensitivitySection:
     Parameters
     ----------
     plants : sequence of ModalPlant
-    controller : control.LTI
+    controller : control.LTI or RationalTF
     freq_hz : array_like, optional
         Frequencies [Hz] (default: 1 Hz to Nyquist, or 1 Hz to 100 kHz if continuous).
     """

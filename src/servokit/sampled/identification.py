@@ -28,12 +28,14 @@ from __future__ import annotations
 
 from collections.abc import Callable
 from dataclasses import dataclass
+from typing import Any
 
 import numpy as np
 
 from servokit._lazy import control
 from servokit.errors import ServokitValueError, check_count, check_memory, check_positive
 from servokit.models.modal import ModalPlant
+from servokit.models.rational import as_state_space_data, series
 
 __all__ = [
     "Identification",
@@ -105,7 +107,7 @@ def settling_samples(
     ----------
     plant : ModalPlant
         The continuous plant (discretised exactly at ``dt``).
-    controller : control.LTI
+    controller : control.LTI or RationalTF
         Discrete controller.
     dt : float
         Sampling period [s].
@@ -119,13 +121,21 @@ def settling_samples(
     int
         Number of samples.
     """
-    pd = plant.discretize(dt)
-    sys = control.feedback(pd * controller, 1) if in_loop else pd
-    rho = float(np.max(np.abs(sys.poles())))
+    rho = float(np.max(np.abs(_loop_poles(plant, controller, dt, in_loop))))
     if rho >= 1.0:
         what = "digital loop" if in_loop else "plant"
         raise ServokitValueError(f"the {what} is unstable; identification needs a stable one")
     return int(np.ceil(np.log(tol) / np.log(rho)))
+
+
+def _loop_poles(plant: ModalPlant, controller: Any, dt: float, in_loop: bool) -> np.ndarray:
+    """Poles of the unity-feedback loop ``P_d C`` (or of ``P_d`` alone) with numpy: the
+    exact ZOH in closed form per mode and the controller's companion form (a python-control
+    controller is converted), python-control and scipy left unloaded (start-up, issue 23)."""
+    pd = plant.discretize_data(dt, method="modal")
+    if not in_loop:
+        return pd.poles()
+    return series(as_state_space_data(controller), pd).feedback(1.0).poles()
 
 
 def _project(x: np.ndarray, f_alias: np.ndarray, dt: float, k0: int) -> np.ndarray:
@@ -222,7 +232,7 @@ def identify_above_nyquist(
     ----------
     plant : ModalPlant
         The continuous plant Pm(s) (e.g. Table 5.1 VCM, Table 5.3 PZT).
-    controller : python-control LTI
+    controller : python-control LTI or RationalTF
         Discrete controller C(z); its ``dt`` is the PES sampling period T.
     freq_hz : array_like
         Excitation frequencies [Hz], any values (above 1/(2T) too).

@@ -41,6 +41,7 @@ from servokit.errors import (
     check_memory,
 )
 from servokit.models.modal import ModalPlant
+from servokit.models.rational import RationalTF, StateSpaceData, as_state_space_data
 from servokit.models.tf import require_proper
 from servokit.simulate._bank import as_plant_list, bank_for
 from servokit.simulate._closed import Loop, run_closed
@@ -104,7 +105,10 @@ def _eval_signal(name: str, f: Signal | np.ndarray, t: np.ndarray, V: int) -> np
 
 
 def _ss(name: str, sys: object, dt: float) -> tuple[np.ndarray, ...]:
-    if not isinstance(sys, control.LTI):
+    if isinstance(sys, RationalTF | StateSpaceData):  # numpy coefficients: control unloaded
+        if sys.dt and abs(sys.dt - dt) <= 1e-9 * dt and sys.ninputs == sys.noutputs == 1:
+            return _convert(name, sys)
+    elif not isinstance(sys, control.LTI):
         raise ServokitTypeError(f"{name} must be a python-control discrete LTI object")
     if not sys.isdtime() or sys.dt is True or abs(float(sys.dt) - dt) > 1e-9 * dt:
         raise ServokitValueError(
@@ -141,10 +145,12 @@ def _content_key(name: str, sys: control.LTI) -> tuple | None:
             *((a.shape, a.tobytes()) for a in parts))  # fmt: skip
 
 
-def _convert(name: str, sys: control.LTI) -> tuple[np.ndarray, np.ndarray, np.ndarray, float]:
+def _convert(name: str, sys: Any) -> tuple[np.ndarray, np.ndarray, np.ndarray, float]:
     """Proper SISO ``sys`` as read-only ``(A, B, C, D)`` arrays."""
     require_proper(name, sys)
-    s = control.ss(sys)
+    # a RationalTF's companion form is scipy's tf2ss, which python-control's ss(tf) uses
+    numpy_only = isinstance(sys, RationalTF | StateSpaceData)
+    s = as_state_space_data(sys) if numpy_only else control.ss(sys)
     if s.ninputs != 1 or s.noutputs != 1:
         raise ServokitValueError(f"{name} must be single-input single-output")
     arrays = (
