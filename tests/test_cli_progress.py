@@ -21,9 +21,23 @@ from test_cli_bad_input import CASES, HANG_S, _materialise, _param
 from servokit.cli._render import PROGRESS_ENV, progress_wanted
 
 SRC = Path(__file__).resolve().parents[1] / "src"
-LONG = ("settle", "reproduce", "loopshape", "report")
+
+
+def _commands_with_start_lines() -> set[tuple[str, ...]]:
+    """Every command whose CLI module calls ``started("command words", ...)``, read from
+    the sources, so that a command given a start line is covered the day it gets one."""
+    import re
+
+    found = set()
+    for path in (SRC / "servokit" / "cli").glob("*.py"):
+        for words in re.findall(r'started\(\s*"([a-z -]+)"', path.read_text()):
+            found.add(tuple(words.split()))
+    return found
+
+
+LONG = _commands_with_start_lines()
 #: The bad-input rows of the commands that print a start line.
-LONG_CASES = [(a, f) for a, f in CASES if a[0] in LONG]
+LONG_CASES = [(a, f) for a, f in CASES if any(tuple(a[: len(w)]) == w for w in LONG)]
 _ENTRY = "import sys; from servokit.cli import main; sys.argv[0] = 'servokit'; main()"
 
 
@@ -116,7 +130,19 @@ def test_a_refused_request_prints_no_start_line(args, flag, tmp_path, monkeypatc
     code, out, err, _ = run_cli(args, HANG_S, monkeypatch, capsys)
     assert code == 2, (out, err)
     lines = err.strip().splitlines()
+    if tuple(args) in FOUND_BY_THE_WORK:  # the start line, then the one error line
+        assert len(lines) == 2 and lines[0].startswith(args[0]) and flag in lines[1], err
+        return
     assert len(lines) == 1 and flag in lines[0], err
+
+
+#: Refusals that are findings of the slow part itself, not checks of the arguments: the
+#: fit finds fewer resonances than ``--modes`` (or none at all) only from its candidates
+#: (AAA), the step the start line announces.
+FOUND_BY_THE_WORK = {
+    ("fit", "FRF.csv", "--out", "o", "--modes", "9"),
+    ("fit", "FLAT.csv", "--out", "o"),
+}
 
 
 @pytest.mark.slow
@@ -156,15 +182,6 @@ def test_reproduce_start_line_and_pure_json(tmp_path) -> None:
     lines = proc.stderr.splitlines()
     assert lines[0] == "reproduce: 1 case(s) on up to 1 process(es) -> o/", lines
     assert lines[1].startswith("[1/1] resonance-filters done")
-
-
-#: ``switching admissible-set`` prints a start line before its LPs (a second or more).
-ADMISSIBLE_CASES = [(a, f) for a, f in CASES if list(a[:2]) == ["switching", "admissible-set"]]
-
-
-@pytest.mark.parametrize(("args", "flag"), [_param(a, f) for a, f in ADMISSIBLE_CASES])
-def test_a_refused_admissible_set_prints_no_start_line(args, flag, tmp_path, monkeypatch, capsys):
-    test_a_refused_request_prints_no_start_line(args, flag, tmp_path, monkeypatch, capsys)
 
 
 def test_admissible_set_says_what_it_computes_and_stdout_keeps_its_json(monkeypatch, capsys):

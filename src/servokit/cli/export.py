@@ -379,6 +379,10 @@ def ivc_cmd(
 
     out_dir = _check_common(out, name, fmt, precision)
     refuse_inapplicable("--method", method, {"velocity_weight": ("--velocity-weight", ("jmin",))})
+    if method == "pole-zero":  # the §3.3.2 loop's delay fit (scipy.optimize) comes next
+        from servokit.cli._render import started
+
+        started("export ivc", f"pole-zero IVC of the §3.3.2 loop -> {out_dir}")
     K, desc = book_ivc_gain(method, velocity_weight)
     tables = [FirmwareTable("K", K, f"xc[0] = K xp[0]: {desc}")]
     _finish(tables, out_dir, name, fmt, precision, None, desc, json_out)
