@@ -62,19 +62,38 @@ def test_memory_limit_refused_before_allocating():
         sweep_seek_times(VSET, FF, 1.0, n=10**9, max_memory_mb=100.0)
 
 
-def test_dask_local_cluster_matches_numpy():
+@pytest.mark.parametrize("task_bytes", [None, 1000])
+def test_dask_local_cluster_matches_numpy(task_bytes, monkeypatch):
+    """Same numbers on Dask; with ``task_bytes`` the draws are split into tasks of at most
+    that many bytes (1000: 18 variants of 7 numbers each, 23 tasks instead of 8)."""
     distributed = pytest.importorskip("distributed")
+    import servokit.seek.sweep as sweep_mod
+
+    submitted = []
+    if task_bytes is not None:
+        monkeypatch.setattr(sweep_mod, "TASK_BYTES", task_bytes)
     with (
         distributed.LocalCluster(
             n_workers=2, threads_per_worker=1, processes=False, dashboard_address=None
         ) as cluster,
         distributed.Client(cluster) as client,
     ):
+        submit = client.submit
+
+        def counting(fn, *a, **k):  # noqa: ANN001, ANN002, ANN003, ANN202
+            submitted.append(a[1].nbytes)  # the task's draws
+            return submit(fn, *a, **k)
+
+        monkeypatch.setattr(client, "submit", counting)
         on_dask = sweep_seek_times(VSET, FF, 1.0, n=400, seed=5, client=client)
     in_proc = sweep_seek_times(VSET, FF, 1.0, n=400, seed=5)
     assert on_dask.backend == "dask" and on_dask.chunk_size == 50  # 4 chunks per worker
     np.testing.assert_array_equal(on_dask.seek_times, in_proc.seek_times)
     assert on_dask.percentiles() == in_proc.percentiles()
+    per_variant = (VSET.draw(1, 0)[0].shape[1] + 1) * 8
+    cap = 50 if task_bytes is None else task_bytes // per_variant
+    assert len(submitted) == -(-400 // cap)
+    assert max(submitted) <= cap * (per_variant - 8)  # the draws of one task
 
 
 def test_missing_dask_extra_is_one_clear_error(monkeypatch):

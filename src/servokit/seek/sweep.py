@@ -424,6 +424,11 @@ def _run_local(
             pool.shutdown(cancel_futures=True)
 
 
+#: Largest draws (and gains) one Dask task carries [bytes]: Dask warns about graphs over
+#: 10 MB (at 10^6 variants on one worker, four tasks of 12 MB each did).
+TASK_BYTES = 4_000_000
+
+
 def _run_dask(
     client: Any,
     vset: VariationSet,
@@ -441,12 +446,16 @@ def _run_dask(
     A task per chunk (~800 plants, 0.03-0.1 s) made the scheduler round trips a large
     part of the run on a busy machine; a few tasks per worker keep all of them busy to
     the end, and the chunks inside a task keep the working set (and the memory) of an
-    in-process chunk.
+    in-process chunk. A task carries its draws in its graph (up to :data:`TASK_BYTES`, so
+    that no graph is the size Dask warns about); scattered draws would be lost with a
+    worker that dies, and the sweep with them.
     """
     from distributed import as_completed
 
     n = draws.shape[0]
+    per_variant = (draws.shape[1] + 1) * draws.itemsize
     task = max(chunk_size, -(-n // (4 * n_workers)))
+    task = max(1, min(task, TASK_BYTES // per_variant))
     vset_f = client.scatter(vset, broadcast=True)
     futures = {}
     for sl in _chunks(n, task):
