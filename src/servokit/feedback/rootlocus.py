@@ -31,6 +31,7 @@ __all__ = [
     "PeakFilterLocus",
     "departure_angles",
     "root_locus",
+    "tracked_roots",
     "branch_gain_margins",
     "peak_filter_locus",
 ]
@@ -121,6 +122,41 @@ def _roots_rows(polys: np.ndarray) -> list[np.ndarray]:
     return [np.roots(p) if r is None else r for p, r in zip(polys, out, strict=True)]
 
 
+def _match(prev: np.ndarray, r: np.ndarray) -> np.ndarray:
+    """``r`` reordered to follow ``prev``: the minimum-total-distance assignment.
+
+    When every root of ``prev`` has a strict nearest root of ``r`` and these nearest
+    roots form a permutation, that permutation is the unique optimal assignment (each
+    row at its strict minimum), which is what ``linear_sum_assignment`` returns; only
+    the other steps call it.
+    """
+    if r.size < prev.size:  # leading coefficient cancelled: a root went to infinity
+        r = np.concatenate([r, np.full(prev.size - r.size, np.inf + 0j)])
+    cost = np.abs(prev[:, None] - r[None, :])
+    cost[~np.isfinite(cost)] = 1e300
+    col = np.argmin(cost, axis=1)
+    if r.size > 1 and np.unique(col).size == r.size:
+        two = np.partition(cost, 1, axis=1)
+        if np.all(two[:, 1] > two[:, 0]):
+            return r[col]
+    from scipy.optimize import linear_sum_assignment
+
+    return r[linear_sum_assignment(cost)[1]]
+
+
+def _gains_polys(
+    g: control.TransferFunction, gains: np.ndarray
+) -> tuple[np.ndarray, np.ndarray, np.ndarray, float]:
+    """Sorted gains with k = 0 first, the polynomials ``den + k num`` of their rows, the
+    open-loop denominator and ω_ref (all in s/ω_ref)."""
+    nn, nd, w_ref = _polys(g)
+    k = np.unique(np.concatenate([[0.0], np.asarray(gains, dtype=float)]))
+    if k[0] < 0:
+        raise ServokitValueError("root-locus gains must be >= 0")
+    pad = np.concatenate([np.zeros(nd.size - nn.size), nn])
+    return k, nd[None, :] + k[:, None] * pad[None, :], nd, w_ref
+
+
 def root_locus(g: control.TransferFunction, gains: np.ndarray) -> RootLocus:
     """Closed-loop roots of 1 + k G = 0 for increasing ``gains`` (k ≥ 0), branches tracked.
 
@@ -136,22 +172,82 @@ def root_locus(g: control.TransferFunction, gains: np.ndarray) -> RootLocus:
     RootLocus
         Gains and tracked roots; the first row holds the open-loop poles.
     """
-    nn, nd, w_ref = _polys(g)
-    k = np.unique(np.concatenate([[0.0], np.asarray(gains, dtype=float)]))
-    if k[0] < 0:
-        raise ServokitValueError("root-locus gains must be >= 0")
-    from scipy.optimize import linear_sum_assignment
-
-    pad = np.concatenate([np.zeros(nd.size - nn.size), nn])
+    k, polys, nd, w_ref = _gains_polys(g, gains)
     rows = [np.roots(nd)]
-    for r in _roots_rows(nd[None, :] + k[1:, None] * pad[None, :]):
-        if r.size < rows[-1].size:  # leading coefficient cancelled: a root went to infinity
-            r = np.concatenate([r, np.full(rows[-1].size - r.size, np.inf + 0j)])
-        cost = np.abs(rows[-1][:, None] - r[None, :])
-        cost[~np.isfinite(cost)] = 1e300
-        _, col = linear_sum_assignment(cost)
-        rows.append(r[col])
+    for r in _roots_rows(polys[1:]):
+        rows.append(_match(rows[-1], r))
     return RootLocus(gains=k, roots=np.array(rows) * w_ref)
+
+
+def _min_gap(r: np.ndarray) -> float:
+    """Smallest distance between two roots of ``r`` (inf for fewer than two)."""
+    if r.size < 2:
+        return np.inf
+    d = np.abs(r[:, None] - r[None, :])
+    return float(np.min(d[np.triu_indices(r.size, 1)]))
+
+
+def _clear_jump(prev: np.ndarray, r: np.ndarray) -> np.ndarray | None:
+    """``r`` matched to ``prev`` when the match is unambiguous, else None.
+
+    Unambiguous: the same number of finite roots, and every root moved less than a
+    quarter of the smallest root separation at either end, so the nearest root is the
+    only candidate and the intermediate steps of a dense grid match the same way.
+    """
+    if r.size != prev.size or not (np.all(np.isfinite(r)) and np.all(np.isfinite(prev))):
+        return None
+    cost = np.abs(prev[:, None] - r[None, :])
+    col = np.argmin(cost, axis=1)
+    moved = cost[np.arange(r.size), col]
+    if np.unique(col).size != r.size:
+        return None
+    if r.size > 1 and np.max(moved) >= 0.25 * min(_min_gap(prev), _min_gap(r)):
+        return None
+    return r[col]
+
+
+def tracked_roots(
+    g: control.TransferFunction, gains: np.ndarray, at: np.ndarray, *, stride: int = 16
+) -> np.ndarray:
+    """Rows of ``root_locus(g, gains).roots`` at the gains ``at``, computed sparsely.
+
+    The locus is solved on every ``stride``-th gain (and at ``at``); a coarse step whose
+    match is unambiguous (:func:`_clear_jump`) is taken in one jump, any other coarse
+    interval is solved and matched on every gain of the dense grid, as
+    :func:`root_locus` does. The branch order is that of the dense tracking.
+
+    Parameters
+    ----------
+    g : control.TransferFunction
+        Continuous, proper open loop G.
+    gains : numpy.ndarray
+        The dense gain grid of :func:`root_locus` (k >= 0).
+    at : numpy.ndarray
+        Gains (members of ``gains`` or 0) at which the tracked roots are wanted.
+    stride : int
+        Dense grid points per coarse step.
+
+    Returns
+    -------
+    numpy.ndarray
+        ``roots[i, j]``: branch j at ``at[i]`` [rad/s]; branch j starts at
+        ``root_locus(g, gains).start[j]``.
+    """
+    k, polys, nd, w_ref = _gains_polys(g, gains)
+    want = np.searchsorted(k, np.asarray(at, dtype=float))
+    coarse = np.unique(np.concatenate([np.arange(0, k.size, stride), [k.size - 1], want]))
+    raw = dict(zip(coarse[1:], _roots_rows(polys[coarse[1:]]), strict=True))
+    rows = {0: np.roots(nd)}
+    prev = rows[0]
+    for a, b in zip(coarse[:-1], coarse[1:], strict=True):
+        jump = _clear_jump(prev, raw[b]) if b > a + 1 else None
+        if jump is None:
+            for r in _roots_rows(polys[a + 1 : b + 1]):
+                prev = _match(prev, r)
+        else:
+            prev = jump
+        rows[b] = prev
+    return np.array([rows[i] for i in want]) * w_ref
 
 
 def branch_gain_margins(
@@ -188,18 +284,18 @@ def branch_gain_margins(
     if k_cross.size == 0:
         return np.asarray(control.tf(g).poles(), dtype=complex), crit
     grid = np.geomspace(1e-8 * k_cross.min(), k_cross.max(), n_gain)
-    locus = root_locus(g, np.concatenate([grid, k_cross]))
-    for kc, wc in zip(k_cross, w_cross, strict=True):
-        row = locus.roots[np.searchsorted(locus.gains, kc)]
+    gains = np.concatenate([grid, k_cross])
+    start, *at_cross = tracked_roots(g, gains, np.concatenate([[0.0], k_cross]))
+    for kc, wc, row in zip(k_cross, w_cross, at_cross, strict=True):
         j = int(np.argmin(np.abs(row - 1j * wc)))
         if abs(row[j] - 1j * wc) > 1e-3 * max(wc, 1.0):  # conjugate branch crosses at -jω
             j = int(np.argmin(np.abs(row + 1j * wc)))
         crit[j] = min(crit[j], kc)
     # a conjugate branch crosses at the same gain as its partner
-    for j, p in enumerate(locus.start):
-        mate = int(np.argmin(np.abs(locus.start - np.conj(p))))
+    for j, p in enumerate(start):
+        mate = int(np.argmin(np.abs(start - np.conj(p))))
         crit[j] = crit[mate] = min(crit[j], crit[mate])
-    return locus.start, crit
+    return start, crit
 
 
 @dataclass(frozen=True)
