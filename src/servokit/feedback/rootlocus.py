@@ -135,7 +135,7 @@ def _match(prev: np.ndarray, r: np.ndarray) -> np.ndarray:
     cost = np.abs(prev[:, None] - r[None, :])
     cost[~np.isfinite(cost)] = 1e300
     col = np.argmin(cost, axis=1)
-    if r.size > 1 and np.unique(col).size == r.size:
+    if r.size > 1 and np.all(np.sort(col) == np.arange(r.size)):
         two = np.partition(cost, 1, axis=1)
         if np.all(two[:, 1] > two[:, 0]):
             return r[col]
@@ -179,29 +179,31 @@ def root_locus(g: control.TransferFunction, gains: np.ndarray) -> RootLocus:
     return RootLocus(gains=k, roots=np.array(rows) * w_ref)
 
 
-def _min_gap(r: np.ndarray) -> float:
-    """Smallest distance between two roots of ``r`` (inf for fewer than two)."""
-    if r.size < 2:
-        return np.inf
-    d = np.abs(r[:, None] - r[None, :])
-    return float(np.min(d[np.triu_indices(r.size, 1)]))
+def _min_gaps(rows: list[np.ndarray]) -> list[float]:
+    """Smallest distance between two roots of each row (inf for fewer than two)."""
+    out = []
+    for r in rows:
+        d = np.abs(r[:, None] - r[None, :])
+        np.fill_diagonal(d, np.inf)
+        out.append(float(np.min(d)) if r.size > 1 else np.inf)
+    return out
 
 
-def _clear_jump(prev: np.ndarray, r: np.ndarray) -> np.ndarray | None:
+def _clear_jump(prev: np.ndarray, r: np.ndarray, gap: float) -> np.ndarray | None:
     """``r`` matched to ``prev`` when the match is unambiguous, else None.
 
-    Unambiguous: the same number of finite roots, and every root moved less than a
-    quarter of the smallest root separation at either end, so the nearest root is the
-    only candidate and the intermediate steps of a dense grid match the same way.
+    Unambiguous: the same number of finite roots, the nearest roots form a permutation,
+    and every root moved less than a quarter of ``gap`` (the smallest root separation at
+    either end), so the nearest root is the only candidate and the steps of a dense
+    grid in between match the same way.
     """
     if r.size != prev.size or not (np.all(np.isfinite(r)) and np.all(np.isfinite(prev))):
         return None
     cost = np.abs(prev[:, None] - r[None, :])
     col = np.argmin(cost, axis=1)
-    moved = cost[np.arange(r.size), col]
-    if np.unique(col).size != r.size:
+    if np.any(np.sort(col) != np.arange(r.size)):
         return None
-    if r.size > 1 and np.max(moved) >= 0.25 * min(_min_gap(prev), _min_gap(r)):
+    if r.size > 1 and np.max(cost[np.arange(r.size), col]) >= 0.25 * gap:
         return None
     return r[col]
 
@@ -236,11 +238,14 @@ def tracked_roots(
     k, polys, nd, w_ref = _gains_polys(g, gains)
     want = np.searchsorted(k, np.asarray(at, dtype=float))
     coarse = np.unique(np.concatenate([np.arange(0, k.size, stride), [k.size - 1], want]))
-    raw = dict(zip(coarse[1:], _roots_rows(polys[coarse[1:]]), strict=True))
-    rows = {0: np.roots(nd)}
+    raw = dict(zip(coarse, [np.roots(nd), *_roots_rows(polys[coarse[1:]])], strict=True))
+    gaps = dict(zip(coarse, _min_gaps(list(raw.values())), strict=True))
+    rows = {0: raw[0]}
     prev = rows[0]
     for a, b in zip(coarse[:-1], coarse[1:], strict=True):
-        jump = _clear_jump(prev, raw[b]) if b > a + 1 else None
+        # the separation is that of the solved roots, whatever their branch order
+        gap = min(gaps[a], gaps[b])
+        jump = _clear_jump(prev, raw[b], gap) if b > a + 1 else None
         if jump is None:
             for r in _roots_rows(polys[a + 1 : b + 1]):
                 prev = _match(prev, r)
