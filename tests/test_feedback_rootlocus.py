@@ -11,10 +11,12 @@ from hypothesis import strategies as st
 from servokit.errors import ServokitValueError
 from servokit.feedback import peak_filter, peak_filter_phase
 from servokit.feedback.rootlocus import (
+    _match,
     _roots_rows,
     branch_gain_margins,
     departure_angles,
     root_locus,
+    tracked_roots,
 )
 
 
@@ -109,3 +111,70 @@ def test_batched_roots_equal_np_roots(n, seed):
     polys[7, :2] = 0.0
     for got, row in zip(_roots_rows(polys), polys, strict=True):
         np.testing.assert_array_equal(got, np.roots(row))
+
+
+def _pair(w: float, zeta: float) -> np.ndarray:
+    return np.array([1.0, 2.0 * zeta * w, w * w])
+
+
+@st.composite
+def _stable_g(draw):
+    """Random stable rational G: lightly damped pairs (ζ down to 1e-6), near-double
+    pairs and real poles; zeros anywhere (minimum or non-minimum phase)."""
+    den = np.array([1.0])
+    for _ in range(draw(st.integers(1, 3))):
+        w = draw(st.floats(0.1, 100.0))
+        zeta = 10.0 ** draw(st.floats(-6.0, 0.0))
+        den = np.polymul(den, _pair(w, zeta))
+        if draw(st.booleans()):  # a near-double pair
+            eps = 10.0 ** draw(st.floats(-9.0, -2.0))
+            den = np.polymul(den, _pair(w * (1.0 + eps), zeta))
+    for _ in range(draw(st.integers(0, 2))):
+        den = np.polymul(den, [1.0, draw(st.floats(0.05, 200.0))])
+    num = np.array([draw(st.floats(0.1, 10.0))])
+    for _ in range(draw(st.integers(0, min(2, den.size - 2)))):
+        num = np.polymul(num, [1.0, draw(st.floats(-50.0, 50.0))])
+    return control.tf(num, den)
+
+
+@settings(max_examples=60, deadline=None)
+@given(
+    g=_stable_g(),
+    lo=st.floats(-8.0, 0.0),
+    decades=st.floats(1.0, 10.0),
+    n=st.integers(50, 600),
+    stride=st.sampled_from([2, 5, 16, 40]),
+    picks=st.lists(st.floats(0.0, 1.0), min_size=1, max_size=5),
+)
+def test_sparse_tracking_equals_the_dense_tracking(g, lo, decades, n, stride, picks):
+    gains = np.geomspace(10.0**lo, 10.0 ** (lo + decades), n)
+    dense = root_locus(g, gains)
+    at = np.concatenate([[0.0], gains[(np.asarray(picks) * (n - 1)).astype(int)]])
+    rows = dense.roots[np.searchsorted(dense.gains, at)]
+    # the same roots in the same branch order, bit for bit
+    np.testing.assert_array_equal(tracked_roots(g, gains, at, stride=stride), rows)
+
+
+def test_sparse_tracking_through_a_breakaway_and_a_near_double_pole():
+    # two real poles meet and break away at k = 1/4; a pair 1e-7 apart in frequency
+    g = control.tf([1.0], np.polymul([1.0, 1.0, 0.0 + 0.25], [1.0, 2e-6, 1.0]))
+    g = g * control.tf([1.0], _pair(1.0 + 1e-7, 1e-6))
+    gains = np.geomspace(1e-9, 1e3, 800)
+    dense = root_locus(g, gains)
+    at = dense.gains[::37]
+    np.testing.assert_array_equal(tracked_roots(g, gains, at), dense.roots[::37])
+
+
+@settings(max_examples=100, deadline=None)
+@given(seed=st.integers(0, 2**32 - 1), n=st.integers(1, 6), ties=st.booleans())
+def test_match_is_the_optimal_assignment(seed, n, ties):
+    from scipy.optimize import linear_sum_assignment
+
+    rng = np.random.default_rng(seed)
+    prev = rng.normal(size=n) + 1j * rng.normal(size=n)
+    r = prev + 0.5 * (rng.normal(size=n) + 1j * rng.normal(size=n))
+    if ties:  # exact ties: the shortcut must leave them to linear_sum_assignment
+        r = np.round(r)
+        prev = np.round(prev)
+    cost = np.abs(prev[:, None] - r[None, :])
+    np.testing.assert_array_equal(_match(prev, r), r[linear_sum_assignment(cost)[1]])

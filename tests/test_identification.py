@@ -166,3 +166,22 @@ def test_chapter5_cases_are_registered():
         "identification-vcm",
         "identification-pzt",
     } <= names
+
+
+@settings(max_examples=40, deadline=None)
+@given(
+    hold=st.integers(1, 13),
+    substeps=st.integers(1, 13),
+    n=st.integers(1, 40),
+    f=st.lists(st.floats(1.0, 2e5), min_size=1, max_size=4),
+)
+def test_held_sinusoids_equal_cos_of_the_held_time(hold, substeps, n, f):
+    from servokit.sampled.identification import _held_sinusoids
+
+    dt = 1 / 30e3
+    freq = np.asarray(f)
+    k = np.arange(n * substeps)
+    # the direct form: the time of every fine step rounded down to its hold start
+    t_held = dt / substeps * (k // hold * hold)
+    direct = np.cos(2 * np.pi * freq[:, None] * t_held[None, :])
+    np.testing.assert_array_equal(_held_sinusoids(freq, dt, substeps, hold, n), direct)

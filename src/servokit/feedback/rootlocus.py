@@ -10,7 +10,16 @@ The gain at which a branch reaches the imaginary axis is found on the frequency
 response: a root at jω needs G(jω) real and negative and then k = 1/|G(jω)|. Each such
 gain is assigned to the branch that crosses there by following the locus from k = 0
 (the branch's starting pole) to that gain on a logarithmic grid, matching roots
-between neighbouring gains by minimum total distance (Hungarian assignment).
+between neighbouring gains by minimum total distance (Hungarian assignment; skipped when
+every root's strict nearest neighbour forms a permutation, which is then the unique
+optimum). :func:`branch_gain_margins` needs the branch order only at the crossing gains:
+:func:`tracked_roots` solves every 16th gain of the grid, jumps a coarse step when its
+nearest-root match is a permutation and every root moved less than a quarter of the
+smallest root separation at both ends, and solves and matches the dense grid inside any
+other coarse step, so it returns the dense tracking's rows (bit for bit in the tests on
+random stable G with ζ down to 1e-6 and near-double poles). A branch that leaves and
+returns within one coarse step without approaching another root is not seen; the dense
+tracking would order it the same way.
 
 Polynomials are formed in the normalised variable s/ω_ref (ω_ref the largest pole
 magnitude) so that the root finder works on coefficients of order one.
@@ -31,6 +40,7 @@ __all__ = [
     "PeakFilterLocus",
     "departure_angles",
     "root_locus",
+    "tracked_roots",
     "branch_gain_margins",
     "peak_filter_locus",
 ]
@@ -121,6 +131,41 @@ def _roots_rows(polys: np.ndarray) -> list[np.ndarray]:
     return [np.roots(p) if r is None else r for p, r in zip(polys, out, strict=True)]
 
 
+def _match(prev: np.ndarray, r: np.ndarray) -> np.ndarray:
+    """``r`` reordered to follow ``prev``: the minimum-total-distance assignment.
+
+    When every root of ``prev`` has a strict nearest root of ``r`` and these nearest
+    roots form a permutation, that permutation is the unique optimal assignment (each
+    row at its strict minimum), which is what ``linear_sum_assignment`` returns; only
+    the other steps call it.
+    """
+    if r.size < prev.size:  # leading coefficient cancelled: a root went to infinity
+        r = np.concatenate([r, np.full(prev.size - r.size, np.inf + 0j)])
+    cost = np.abs(prev[:, None] - r[None, :])
+    cost[~np.isfinite(cost)] = 1e300
+    col = np.argmin(cost, axis=1)
+    if r.size > 1 and np.all(np.sort(col) == np.arange(r.size)):
+        two = np.partition(cost, 1, axis=1)
+        if np.all(two[:, 1] > two[:, 0]):
+            return r[col]
+    from scipy.optimize import linear_sum_assignment
+
+    return r[linear_sum_assignment(cost)[1]]
+
+
+def _gains_polys(
+    g: control.TransferFunction, gains: np.ndarray
+) -> tuple[np.ndarray, np.ndarray, np.ndarray, float]:
+    """Sorted gains with k = 0 first, the polynomials ``den + k num`` of their rows, the
+    open-loop denominator and ω_ref (all in s/ω_ref)."""
+    nn, nd, w_ref = _polys(g)
+    k = np.unique(np.concatenate([[0.0], np.asarray(gains, dtype=float)]))
+    if k[0] < 0:
+        raise ServokitValueError("root-locus gains must be >= 0")
+    pad = np.concatenate([np.zeros(nd.size - nn.size), nn])
+    return k, nd[None, :] + k[:, None] * pad[None, :], nd, w_ref
+
+
 def root_locus(g: control.TransferFunction, gains: np.ndarray) -> RootLocus:
     """Closed-loop roots of 1 + k G = 0 for increasing ``gains`` (k ≥ 0), branches tracked.
 
@@ -136,22 +181,87 @@ def root_locus(g: control.TransferFunction, gains: np.ndarray) -> RootLocus:
     RootLocus
         Gains and tracked roots; the first row holds the open-loop poles.
     """
-    nn, nd, w_ref = _polys(g)
-    k = np.unique(np.concatenate([[0.0], np.asarray(gains, dtype=float)]))
-    if k[0] < 0:
-        raise ServokitValueError("root-locus gains must be >= 0")
-    from scipy.optimize import linear_sum_assignment
-
-    pad = np.concatenate([np.zeros(nd.size - nn.size), nn])
+    k, polys, nd, w_ref = _gains_polys(g, gains)
     rows = [np.roots(nd)]
-    for r in _roots_rows(nd[None, :] + k[1:, None] * pad[None, :]):
-        if r.size < rows[-1].size:  # leading coefficient cancelled: a root went to infinity
-            r = np.concatenate([r, np.full(rows[-1].size - r.size, np.inf + 0j)])
-        cost = np.abs(rows[-1][:, None] - r[None, :])
-        cost[~np.isfinite(cost)] = 1e300
-        _, col = linear_sum_assignment(cost)
-        rows.append(r[col])
+    for r in _roots_rows(polys[1:]):
+        rows.append(_match(rows[-1], r))
     return RootLocus(gains=k, roots=np.array(rows) * w_ref)
+
+
+def _min_gaps(rows: list[np.ndarray]) -> list[float]:
+    """Smallest distance between two roots of each row (inf for fewer than two)."""
+    out = []
+    for r in rows:
+        d = np.abs(r[:, None] - r[None, :])
+        np.fill_diagonal(d, np.inf)
+        out.append(float(np.min(d)) if r.size > 1 else np.inf)
+    return out
+
+
+def _clear_jump(prev: np.ndarray, r: np.ndarray, gap: float) -> np.ndarray | None:
+    """``r`` matched to ``prev`` when the match is unambiguous, else None.
+
+    Unambiguous: the same number of finite roots, the nearest roots form a permutation,
+    and every root moved less than a quarter of ``gap`` (the smallest root separation at
+    either end), so the nearest root is the only candidate and the steps of a dense
+    grid in between match the same way.
+    """
+    if r.size != prev.size or not (np.all(np.isfinite(r)) and np.all(np.isfinite(prev))):
+        return None
+    cost = np.abs(prev[:, None] - r[None, :])
+    col = np.argmin(cost, axis=1)
+    if np.any(np.sort(col) != np.arange(r.size)):
+        return None
+    if r.size > 1 and np.max(cost[np.arange(r.size), col]) >= 0.25 * gap:
+        return None
+    return r[col]
+
+
+def tracked_roots(
+    g: control.TransferFunction, gains: np.ndarray, at: np.ndarray, *, stride: int = 16
+) -> np.ndarray:
+    """Rows of ``root_locus(g, gains).roots`` at the gains ``at``, computed sparsely.
+
+    The locus is solved on every ``stride``-th gain (and at ``at``); a coarse step whose
+    match is unambiguous (:func:`_clear_jump`) is taken in one jump, any other coarse
+    interval is solved and matched on every gain of the dense grid, as
+    :func:`root_locus` does. The branch order is that of the dense tracking.
+
+    Parameters
+    ----------
+    g : control.TransferFunction
+        Continuous, proper open loop G.
+    gains : numpy.ndarray
+        The dense gain grid of :func:`root_locus` (k >= 0).
+    at : numpy.ndarray
+        Gains (members of ``gains`` or 0) at which the tracked roots are wanted.
+    stride : int
+        Dense grid points per coarse step.
+
+    Returns
+    -------
+    numpy.ndarray
+        ``roots[i, j]``: branch j at ``at[i]`` [rad/s]; branch j starts at
+        ``root_locus(g, gains).start[j]``.
+    """
+    k, polys, nd, w_ref = _gains_polys(g, gains)
+    want = np.searchsorted(k, np.asarray(at, dtype=float))
+    coarse = np.unique(np.concatenate([np.arange(0, k.size, stride), [k.size - 1], want]))
+    raw = dict(zip(coarse, [np.roots(nd), *_roots_rows(polys[coarse[1:]])], strict=True))
+    gaps = dict(zip(coarse, _min_gaps(list(raw.values())), strict=True))
+    rows = {0: raw[0]}
+    prev = rows[0]
+    for a, b in zip(coarse[:-1], coarse[1:], strict=True):
+        # the separation is that of the solved roots, whatever their branch order
+        gap = min(gaps[a], gaps[b])
+        jump = _clear_jump(prev, raw[b], gap) if b > a + 1 else None
+        if jump is None:
+            for r in _roots_rows(polys[a + 1 : b + 1]):
+                prev = _match(prev, r)
+        else:
+            prev = jump
+        rows[b] = prev
+    return np.array([rows[i] for i in want]) * w_ref
 
 
 def branch_gain_margins(
@@ -188,18 +298,18 @@ def branch_gain_margins(
     if k_cross.size == 0:
         return np.asarray(control.tf(g).poles(), dtype=complex), crit
     grid = np.geomspace(1e-8 * k_cross.min(), k_cross.max(), n_gain)
-    locus = root_locus(g, np.concatenate([grid, k_cross]))
-    for kc, wc in zip(k_cross, w_cross, strict=True):
-        row = locus.roots[np.searchsorted(locus.gains, kc)]
+    gains = np.concatenate([grid, k_cross])
+    start, *at_cross = tracked_roots(g, gains, np.concatenate([[0.0], k_cross]))
+    for kc, wc, row in zip(k_cross, w_cross, at_cross, strict=True):
         j = int(np.argmin(np.abs(row - 1j * wc)))
         if abs(row[j] - 1j * wc) > 1e-3 * max(wc, 1.0):  # conjugate branch crosses at -jω
             j = int(np.argmin(np.abs(row + 1j * wc)))
         crit[j] = min(crit[j], kc)
     # a conjugate branch crosses at the same gain as its partner
-    for j, p in enumerate(locus.start):
-        mate = int(np.argmin(np.abs(locus.start - np.conj(p))))
+    for j, p in enumerate(start):
+        mate = int(np.argmin(np.abs(start - np.conj(p))))
         crit[j] = crit[mate] = min(crit[j], crit[mate])
-    return locus.start, crit
+    return start, crit
 
 
 @dataclass(frozen=True)

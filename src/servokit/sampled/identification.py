@@ -147,8 +147,10 @@ def _project(x: np.ndarray, f_alias: np.ndarray, dt: float, k0: int) -> np.ndarr
 def _held_sinusoids(freq: np.ndarray, dt: float, substeps: int, hold: int, n: int) -> np.ndarray:
     """cos(2π f t) sampled every ``hold`` fine steps (of T/substeps) and held, (F, n substeps)."""
     h = dt / substeps
-    t_held = h * (np.arange(n * substeps) // hold * hold)
-    return np.cos(2 * np.pi * freq[:, None] * t_held[None, :])
+    # cos once per held value, then repeated: the same numbers as cos on every fine step
+    t_held = h * np.arange(0, n * substeps, hold)
+    held = np.cos(2 * np.pi * freq[:, None] * t_held[None, :])
+    return held if hold == 1 else np.repeat(held, hold, axis=1)[:, : n * substeps]
 
 
 def _closed_loop(
