@@ -123,8 +123,12 @@ def _same_optimum(d: StepData, pb, warm: socp.WarmStart | None = None) -> dict:
     if not stats["loose"]:  # every generated program reached 1e-8 / 1e-9
         assert gen[1] == pytest.approx(tight[1], abs=1e-5)
     # every row holds about as well as at the one program's optimum (same order, or 1e-5)
+    # (programs stopped at the looser tolerance hold their rows as loosely: picks 0, 12,
+    # 1, 2 at gain 0.90625, rho 0.0234, phase 1, two loose programs: -5.8e-4 against the
+    # one program's -2.6e-4, tau 6e-8 apart)
     worst = [_worst_row(d, *sol) for sol in (gen, one, tight)]
-    assert worst[0] > 2.0 * min(worst[1], worst[2], -1e-5)
+    factor = 3.0 if stats["loose"] else 2.0
+    assert worst[0] > factor * min(worst[1], worst[2], -1e-5)
     # θ itself need not agree: where few rows bind (phase 1, a small trust radius) the
     # optimal set is not a point, and an interior-point method returns its analytic
     # centre, which depends on every row (and on the tolerance)
