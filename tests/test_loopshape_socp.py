@@ -125,7 +125,7 @@ def _same_optimum(d: StepData, pb, warm: socp.WarmStart | None = None) -> dict:
     # every row holds about as well as at the one program's optimum (same order, or 1e-5)
     # (programs stopped at the looser tolerance hold their rows as loosely: picks 0, 12,
     # 1, 2 at gain 0.90625, rho 0.0234, phase 1, two loose programs: -5.8e-4 against the
-    # one program's -2.6e-4, tau 6e-8 apart)
+    # one program's -2.6e-4, tau 2.5e-7 from it)
     worst = [_worst_row(d, *sol) for sol in (gen, one, tight)]
     factor = 3.0 if stats["loose"] else 2.0
     assert worst[0] > factor * min(worst[1], worst[2], -1e-5)
