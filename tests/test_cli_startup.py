@@ -89,19 +89,26 @@ print("\nRESULT", codes, " ".join(m for m in %r if m in sys.modules))
 """
 
 
-def test_cheap_commands_run_without_heavy_libraries(tmp_path) -> None:  # noqa: ANN001
-    proc = subprocess.run(  # in a scratch directory: the export writes files
-        [sys.executable, "-c", _RUN % (CHEAP, HEAVY)],
-        cwd=tmp_path,
+def _run_light(commands, heavy: tuple[str, ...], cwd, what: str, timeout: float = 120) -> str:  # noqa: ANN001
+    """Run ``commands`` one after another in one fresh interpreter (in ``cwd``: some write
+    files); every one must exit 0 and none of ``heavy`` may be imported. Their stdout."""
+    proc = subprocess.run(
+        [sys.executable, "-c", _RUN % (commands, heavy)],
+        cwd=cwd,
         capture_output=True,
         text=True,
-        timeout=120,
+        timeout=timeout,
         check=True,
     )
     codes, _, loaded = proc.stdout.rsplit("RESULT ", 1)[1].strip().partition("] ")
-    assert codes.strip("[]") == ", ".join(["0"] * len(CHEAP)), proc.stderr
-    assert loaded.strip() == "", f"imported by a numpy-only command: {loaded}"
-    assert '"num_z"' in proc.stdout and "notch: num" in proc.stdout
+    assert codes.strip("[]") == ", ".join(["0"] * len(commands)), proc.stderr
+    assert loaded.strip() == "", f"imported by {what}: {loaded}"
+    return proc.stdout
+
+
+def test_cheap_commands_run_without_heavy_libraries(tmp_path) -> None:  # noqa: ANN001
+    out = _run_light(CHEAP, HEAVY, tmp_path, "a numpy-only command")
+    assert '"num_z"' in out and "notch: num" in out
 
 
 _IMPORT_ALL = r"""
@@ -231,18 +238,8 @@ CHEAP_SWITCHING = (
 
 
 def test_switching_commands_run_without_heavy_libraries(tmp_path) -> None:  # noqa: ANN001
-    proc = subprocess.run(  # in a scratch directory: the export writes files
-        [sys.executable, "-c", _RUN % (CHEAP_SWITCHING, HEAVY)],
-        cwd=tmp_path,
-        capture_output=True,
-        text=True,
-        timeout=300,
-        check=True,
-    )
-    codes, _, loaded = proc.stdout.rsplit("RESULT ", 1)[1].strip().partition("] ")
-    assert codes.strip("[]") == ", ".join(["0"] * len(CHEAP_SWITCHING)), proc.stderr
-    assert loaded.strip() == "", f"imported by a switching command: {loaded}"
-    assert "IVC admissible" in proc.stdout and "IVC gain K" in proc.stdout
+    out = _run_light(CHEAP_SWITCHING, HEAVY, tmp_path, "a switching command", timeout=300)
+    assert "IVC admissible" in out and "IVC gain K" in out
     assert (tmp_path / "firmware" / "ivc.c").is_file()
 
 
@@ -258,17 +255,7 @@ SCIPY_SUBPACKAGES = ("scipy.linalg", "scipy.integrate", "scipy.optimize", "scipy
 
 
 def test_fsc_commands_run_without_scipy_subpackages(tmp_path) -> None:  # noqa: ANN001
-    proc = subprocess.run(
-        [sys.executable, "-c", _RUN % (CHEAP_SCIPY, HEAVY + SCIPY_SUBPACKAGES)],
-        cwd=tmp_path,
-        capture_output=True,
-        text=True,
-        timeout=120,
-        check=True,
-    )
-    codes, _, loaded = proc.stdout.rsplit("RESULT ", 1)[1].strip().partition("] ")
-    assert codes.strip("[]") == ", ".join(["0"] * len(CHEAP_SCIPY)), proc.stderr
-    assert loaded.strip() == "", f"imported by an FSC design: {loaded}"
+    _run_light(CHEAP_SCIPY, HEAVY + SCIPY_SUBPACKAGES, tmp_path, "an FSC design")
     assert (tmp_path / "fw" / "hdd_ff.c").is_file()
 
 
@@ -330,17 +317,6 @@ CHEAP_LOOPS = (
     ),
 )
 
-_RUN_ONE = r"""
-import sys
-import servokit.cli
-sys.argv = ["servokit", *%r]
-try:
-    servokit.cli.main()
-except SystemExit as exc:
-    code = exc.code
-print("\nRESULT", code, " ".join(m for m in %r if m in sys.modules))
-"""
-
 #: ``report`` draws its figures (matplotlib is needed) but loads it after the start line,
 #: and never loads python-control: the start line is recorded with what was imported then
 _REPORT = r"""
@@ -369,18 +345,8 @@ print("\nRESULT", code, seen, " ".join(m for m in %r if m in sys.modules))
 
 
 def test_numpy_loop_commands_run_without_heavy_libraries(tmp_path) -> None:  # noqa: ANN001
-    for argv, also in CHEAP_LOOPS:
-        proc = subprocess.run(
-            [sys.executable, "-c", _RUN_ONE % (argv, HEAVY + ("scipy.optimize", *also))],
-            cwd=tmp_path,
-            capture_output=True,
-            text=True,
-            timeout=300,
-            check=True,
-        )
-        code, _, loaded = proc.stdout.rsplit("RESULT ", 1)[1].strip().partition(" ")
-        assert code == "0", (argv, proc.stderr)
-        assert loaded.strip() == "", f"{' '.join(argv)} imported {loaded}"
+    for argv, also in CHEAP_LOOPS:  # one interpreter each: their heavy lists differ
+        _run_light([argv], HEAVY + ("scipy.optimize", *also), tmp_path, " ".join(argv), 300)
     proc = subprocess.run(
         [sys.executable, "-c", _REPORT % (("control", "scipy.signal", "scipy.stats"),)],
         cwd=tmp_path,
