@@ -80,3 +80,31 @@ def positive_roots_in_w2(coeffs: list) -> list:
     scale = max(abs(r) for r in roots)
     real = [mpmath.re(r) for r in roots if abs(mpmath.im(r)) <= 1e-30 * scale]
     return sorted(mpmath.sqrt(r) for r in real if r > 0)
+
+
+def numerator_roots_mp(A: np.ndarray, b: np.ndarray, c: np.ndarray, dps: int = 150) -> np.ndarray:
+    """Roots of ``c adj(sI - A) b = det(sI - A + b c) - det(sI - A)`` in ``dps`` digits
+    (Faddeev-LeVerrier characteristic polynomials, mpmath ``polyroots``)."""
+    n = A.shape[0]
+
+    def charpoly(M: mpmath.matrix) -> list:
+        coeffs, Mk = [mpmath.mpf(1)], mpmath.zeros(n, n)
+        for k in range(1, n + 1):
+            Mk = M * Mk + coeffs[-1] * mpmath.eye(n)
+            coeffs.append(-sum((M * Mk)[i, i] for i in range(n)) / k)
+        return coeffs
+
+    with mpmath.workdps(dps):
+        # A - b c in mpmath: formed in double it rounds (a rigid body's 1e-3 beside a
+        # mode's 2.4e6 moved the reference zero by 4e-8)
+        Am = mpmath.matrix(A.tolist())
+        bc = mpmath.matrix(b.reshape(-1, 1).tolist()) * mpmath.matrix(c.reshape(1, -1).tolist())
+        pa, pb = charpoly(Am), charpoly(Am - bc)
+        num = [x - y for x, y in zip(pb, pa, strict=True)]
+        k = 0  # exact structural zeros of the leading Markov parameters
+        while abs(num[k]) < mpmath.mpf(10) ** (20 - dps) * max(abs(pa[k]), 1):
+            k += 1
+        if len(num) - k == 1:  # a constant numerator: no zeros
+            return np.zeros(0, dtype=complex)
+        roots = mpmath.polyroots(num[k:], maxsteps=2000, extraprec=4 * dps)
+        return np.array([complex(r) for r in roots])

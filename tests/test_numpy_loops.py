@@ -297,12 +297,26 @@ PLANTS = st.builds(
 
 @settings(max_examples=40, deadline=None)
 @given(plant=PLANTS)
-def test_plant_zeros_are_python_controls_bit_for_bit(plant: ModalPlant) -> None:
-    z = control.zeros(plant.to_statespace())
-    z = z[(np.imag(z) > 0) & (np.abs(z) < 2 * np.pi * 1e6)]
+def test_plant_zeros_are_the_numerators_roots(plant: ModalPlant) -> None:
+    """The zero dynamics (``siso_zeros``) against the numerator's roots in 60 digits, and
+    never less accurate than python-control's pencil (which is off by up to 1.8e-6 on the
+    VCM plant, 1e-7 on some of these)."""
+    from _mp_reference import numerator_roots_mp
+
+    from servokit.models.modal import modal_matrices
+
+    A, B, C = modal_matrices(*plant.arrays())
+    ref = numerator_roots_mp(A, B.ravel(), C.ravel(), dps=60)
+    ref = ref[(np.imag(ref) > 0) & (np.abs(ref) < 2 * np.pi * 1e6)]
+    pencil = control.zeros(plant.to_statespace())
     plant_zeros.cache_clear()
-    want = {float(abs(v) / (2 * np.pi)): float(-v.real / abs(v)) for v in z}
-    assert plant_zeros(plant) == want
+    got = plant_zeros(plant)
+    assert len(got) == ref.size
+    mine = np.array([2 * np.pi * f * (-z + 1j * np.sqrt(1 - z**2)) for f, z in got.items()])
+    for r in ref:
+        err_mine = np.min(np.abs(mine - r)) / abs(r)
+        err_pencil = np.min(np.abs(pencil - r)) / abs(r)
+        assert err_mine <= max(1e-10, err_pencil)
 
 
 @settings(max_examples=40, deadline=None)

@@ -22,7 +22,14 @@ import numpy as np
 
 from servokit.errors import ServokitValueError
 
-__all__ = ["RationalTF", "StateSpaceData", "as_state_space_data", "rational_zpk", "series"]
+__all__ = [
+    "RationalTF",
+    "StateSpaceData",
+    "as_state_space_data",
+    "rational_zpk",
+    "series",
+    "siso_zeros",
+]
 
 
 def _timebase(dt: float | None) -> float:
@@ -528,3 +535,54 @@ def as_state_space_data(sys: Any) -> StateSpaceData:
 
     ss = control.ss(sys)
     return StateSpaceData(ss.A, ss.B, ss.C, ss.D, ss.dt)
+
+
+def siso_zeros(A: np.ndarray, b: np.ndarray, c: np.ndarray) -> np.ndarray:
+    """Zeros of a strictly proper SISO state space, as the poles of its zero dynamics.
+
+    With relative degree ``r`` (``c A^k b = 0`` for ``k < r - 1``, ``g = c A^(r-1) b != 0``)
+    an output held at zero needs ``u = -c A^r x / g``, so the state moves by ``P A x``
+    with ``P = I - b c A^(r-1) / g`` inside ``K = ker [c; c A; ...; c A^(r-1)]``, which
+    ``P A`` maps into itself (``c A^k P A x = c A^(k+1) x = 0`` for ``k < r - 1`` and
+    ``c A^(r-1) P = 0``). The zeros are the eigenvalues of ``P A`` on ``K``: ``Q^T P A Q``
+    with ``Q`` an orthonormal basis of ``K`` (numpy's SVD and ``eigvals``).
+
+    On the 28-state VCM plant of chapter 5 these are within 2.2e-14 (relative) of the
+    roots of its numerator in 150 digits, where the Rosenbrock pencil's QZ
+    (:meth:`StateSpaceData.zeros`, python-control's ``zeros``) is off by up to 1.8e-6
+    (``tests/test_models_rational.py``); and no scipy.linalg is imported.
+
+    Parameters
+    ----------
+    A : ndarray, shape (n, n)
+        State matrix.
+    b : ndarray, shape (n,) or (n, 1)
+        Input vector.
+    c : ndarray, shape (n,) or (1, n)
+        Output vector (no feedthrough: ``y = c x``).
+
+    Returns
+    -------
+    ndarray of complex
+        The ``n - r`` zeros (empty when ``c A^k b`` vanishes for every ``k < n``).
+    """
+    A = np.asarray(A, dtype=float)
+    b = np.asarray(b, dtype=float).reshape(-1)
+    c = np.asarray(c, dtype=float).reshape(-1)
+    n = A.shape[0]
+    rows, v, g = [], c, 0.0
+    for _ in range(n):
+        rows.append(v)
+        g = float(v @ b)
+        # a Markov parameter below the rounding of its terms is a structural zero
+        if abs(g) > 1e3 * np.finfo(float).eps * float(np.abs(v) @ np.abs(b)):
+            break
+        v = v @ A
+    else:
+        return np.zeros(0, dtype=complex)
+    r = len(rows)
+    _, _, vt = np.linalg.svd(np.array(rows))
+    Q = vt[r:].T
+    PA = A - np.outer(b, v @ A) / g
+    return np.linalg.eigvals(Q.T @ PA @ Q).astype(complex)
+
