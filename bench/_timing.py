@@ -6,9 +6,11 @@ ratio of two timings taken in the same process, close together in time.
 
 from __future__ import annotations
 
+import json
 import time
 import tracemalloc
 from collections.abc import Callable
+from pathlib import Path
 from typing import Any
 
 import numpy as np
@@ -51,3 +53,13 @@ def peak_memory(fn: Callable[[], Any]) -> tuple[Any, float]:
     finally:
         tracemalloc.stop()
     return out, float(peak)
+
+
+def write_result(name: str, result: Any) -> Path:
+    """Write ``result`` as JSON to ``bench/out/NAME.json`` (created); return the path."""
+    out = Path(__file__).parent / "out"
+    out.mkdir(exist_ok=True)
+    path = out / f"{name}.json"
+    path.write_text(json.dumps(result, indent=2) + "\n")
+    return path
+

@@ -17,11 +17,12 @@ Run: ``MPLBACKEND=Agg python bench/figures_cpu.py [--case NAME ...] [--out DIR]`
 from __future__ import annotations
 
 import argparse
-import json
 import tempfile
 import time
 from collections import defaultdict
 from pathlib import Path
+
+from _timing import write_result
 
 
 def _hook(
@@ -125,9 +126,7 @@ def main() -> None:
         f"{res['savefig_cpu_s']:.1f} s); {res['n_png']} PNG, {res['png_bytes'] / 1e6:.1f} MB "
         f"(load {res['load_avg_1min']:.1f})"
     )
-    out = Path(__file__).parent / "out"
-    out.mkdir(exist_ok=True)
-    (out / "figures_cpu.json").write_text(json.dumps(res, indent=2) + "\n")
+    write_result("figures_cpu", res)
 
 
 if __name__ == "__main__":

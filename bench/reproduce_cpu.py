@@ -27,6 +27,8 @@ import tempfile
 import time
 from pathlib import Path
 
+from _timing import write_result
+
 _ENTRY = "import sys; from servokit.cli import main; sys.argv[0] = 'servokit'; main()"
 
 
@@ -91,9 +93,7 @@ def main() -> None:
         f"{res['sys_s']:.1f}), {res['wall_s']:.1f} s wall on {res['cores']} cores "
         f"(load {res['load_avg_1min']:.1f}); {res['n_rows']} rows; target <= 20 s CPU"
     )
-    out = Path(__file__).parent / "out"
-    out.mkdir(exist_ok=True)
-    (out / "reproduce.json").write_text(json.dumps(res, indent=2) + "\n")
+    write_result("reproduce", res)
 
 
 if __name__ == "__main__":
