@@ -104,3 +104,62 @@ def test_each_label_measured_once(tmp_path: Path) -> None:
     assert measured
     assert {dpi for _, dpi in measured} == {120}
     assert len(measured) == len(set(measured))
+
+
+def _tight_savefig_pixels(fig):
+    """The image of the plain way: tight_layout with every artist, then savefig."""
+    import io
+
+    import numpy as np
+
+    fig.set_dpi(110)
+    fig.tight_layout()
+    buf = io.BytesIO()
+    fig.savefig(buf, dpi=110, format="png")
+    plt.close(fig)
+    with Image.open(buf) as img:
+        return np.asarray(img)
+
+
+def _legend_fig(n_entries: int):
+    import numpy as np
+
+    fig, (a, b) = plt.subplots(2, 1, sharex=True, figsize=(5, 4))
+    t = np.linspace(0, 1, 300)
+    for k in range(n_entries):
+        a.plot(t, np.sin(2 * np.pi * (k + 1) * t), label=f"mode {k + 1} [rad]")
+    a.legend(loc="best")
+    b.plot(t, t**2, label="ramp")
+    b.legend(loc="upper left")
+    b.set_xlabel("Time [s]")
+    a.set_ylabel("Angle [rad]")
+    a.set_title("Fig. 2.36")
+    return fig
+
+
+def test_legends_out_of_layout_same_pixels(tmp_path: Path) -> None:
+    # legends inside their axes are left out of the layout pass: the image is the one
+    # of tight_layout with every artist; a legend taller than its axes (12 entries in
+    # a 1.5 in axes) goes back into the layout and the image is again the plain one
+    import numpy as np
+
+    for n_entries in (3, 12):
+        ref = _tight_savefig_pixels(_legend_fig(n_entries))
+        path = save_figure(_legend_fig(n_entries), tmp_path / f"l{n_entries}.png")
+        with Image.open(path) as img:
+            assert np.array_equal(np.asarray(img), ref), n_entries
+
+
+def test_legend_outside_the_axes_stays_in_the_layout(tmp_path: Path) -> None:
+    # a legend anchored outside its axes (bbox_to_anchor) is laid out as before
+    import numpy as np
+
+    def fig_():
+        fig, ax = plt.subplots(figsize=(5, 3))
+        ax.plot([0, 1], [0, 1], label="a rather long legend entry [unit]")
+        ax.legend(loc="center left", bbox_to_anchor=(1.0, 0.5))
+        return fig
+
+    ref = _tight_savefig_pixels(fig_())
+    with Image.open(save_figure(fig_(), tmp_path / "o.png")) as img:
+        assert np.array_equal(np.asarray(img), ref)

@@ -10,9 +10,11 @@ from pathlib import Path
 from typing import TYPE_CHECKING
 
 from servokit._io import write_atomic
+from servokit._png import encode_png
 
 if TYPE_CHECKING:
     from matplotlib.figure import Figure
+    from matplotlib.legend import Legend
 
 __all__ = ["also_save_as", "figure_title", "save_figure"]
 
@@ -42,8 +44,93 @@ def figure_title(fig: Figure) -> str:
 
 #: zlib level of the PNG files: 3 encodes the report's figures in two thirds of the CPU
 #: of Pillow's default 6 for 6 % more bytes (78 figures: 0.97 s / 6.5 MB against
-#: 1.44 s / 6.2 MB, ``bench/figures_cpu.py``); the pixels are the same (lossless)
+#: 1.44 s / 6.2 MB, ``bench/figures_cpu.py``); the pixels are the same (lossless).
+#: Without Pillow's row filters (:mod:`servokit._png`) level 3 takes 0.34 s, 6.7 MB
 PNG_COMPRESS_LEVEL = 3
+
+
+def _legends_out_of_layout(fig: Figure) -> list[Legend]:
+    """Take the legends placed inside their axes out of the layout pass; return them.
+
+    A legend anchored to its axes' box (no ``bbox_to_anchor``) lies inside the axes,
+    which the layout keeps whole anyway, so it cannot move the layout; measuring it
+    would place it (``loc="best"`` searches the data for a free corner) once more
+    before the draw places it again (0.4 s of the report's 78 figures).
+    """
+    legends = []
+    for ax in fig.axes:
+        legend = ax.get_legend()
+        if legend is not None and legend.get_in_layout() and legend.get_bbox_to_anchor() is ax.bbox:
+            legend.set_in_layout(False)
+            legends.append(legend)
+    return legends
+
+
+def _legends_inside(legends: list[Legend]) -> bool:
+    """Whether each legend, as last drawn, lies inside its axes (frame within 1 pixel)."""
+    for legend in legends:
+        frame = legend.get_frame().get_window_extent()
+        box = legend.axes.bbox
+        if (
+            frame.x0 < box.x0 - 1
+            or frame.y0 < box.y0 - 1
+            or frame.x1 > box.x1 + 1
+            or frame.y1 > box.y1 + 1
+        ):
+            return False
+    return True
+
+
+def _lay_out(fig: Figure) -> None:
+    """One ``tight_layout`` pass, unless the figure has a layout engine of its own."""
+    from matplotlib.layout_engine import PlaceHolderLayoutEngine
+
+    engine = fig.get_layout_engine()
+    # a figure with a layout engine of its own (constrained, tight) is laid out when it
+    # is drawn: a tight_layout pass here would be redundant
+    if engine is None or isinstance(engine, PlaceHolderLayoutEngine):
+        fig.tight_layout()
+        # tight_layout leaves a placeholder engine, for which savefig draws the whole
+        # figure once more (a "dry" draw, 30 % of a save) before the real draw; the
+        # layout is done, so no engine: one draw per file
+        fig.set_layout_engine(None)
+
+
+_SUBPLOT_PARAMS = ("left", "bottom", "right", "top", "wspace", "hspace")
+
+
+def _agg_png(
+    fig: Figure,
+    dpi: int,
+    meta: dict[str, str] | None,
+    legends: list[Legend],
+    params: dict[str, float],
+) -> bytes:
+    """Draw ``fig`` on its Agg canvas and encode the pixels (:func:`~servokit._png.encode_png`).
+
+    Should a legend taken out of the layout stick out of its axes after all (a legend
+    larger than its axes), the legends go back into the layout and the figure is laid
+    out again from the subplot parameters ``params`` it had before the first layout, and
+    drawn again: the image is then the one ``tight_layout`` makes of all artists.
+    """
+    import matplotlib
+    import numpy as np
+
+    fig.canvas.draw()
+    if not _legends_inside(legends):
+        for legend in legends:
+            legend.set_in_layout(True)
+        fig.subplots_adjust(**params)
+        _lay_out(fig)
+        fig.canvas.draw()
+    # the metadata savefig writes into a PNG: the software, then the caller's keys
+    text = {"Software": f"Matplotlib version{matplotlib.__version__}, https://matplotlib.org/"}
+    return encode_png(
+        np.asarray(fig.canvas.buffer_rgba()),
+        dpi=dpi,
+        text=text | (meta or {}),
+        level=PNG_COMPRESS_LEVEL,
+    )
 
 
 def save_figure(fig: Figure, path: str | Path, *, dpi: int = 110) -> Path:
@@ -65,21 +152,19 @@ def save_figure(fig: Figure, path: str | Path, *, dpi: int = 110) -> Path:
         ``path``.
     """
     import matplotlib.pyplot as plt
-    from matplotlib.layout_engine import PlaceHolderLayoutEngine
+    from matplotlib.backends.backend_agg import FigureCanvasAgg
 
     # lay out at the resolution of the file: the layout pass and the draw then share
     # one renderer, whose text extents and parsed mathtext are cached (laid out at the
     # figure's 100 dpi and drawn at 110, every label was measured twice)
     fig.set_dpi(dpi)
-    engine = fig.get_layout_engine()
-    # a figure with a layout engine of its own (constrained, tight) is laid out when it
-    # is drawn: a tight_layout pass here would be redundant
-    if engine is None or isinstance(engine, PlaceHolderLayoutEngine):
-        fig.tight_layout()
-        # tight_layout leaves a placeholder engine, for which savefig draws the whole
-        # figure once more (a "dry" draw, 30 % of a save) before the real draw; the
-        # layout is done, so no engine: one draw per file
-        fig.set_layout_engine(None)
+    # a PNG drawn on the figure's own Agg canvas (the report's case) is encoded from the
+    # canvas's pixels, the same pixels savefig writes, and its legends can be checked
+    # after the draw; any other first file goes through savefig
+    agg_png = Path(path).suffix.lower() == ".png" and isinstance(fig.canvas, FigureCanvasAgg)
+    legends = _legends_out_of_layout(fig) if agg_png else []
+    params = {k: getattr(fig.subplotpars, k) for k in _SUBPLOT_PARAMS}
+    _lay_out(fig)
     title = figure_title(fig)
     targets = [Path(path)] + [
         Path(path).with_suffix(f".{fmt}")
@@ -90,9 +175,13 @@ def save_figure(fig: Figure, path: str | Path, *, dpi: int = 110) -> Path:
         fmt = target.suffix.lstrip(".").lower() or None
         # the title travels in the file, so a report can caption any figure
         meta = {"Title": title} if title and target.suffix.lower() in _META_FORMATS else None
-        extra = {"pil_kwargs": {"compress_level": PNG_COMPRESS_LEVEL}} if fmt == "png" else {}
-        buf = io.BytesIO()
-        fig.savefig(buf, dpi=dpi, metadata=meta, format=fmt, **extra)
-        write_atomic(target, buf.getvalue())  # an interrupted run leaves no torn image
+        if agg_png and target == targets[0]:
+            data = _agg_png(fig, dpi, meta, legends, params)
+        else:
+            extra = {"pil_kwargs": {"compress_level": PNG_COMPRESS_LEVEL}} if fmt == "png" else {}
+            buf = io.BytesIO()
+            fig.savefig(buf, dpi=dpi, metadata=meta, format=fmt, **extra)
+            data = buf.getvalue()
+        write_atomic(target, data)  # an interrupted run leaves no torn image
     plt.close(fig)
     return Path(path)
