@@ -4,12 +4,13 @@ Runs the cases one after another in this process (``iter_cases(workers=1)``, as 
 one-core machine would) with hooks on matplotlib: the CPU seconds of each figure from
 its creation (``pyplot.figure``, which ``pyplot.subplots`` calls) to its closing
 (``pyplot.close``, which :func:`servokit._figures.save_figure` calls), and within that
-the layout pass (``Figure.tight_layout``) and the saves (``Figure.savefig``: draw and
-encoding).  A figure's window also holds whatever its plot function computes between
-creating and saving it (e.g. a spectrum evaluated for the plot), so it is an upper
-bound of the drawing cost.  CPU is ``time.process_time`` (this process, all threads),
-so the figure share does not depend on the load of the shared machine as wall time
-would.  Writes ``bench/out/figures_cpu.json``.
+the layout pass (``Figure.tight_layout``) and the saves (``Figure.savefig``, or the
+PNG path of :func:`servokit._figures.save_figure` that draws on the Agg canvas and
+encodes its pixels: draw and encoding).  A figure's window also holds whatever its
+plot function computes between creating and saving it (e.g. a spectrum evaluated for
+the plot), so it is an upper bound of the drawing cost.  CPU is ``time.process_time``
+(this process, all threads), so the figure share does not depend on the load of the
+shared machine as wall time would.  Writes ``bench/out/figures_cpu.json``.
 
 Run: ``MPLBACKEND=Agg python bench/figures_cpu.py [--case NAME ...] [--out DIR]``.
 """
@@ -81,6 +82,8 @@ def _hook(
     figures.write_atomic = write_hook
     Figure.savefig = timed("savefig", savefig)
     Figure.tight_layout = timed("tight_layout", tight)
+    if hasattr(figures, "_agg_png"):  # a PNG drawn and encoded without savefig
+        figures._agg_png = timed("savefig", figures._agg_png)
 
 
 def measure(cases: list[str], out: Path) -> dict:
