@@ -154,6 +154,8 @@ def save_figure(fig: Figure, path: str | Path, *, dpi: int = 110) -> Path:
     import matplotlib.pyplot as plt
     from matplotlib.backends.backend_agg import FigureCanvasAgg
 
+    from servokit._ticks import cache_tick_locations
+
     # lay out at the resolution of the file: the layout pass and the draw then share
     # one renderer, whose text extents and parsed mathtext are cached (laid out at the
     # figure's 100 dpi and drawn at 110, every label was measured twice)
@@ -164,6 +166,7 @@ def save_figure(fig: Figure, path: str | Path, *, dpi: int = 110) -> Path:
     agg_png = Path(path).suffix.lower() == ".png" and isinstance(fig.canvas, FigureCanvasAgg)
     legends = _legends_out_of_layout(fig) if agg_png else []
     params = {k: getattr(fig.subplotpars, k) for k in _SUBPLOT_PARAMS}
+    cache_tick_locations(fig)
     _lay_out(fig)
     title = figure_title(fig)
     targets = [Path(path)] + [
