@@ -163,3 +163,14 @@ def test_legend_outside_the_axes_stays_in_the_layout(tmp_path: Path) -> None:
     ref = _tight_savefig_pixels(fig_())
     with Image.open(save_figure(fig_(), tmp_path / "o.png")) as img:
         assert np.array_equal(np.asarray(img), ref)
+
+
+def test_savefig_rc_honoured(tmp_path: Path) -> None:
+    # with rc settings that make savefig write more than the canvas (a tight box, a
+    # transparent background), the PNG still comes from savefig
+    import matplotlib
+
+    with matplotlib.rc_context({"savefig.bbox": "tight", "savefig.transparent": True}):
+        with Image.open(save_figure(_fig(), tmp_path / "t.png")) as img:
+            assert img.size != (640 * 110 // 100, 480 * 110 // 100)  # cropped
+            assert img.getextrema()[3][0] == 0  # transparent pixels

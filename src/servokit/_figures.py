@@ -96,6 +96,19 @@ def _lay_out(fig: Figure) -> None:
         fig.set_layout_engine(None)
 
 
+def _plain_savefig_rc() -> bool:
+    """Whether savefig would write the canvas as drawn (the default ``savefig.*`` rc)."""
+    import matplotlib
+
+    rc = matplotlib.rcParams
+    return (
+        rc["savefig.bbox"] in (None, "standard")
+        and not rc["savefig.transparent"]
+        and rc["savefig.facecolor"] == "auto"
+        and rc["savefig.edgecolor"] == "auto"
+    )
+
+
 _SUBPLOT_PARAMS = ("left", "bottom", "right", "top", "wspace", "hspace")
 
 
@@ -162,8 +175,14 @@ def save_figure(fig: Figure, path: str | Path, *, dpi: int = 110) -> Path:
     fig.set_dpi(dpi)
     # a PNG drawn on the figure's own Agg canvas (the report's case) is encoded from the
     # canvas's pixels, the same pixels savefig writes, and its legends can be checked
-    # after the draw; any other first file goes through savefig
-    agg_png = Path(path).suffix.lower() == ".png" and isinstance(fig.canvas, FigureCanvasAgg)
+    # after the draw; any other first file goes through savefig, and so does every file
+    # when the rc settings ask savefig for more than the canvas (a tight bounding box,
+    # a transparent or other background)
+    agg_png = (
+        Path(path).suffix.lower() == ".png"
+        and isinstance(fig.canvas, FigureCanvasAgg)
+        and _plain_savefig_rc()
+    )
     legends = _legends_out_of_layout(fig) if agg_png else []
     params = {k: getattr(fig.subplotpars, k) for k in _SUBPLOT_PARAMS}
     cache_tick_locations(fig)
