@@ -26,7 +26,12 @@ feasible inputs, the smallest peak (LP) or energy (QP through qpsolvers, via
 The LPs stay small by row generation: they start from the grid rows at the sampling
 instants, and rows that the solution violates on the fine grid are added until none
 is (a relaxation that is infeasible proves the full problem infeasible, so the search
-decisions are exact).  All rows are scaled by the band, the inputs by ``u_max``.
+decisions are exact).  All rows are scaled by the band, the inputs by ``u_max``.  The
+feasibility questions of one ``N`` share one HiGHS model (generated rows kept, rows
+before the settle index switched off, warm dual simplex;
+:mod:`servokit.seek._highs_feasibility`): the same decisions as fresh LPs at half the
+CPU, and the design's input comes from a fresh peak / energy solve at the chosen
+``(N, s)``, so it is the same array either way.
 """
 
 from __future__ import annotations
