@@ -24,14 +24,15 @@ DT, TARGET, BAND, U_MAX = 0.01, 1.0, 0.05, 4.0
 pytestmark = pytest.mark.skipif(not hf.available(), reason="no SciPy HiGHS binding")
 
 
-def _plants(gains, freqs, dampings, residues) -> list[ModalPlant]:
+def _plants(gains, freqs, dampings, residues, scale=1.0) -> list[ModalPlant]:
     return [
-        ModalPlant(gain=g, modes=(Mode(0.0, 0.0, 1.0), Mode(f, z, r)), delay=0.0)
+        ModalPlant(gain=g * scale, modes=(Mode(0.0, 0.0, 1.0), Mode(f, z, r)), delay=0.0)
         for g, f, z, r in zip(gains, freqs, dampings, residues, strict=True)
     ]
 
 
 def _lp(plants, N, scale=1.0, horizon=0.2) -> R._SeekLP:
+    """The LP of ``plants`` (output units scaled by ``scale``: target and band too)."""
     bank = PulseBank.build(plants, DT, 10, N * DT + horizon + 2 * DT)
     return R._SeekLP(bank, N, TARGET * scale, BAND * scale, U_MAX, horizon, None)
 
@@ -51,8 +52,12 @@ def _fresh(lp: R._SeekLP, s: int) -> np.ndarray | None:
     order=st.permutations(range(8)),
 )
 def test_kept_answers_equal_fresh_linprog(gains, freqs, dampings, residues, N, scale, order):
-    """Questions in any order (bisection, gallop, repeats): the fresh LP's decisions."""
-    plants = _plants(gains, freqs, dampings, residues)
+    """Questions in any order (bisection, gallop, repeats): the fresh LP's decisions.
+
+    ``scale`` multiplies the plant gains and the target and band: the same problem in
+    other output units (the LP rows are in band units, so it stays well scaled).
+    """
+    plants = _plants(gains, freqs, dampings, residues, scale)
     kept = _lp(plants, N, scale)
     fresh = _lp(plants, N, scale)
     points = np.linspace(0, kept.J, 8).astype(int)
@@ -101,3 +106,14 @@ def test_stalled_resolve_falls_back(monkeypatch):
     monkeypatch.setattr(hf, "ITERATION_LIMIT", 1)
     assert (lp.solve(lp.J) is None) == (_fresh(_lp(plants, 8), lp.J) is None)
     assert lp._kept is None  # dropped: rebuilt for the next question
+
+
+def test_tail_maps_of_one_bank_equal_fresh_banks():
+    """The modal ZOH cached on the bank: every N's tail rows as from a new bank."""
+    plants = _plants((100.0, 95.0), (20.0, 24.0), (1e-6, 0.08), (-0.3, 0.4))
+    bank = PulseBank.build(plants, DT, 10, 0.5)
+    for N in (3, 7, 5):
+        J = bank.horizon_index(N, 0.2)
+        kept, fresh = bank.tail_maps(N, J), PulseBank.build(plants, DT, 10, 0.5).tail_maps(N, J)
+        for name in ("rigid", "a", "b"):
+            np.testing.assert_array_equal(getattr(kept, name), getattr(fresh, name))
