@@ -107,3 +107,33 @@ def test_kept_heap_stops_page_faulting_each_temporary() -> None:
     growth = (40 << 16) * 8 // 4096  # pages of the largest array: 5120
     assert counts[True] <= 1.2 * growth  # measured 5109
     assert counts[False] >= 3 * counts[True]  # measured 26818 (numpy asks for huge pages)
+
+
+def test_workers_fork_from_a_frozen_heap(tmp_path) -> None:
+    import gc
+
+    from servokit.cases import register
+    from servokit.cases.registry import _REGISTRY
+    from servokit.cases.runner import iter_cases
+    from servokit.report import CaseResult
+
+    def probe(name: str):
+        def case(out):
+            # the parent's objects are frozen in the worker: its collections skip them
+            seen = {"pid": os.getpid(), "frozen": gc.get_freeze_count()}
+            return CaseResult(name, "probe", [], [], extra=seen)
+
+        return case
+
+    names = ["zz-probe-a", "zz-probe-b"]
+    for i, name in enumerate(names):
+        register(name, order=600 + i)(probe(name))
+    try:
+        assert gc.get_freeze_count() == 0
+        seen = [r.extra for _, done, _ in iter_cases(tmp_path, names, workers=2) for r in done]
+    finally:
+        for name in names:
+            _REGISTRY.pop(name, None)
+    assert len(seen) == 2
+    assert all(s["pid"] != os.getpid() and s["frozen"] > 1000 for s in seen)
+    assert gc.get_freeze_count() == 0  # the parent unfrozen again
