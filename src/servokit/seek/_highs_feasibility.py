@@ -44,7 +44,17 @@ def _core():  # noqa: ANN202 - the private binding has no public type
         from scipy.optimize._highspy import _core
     except ImportError:  # SciPy < 1.15: no bundled highspy binding
         return None
-    return _core if hasattr(_core, "_Highs") else None
+    highs = getattr(_core, "_Highs", None)
+    if highs is None or not all(hasattr(highs, m) for m in _METHODS):
+        return None  # another binding layout: the caller keeps linprog
+    return _core
+
+
+#: the binding's methods used here (highspy's names)
+_METHODS = (
+    "setOptionValue", "getInfinity", "addVars", "addRows", "getNumRow", "changeRowBounds",
+    "run", "getModelStatus", "getSolution", "modelStatusToString",
+)  # fmt: skip
 
 
 def available() -> bool:
