@@ -23,7 +23,10 @@ A warm re-solve can stall in degenerate pivots; it is stopped after
 :data:`ITERATION_LIMIT` pivots and the question goes to a fresh ``linprog``.
 
 The binding is SciPy's own HiGHS (``scipy.optimize._highspy._core``, SciPy >= 1.15);
-where it is missing :func:`available` is False and the caller keeps ``linprog``.
+where it is missing, or lacks a method used here, :func:`available` is False and the
+caller keeps ``linprog``.  The public ``highspy`` package was not taken: its ``Highs()``
+(1.16) writes HiGHS's banner to stdout on construction, before any option can be set,
+which would corrupt the ``--json`` output of the commands that design robust seeks.
 """
 
 from __future__ import annotations
