@@ -2,12 +2,12 @@
 
 from __future__ import annotations
 
-import io
 from pathlib import Path
 
 import matplotlib.pyplot as plt
 import numpy as np
 import pytest
+from _plain_save import plain_pixels
 from matplotlib.ticker import AutoLocator, FixedLocator, LogLocator
 from PIL import Image
 
@@ -50,19 +50,9 @@ def _mixed():
     return fig
 
 
-def _plain_pixels(fig) -> np.ndarray:
-    fig.set_dpi(110)
-    fig.tight_layout()
-    buf = io.BytesIO()
-    fig.savefig(buf, dpi=110, format="png")
-    plt.close(fig)
-    with Image.open(buf) as img:
-        return np.asarray(img)
-
-
 @pytest.mark.parametrize("make", [_bode, _mixed])
 def test_same_pixels_as_the_plain_save(make, tmp_path: Path) -> None:
-    ref = _plain_pixels(make())
+    ref = plain_pixels(make())
     with Image.open(save_figure(make(), tmp_path / "f.png")) as img:
         np.testing.assert_array_equal(np.asarray(img), ref)
 

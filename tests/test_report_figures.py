@@ -5,6 +5,7 @@ from __future__ import annotations
 from pathlib import Path
 
 import matplotlib.pyplot as plt
+from _plain_save import plain_pixels
 from PIL import Image
 
 from servokit._figures import also_save_as, figure_title, save_figure
@@ -106,21 +107,6 @@ def test_each_label_measured_once(tmp_path: Path) -> None:
     assert len(measured) == len(set(measured))
 
 
-def _tight_savefig_pixels(fig):
-    """The image of the plain way: tight_layout with every artist, then savefig."""
-    import io
-
-    import numpy as np
-
-    fig.set_dpi(110)
-    fig.tight_layout()
-    buf = io.BytesIO()
-    fig.savefig(buf, dpi=110, format="png")
-    plt.close(fig)
-    with Image.open(buf) as img:
-        return np.asarray(img)
-
-
 def _legend_fig(n_entries: int):
     import numpy as np
 
@@ -144,7 +130,7 @@ def test_legends_out_of_layout_same_pixels(tmp_path: Path) -> None:
     import numpy as np
 
     for n_entries in (3, 12):
-        ref = _tight_savefig_pixels(_legend_fig(n_entries))
+        ref = plain_pixels(_legend_fig(n_entries))
         path = save_figure(_legend_fig(n_entries), tmp_path / f"l{n_entries}.png")
         with Image.open(path) as img:
             assert np.array_equal(np.asarray(img), ref), n_entries
@@ -160,7 +146,7 @@ def test_legend_outside_the_axes_stays_in_the_layout(tmp_path: Path) -> None:
         ax.legend(loc="center left", bbox_to_anchor=(1.0, 0.5))
         return fig
 
-    ref = _tight_savefig_pixels(fig_())
+    ref = plain_pixels(fig_())
     with Image.open(save_figure(fig_(), tmp_path / "o.png")) as img:
         assert np.array_equal(np.asarray(img), ref)
 
