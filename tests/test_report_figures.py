@@ -160,3 +160,17 @@ def test_savefig_rc_honoured(tmp_path: Path) -> None:
         with Image.open(save_figure(_fig(), tmp_path / "t.png")) as img:
             assert img.size != (640 * 110 // 100, 480 * 110 // 100)  # cropped
             assert img.getextrema()[3][0] == 0  # transparent pixels
+
+
+def test_legend_check_draws_again_only_when_needed(tmp_path: Path) -> None:
+    # a hidden legend is not taken out of the layout (no frame to check): one draw; a
+    # legend taller than its axes is put back into the layout: a second draw
+    fig = _legend_fig(3)
+    fig.axes[0].get_legend().set_visible(False)
+    draws = _count_draws(fig)
+    save_figure(fig, tmp_path / "h.png")
+    assert draws[0] == 1
+    fig = _legend_fig(12)
+    draws = _count_draws(fig)
+    save_figure(fig, tmp_path / "t.png")
+    assert draws[0] == 2

@@ -60,7 +60,9 @@ def _legends_out_of_layout(fig: Figure) -> list[Legend]:
     legends = []
     for ax in fig.axes:
         legend = ax.get_legend()
-        if legend is not None and legend.get_in_layout() and legend.get_bbox_to_anchor() is ax.bbox:
+        if legend is None or not (ax.get_visible() and legend.get_visible()):
+            continue  # (an undrawn legend has no frame to check after the draw)
+        if legend.get_in_layout() and legend.get_bbox_to_anchor() is ax.bbox:
             legend.set_in_layout(False)
             legends.append(legend)
     return legends
