@@ -376,8 +376,9 @@ def _block_frfs(plants: list, dt: float, z: np.ndarray) -> np.ndarray:
     zc = z[None, :, None]
     for idx, bank in modal_banks(plants, dt):
         delay_factor = z ** (-bank.dd)
-        # plants in chunks: (plants, frequencies, modes) complex arrays of ~10 MB
-        step = max(1, 2**19 // (z.size * bank.Phi.shape[1]))
+        # plants in chunks: (plants, frequencies, modes) complex arrays of ~1 MB, which
+        # stay in cache between the elementwise passes (8 MB ones cost 25 % more CPU)
+        step = max(1, 2**16 // (z.size * bank.Phi.shape[1]))
         for lo in range(0, idx.size, step):
             Phi = bank.Phi[lo : lo + step, None]  # (v, 1, M, 2, 2)
             gn, go = bank.Gnew[lo : lo + step, None], bank.Gold[lo : lo + step, None]
