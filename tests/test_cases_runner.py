@@ -49,3 +49,91 @@ def test_missing_slycot_fails_at_once(monkeypatch: pytest.MonkeyPatch) -> None:
     else:  # installed: left alone
         assert sys.modules.get("slycot") is not None or "slycot" not in sys.modules
     monkeypatch.delitem(sys.modules, "slycot", raising=False)
+
+
+def test_pool_takes_the_longest_groups_first() -> None:
+    from servokit.cases.runner import _longest_first
+
+    groups = [["a"], ["b", "c"], ["d"], ["e"]]
+    costs = {"a": 1.0, "b": 0.5, "c": 2.0, "d": 4.0}  # "e" unknown: 0
+    assert _longest_first(groups, costs) == [["d"], ["b", "c"], ["a"], ["e"]]
+    assert _longest_first(groups, {}) == groups  # no history: the run order
+
+
+def test_previous_runtimes_is_a_hint_never_an_error(tmp_path) -> None:
+    import json
+
+    from servokit.cases.runner import previous_runtimes
+
+    good = tmp_path / "results.json"
+    cases = [{"name": "a", "runtime_s": 1.5}, {"name": "b", "runtime_s": float("nan")},
+             {"name": "c", "runtime_s": -1}, {"name": "d", "runtime_s": "2"},
+             {"name": 3, "runtime_s": 1}, "junk"]  # fmt: skip
+    good.write_text(json.dumps({"cases": cases}))
+    assert previous_runtimes(good) == {"a": 1.5}
+    assert previous_runtimes(good, max_bytes=10) == {}  # oversized: not read
+    assert previous_runtimes(tmp_path / "missing.json") == {}
+    assert previous_runtimes(tmp_path) == {}  # a directory
+    for text in ("[1, 2]", "{", '{"cases": 5}', "[" * 100_000):
+        good.write_text(text)
+        assert previous_runtimes(good) == {}
+    fifo = tmp_path / "fifo.json"
+    os.mkfifo(fifo)
+    assert previous_runtimes(fifo) == {}  # not opened: no hang
+
+
+@pytest.mark.skipif(not sys.platform.startswith("linux"), reason="glibc mallopt")
+def test_kept_heap_stops_page_faulting_each_temporary() -> None:
+    import subprocess
+
+    # arrays of 0.5, 1, ..., 20 MB made, written and freed: by default glibc maps each
+    # new, larger size afresh (its threshold adapts only after the free), which
+    # page-faults every array afresh; with the setting the heap is reused and
+    # faults only as it grows to the largest array (20 MB: 5120 pages)
+    code = (
+        "import resource, numpy as np\n"
+        "from servokit._heap import keep_freed_arrays\n"
+        "tuned = {tuned} and keep_freed_arrays()\n"
+        "before = resource.getrusage(resource.RUSAGE_SELF).ru_minflt\n"
+        "for k in range(1, 41): np.ones(k << 16).sum()\n"
+        "print(int(tuned), resource.getrusage(resource.RUSAGE_SELF).ru_minflt - before)\n"
+    )
+    counts = {}
+    for tuned in (False, True):
+        out = subprocess.run([sys.executable, "-c", code.format(tuned=tuned)],
+                             capture_output=True, text=True, check=True).stdout.split()  # fmt: skip
+        assert out[0] == str(int(tuned))
+        counts[tuned] = int(out[1])
+    growth = (40 << 16) * 8 // 4096  # pages of the largest array: 5120
+    assert counts[True] <= 1.2 * growth  # measured 5109
+    assert counts[False] >= 3 * counts[True]  # measured 26818 (numpy asks for huge pages)
+
+
+def test_workers_fork_from_a_frozen_heap(tmp_path) -> None:
+    import gc
+
+    from servokit.cases import register
+    from servokit.cases.registry import _REGISTRY
+    from servokit.cases.runner import iter_cases
+    from servokit.report import CaseResult
+
+    def probe(name: str):
+        def case(out):
+            # the parent's objects are frozen in the worker: its collections skip them
+            seen = {"pid": os.getpid(), "frozen": gc.get_freeze_count()}
+            return CaseResult(name, "probe", [], [], extra=seen)
+
+        return case
+
+    names = ["zz-probe-a", "zz-probe-b"]
+    for i, name in enumerate(names):
+        register(name, order=600 + i)(probe(name))
+    try:
+        assert gc.get_freeze_count() == 0
+        seen = [r.extra for _, done, _ in iter_cases(tmp_path, names, workers=2) for r in done]
+    finally:
+        for name in names:
+            _REGISTRY.pop(name, None)
+    assert len(seen) == 2
+    assert all(s["pid"] != os.getpid() and s["frozen"] > 1000 for s in seen)
+    assert gc.get_freeze_count() == 0  # the parent unfrozen again

@@ -95,6 +95,26 @@ def test_caption_falls_back_to_file_name(tmp_path: Path) -> None:
     assert figure_caption(tmp_path / "missing_fig.png") == "missing fig"
 
 
+def test_caption_is_read_without_decoding_the_image(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    import matplotlib.pyplot as plt
+    from PIL import PngImagePlugin
+
+    from servokit._figures import save_figure
+
+    fig, ax = plt.subplots()
+    ax.plot([0, 1], [0, 1])
+    fig.suptitle("Seek <time> (Fig. 2.9)")
+    path = save_figure(fig, tmp_path / "seek.png")
+
+    def no_decoding(self: object) -> None:
+        raise AssertionError("the caption decoded the image")
+
+    monkeypatch.setattr(PngImagePlugin.PngImageFile, "load", no_decoding)
+    assert figure_caption(path) == "Seek <time> (Fig. 2.9)"
+
+
 def test_second_render_is_identical_but_for_the_date(tmp_path: Path) -> None:
     results = _fake_results(tmp_path)
     write_report(results, tmp_path)

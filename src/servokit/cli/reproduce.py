@@ -69,10 +69,12 @@ def _run_cases(out_dir: Path, names: list[str], svg: bool) -> tuple[list, dict]:
     previous report intact; a concurrent run on the same ``--out`` is refused.
     """
     from servokit._io import staged_output
-    from servokit.cases.runner import default_workers, iter_cases
+    from servokit.cases.runner import default_workers, iter_cases, previous_runtimes
     from servokit.report.files import write_report
 
     results, runtimes = [], {}
+    # the last run's case times, read before this run replaces them: longest cases first
+    costs = previous_runtimes(out_dir / "results.json")
     with staged_output(out_dir) as stage:
         # after the lock: a refused second writer prints its one error line only
         workers = min(default_workers(), len(names))
@@ -80,7 +82,7 @@ def _run_cases(out_dir: Path, names: list[str], svg: bool) -> tuple[list, dict]:
         with progress(len(names), "reproducing") as advance:
             # cases in parallel processes when there are cores; one line per case as it is
             # collected, in run order (stderr: --json output stays clean)
-            cases = iter_cases(stage, names, svg=svg)
+            cases = iter_cases(stage, names, svg=svg, costs=costs)
             for i, (name, done, seconds) in enumerate(cases, start=1):
                 typer.echo(f"[{i}/{len(names)}] {name} done ({seconds:.1f} s)", err=True)
                 results += done

@@ -114,8 +114,11 @@ def figure_caption(path: Path) -> str:
     if path.suffix.lower() == ".png" and path.exists():
         from PIL import Image
 
+        # the text chunks before the image data (where savefig writes its metadata) are
+        # in ``info`` once the header is read; ``img.text`` would decode the whole image
+        # to find chunks after it (0.5 s over the report's 78 figures)
         with Image.open(path) as img:
-            title = getattr(img, "text", {}).get("Title", "")
+            title = img.info.get("Title", "")
         if title:
             return title
     return path.stem.replace("_", " ")

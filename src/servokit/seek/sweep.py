@@ -17,6 +17,7 @@ from typing import Any
 
 import numpy as np
 
+from servokit._heap import keep_freed_arrays
 from servokit.errors import ServokitValueError, check_count, check_memory, check_positive
 from servokit.models.variation_arrays import modal_arrays_from_draws
 from servokit.models.variations import VariationSet
@@ -141,45 +142,12 @@ def _chunk_seek_times(
     )
 
 
-_MALLOC_TUNED = False
-
-
-def _heap_for_arrays() -> None:
-    """Let glibc keep freed array memory in this process (once; a no-op elsewhere).
-
-    Dask's nanny starts workers with ``MALLOC_TRIM_THRESHOLD_=65536``, which also fixes
-    the mmap threshold at 128 kB: every temporary array of a chunk is then mapped and
-    unmapped, and page-faulted afresh, 2-3x slower than in-process (measured, issue 24).
-    Thresholds of 32 MB (mmap) and 64 MB (trim) restore in-process speed. In-process
-    sweeps set them too: glibc's default dynamic threshold still maps a chunk's large
-    temporaries afresh, and the tuned heap halves the wall time of a 10^5-variant sweep
-    (3.0 -> 1.5 s with one thread, 1.6 -> 1.1 s with two; bench/sweep.py). The setting is
-    process-wide and only lets glibc keep up to 64 MB of freed memory for reuse.
-    """
-    global _MALLOC_TUNED
-    if _MALLOC_TUNED:
-        return
-    _MALLOC_TUNED = True
-    import ctypes
-    import ctypes.util
-
-    name = ctypes.util.find_library("c")
-    try:
-        libc = ctypes.CDLL(name) if name else None
-        mallopt = getattr(libc, "mallopt", None)
-    except OSError:
-        return
-    if mallopt is not None:  # glibc: M_MMAP_THRESHOLD = -3, M_TRIM_THRESHOLD = -1
-        mallopt(-3, 32 << 20)
-        mallopt(-1, 64 << 20)
-
-
 def _chunk_on_worker(
     vset: VariationSet, draws: np.ndarray, gains: np.ndarray, args: tuple, chunk_size: int
 ) -> np.ndarray:
     """One Dask task: its plants in chunks of ``chunk_size`` in a worker process (heap
     tuned first), as :func:`_chunk_seek_times` does in-process."""
-    _heap_for_arrays()
+    keep_freed_arrays()
     out = np.empty(draws.shape[0])
     for sl in _chunks(draws.shape[0], chunk_size):
         out[sl] = _chunk_seek_times(vset, draws[sl], gains[sl], *args)
@@ -233,7 +201,7 @@ def _ready_worker() -> None:
 
     import servokit.seek.sweep  # noqa: F401
 
-    _heap_for_arrays()
+    keep_freed_arrays()
     # one BLAS thread for the worker's life (Dask's nanny sets this for the workers it
     # spawns; a worker started by hand may not): the parallelism is across tasks
     threadpool_limits(limits=1)
@@ -385,7 +353,7 @@ def sweep_seek_times(
         # the parallelism is across chunks: BLAS threads on top of it oversubscribe the
         # cores and spin (measured at 10^5 variants on 2 cores: 7.4 -> 3.1 CPU s with
         # one sweep thread, 2.7 -> 1.6 s wall with two)
-        _heap_for_arrays()  # 2x in-process as in the workers (3.0 -> 1.5 s at 10^5)
+        keep_freed_arrays()  # 2x in-process as in the workers (3.0 -> 1.5 s at 10^5)
         with threadpool_limits(limits=1):
             _run_local(vset, draws, gains, args, chunk_size, times, tick, threads)
         backend = "numpy"
