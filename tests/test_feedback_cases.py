@@ -8,6 +8,8 @@ import pytest
 from servokit.cases.peak_filters import (
     SEARCH_GRID,
     _candidate,
+    _designs,
+    constrained_baseline,
     ltv_locus_case,
     peak_example_baseline,
     peak_filter_case,
@@ -39,6 +41,23 @@ def test_searched_baseline_is_a_grid_point_with_the_stated_loop():
     s = 2j * np.pi * 3000.0
     loop = complex((other.plant * other.controller)(s))
     assert complex(other.sh(s)) == pytest.approx(loop / (1 + loop), rel=1e-9)
+
+
+@pytest.mark.parametrize("baseline", [peak_example_baseline, constrained_baseline])
+def test_designs_kept_from_the_fit_equal_a_fresh_design(baseline):
+    """The rows read the designs kept by the fit: the same numbers as designing again."""
+    ex = baseline()
+    assert set(ex.designs) == {"stable", "phase-shift", "frequency-shift"}
+    fresh = _designs(ex, ex.gain)
+    for method, (flt, phi, loc) in ex.designs.items():
+        f2, phi2, loc2 = fresh[method]
+        assert phi == phi2
+        np.testing.assert_array_equal(flt.num[0][0], f2.num[0][0])
+        np.testing.assert_array_equal(flt.den[0][0], f2.den[0][0])
+        for name in ("k_crit", "plant_k_crit", "filter_k_crit"):
+            assert getattr(loc, name) == getattr(loc2, name)
+        assert loc.filter_departure_deg == loc2.filter_departure_deg
+        assert loc.plant_departure_deg == loc2.plant_departure_deg
 
 
 def test_peak_filter_case_rows(tmp_path):

@@ -22,7 +22,7 @@ from __future__ import annotations
 
 import itertools
 import time
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from functools import lru_cache
 from pathlib import Path
 
@@ -72,6 +72,9 @@ class PeakExample:
     lead_spread: float
     gain: float = float("nan")  #: K fitted to the +10 dB of the phase-shift design
     cost: float = float("nan")
+    #: the three designs at ``gain`` (:func:`_designs`), kept from the fit: the rows and
+    #: the evidence of every missed row read them instead of designing them again
+    designs: dict[str, tuple] = field(default_factory=dict, compare=False, repr=False)
 
     def pseudo_resonance_hz(self) -> float:
         """Damped frequency of the pseudo plant's pole nearest 12 kHz [Hz]."""
@@ -114,7 +117,12 @@ def _fit(ex: PeakExample) -> PeakExample:
     d = _designs(ex, gain)
     cost = sum(np.log(min(max(d[m][2].k_crit, 1e-9), 1e9) / g) ** 2 for m, g in _BOOK_GM.items())
     cost += ((extra_attenuation_db(ex, d["frequency-shift"][0], F_MODE) - 8.0) / 3.0) ** 2
-    return PeakExample(**{**ex.__dict__, "gain": gain, "cost": float(cost)})
+    return PeakExample(**{**ex.__dict__, "gain": gain, "cost": float(cost), "designs": d})
+
+
+def _designs_at_gain(ex: PeakExample) -> dict[str, tuple]:
+    """:func:`_designs` of ``ex`` at its fitted gain (kept by :func:`_fit`)."""
+    return ex.designs or _designs(ex, ex.gain)
 
 
 @lru_cache(maxsize=1)
@@ -169,7 +177,7 @@ def _evidence(name: str, key: str, book: str) -> dict[str, str]:
         if not method:
             values.append(ex.pseudo_resonance_hz())
             continue
-        flt, _, loc = _designs(ex, ex.gain)[method]
+        flt, _, loc = _designs_at_gain(ex)[method]
         values.append(
             {
                 "gm": loc.k_crit,
@@ -347,7 +355,7 @@ def peak_filter_case(outdir: Path) -> CaseResult:
         "crossover_hz": ex.crossover_hz,
         "search_cost": ex.cost,
     }
-    for method, (flt, phi, loc) in _designs(ex, ex.gain).items():
+    for method, (flt, phi, loc) in _designs_at_gain(ex).items():
         name, fig, book = _LTI_BOOK[method]
         rows += _angle_rows(name, loc, book, fig) + _margin_rows(name, loc, book, fig)
         if "att" in book:

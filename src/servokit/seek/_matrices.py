@@ -32,6 +32,7 @@ from __future__ import annotations
 
 from collections.abc import Sequence
 from dataclasses import dataclass
+from functools import cached_property
 
 import numpy as np
 
@@ -127,8 +128,12 @@ class PulseBank:
         H[:, lag < 0] = 0.0
         return H
 
-    def tail_maps(self, N: int, J: int) -> TailMaps:
-        """Modal state at ``T = J h`` per input sample, as the rows of (R2)-(R3)."""
+    @cached_property
+    def _modal_blocks(self) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+        """``A, B`` of every modal block and their ZOH ``Phi, Gamma`` over ``dt``.
+
+        The same for every ``N`` of a design scan, so computed once per bank.
+        """
         V, M = self.w.shape
         A = np.zeros((V, M, 2, 2))
         A[..., 0, 1] = 1.0
@@ -136,8 +141,13 @@ class PulseBank:
         A[..., 1, 1] = -2.0 * self.z * self.w
         B = np.zeros((V, M, 2, 1))
         B[..., 1, 0] = self.r
+        return (A, B, *zoh_pair(A, B, self.dt))
+
+    def tail_maps(self, N: int, J: int) -> TailMaps:
+        """Modal state at ``T = J h`` per input sample, as the rows of (R2)-(R3)."""
+        V, M = self.w.shape
+        A, B, Phi, Gam = self._modal_blocks
         T = J * self.dt / self.substeps
-        Phi, Gam = zoh_pair(A, B, self.dt)
         E0, _ = zoh_pair(A, B, T - self.delay - N * self.dt)
         cols = np.empty((V, M, 2, N))
         # sample k = N-1 acts for T - Td - N dt after its hold; each earlier sample acts one

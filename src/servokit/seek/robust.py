@@ -26,7 +26,12 @@ feasible inputs, the smallest peak (LP) or energy (QP through qpsolvers, via
 The LPs stay small by row generation: they start from the grid rows at the sampling
 instants, and rows that the solution violates on the fine grid are added until none
 is (a relaxation that is infeasible proves the full problem infeasible, so the search
-decisions are exact).  All rows are scaled by the band, the inputs by ``u_max``.
+decisions are exact).  All rows are scaled by the band, the inputs by ``u_max``.  The
+feasibility questions of one ``N`` share one HiGHS model (generated rows kept, rows
+before the settle index switched off, warm dual simplex;
+:mod:`servokit.seek._highs_feasibility`): the same decisions as fresh LPs at half the
+CPU, and the design's input comes from a fresh peak / energy solve at the chosen
+``(N, s)``, so it is the same array either way.
 """
 
 from __future__ import annotations
@@ -122,6 +127,7 @@ class _SeekLP:
             )
             self.tail_b = np.concatenate([self.tail_b, h])
         self.n_lp = 0
+        self._kept: object = None  # the kept feasibility model; False: not available
 
     def _tail_rows(
         self, bank: PulseBank, N: int, slew_max: float | None
@@ -164,8 +170,8 @@ class _SeekLP:
         """Deviation ``(y - target) / band`` (V, J+1-s) of the scaled input ``x``."""
         return self.H[:, s:] @ x[: self.N] - self.target / self.band
 
-    def solve(self, s: int, objective: str = "feasible") -> np.ndarray | None:
-        """Scaled solution ``[x, c]`` settling from grid index ``s``, or None if infeasible."""
+    def _first_rows(self, s: int) -> np.ndarray:
+        """Grid rows of the first relaxation at settle index ``s`` (V, J+1)."""
         mask = np.zeros(self.H.shape[:2], dtype=bool)
         # start from the sampling instants just after s (where rows bind) and a sparse
         # sampling of the rest; violated fine-grid rows are added below
@@ -173,6 +179,57 @@ class _SeekLP:
         mask[:, s : s + 4 * S : S] = True
         mask[:, s + 4 * S :: 8 * S] = True
         mask[:, self.J] = True
+        return mask
+
+    def solve(self, s: int, objective: str = "feasible") -> np.ndarray | None:
+        """Scaled solution ``[x, c]`` settling from grid index ``s``, or None if infeasible.
+
+        Feasibility questions go to one HiGHS model kept for this ``N`` (rows generated
+        for earlier ``s`` stay, warm start; :mod:`servokit.seek._highs_feasibility`); the
+        peak / energy problems are solved fresh, so the design depends only on ``(N, s)``.
+        """
+        if objective == "feasible" and self._kept is not False:
+            try:
+                return self._solve_kept(s)
+            except RuntimeError:  # a stalled re-solve or no binding: this question fresh
+                self._kept = False if self._kept is None else None
+        return self._solve_fresh(s, objective)
+
+    def _solve_kept(self, s: int) -> np.ndarray | None:
+        from servokit.seek import _highs_feasibility as hf
+
+        if self._kept is None:
+            if not hf.available():
+                raise RuntimeError("no HiGHS binding")
+            n = self.n_var
+            lb = np.concatenate([-np.ones(self.N), np.zeros(self.n_env)])
+            ub = np.concatenate([np.ones(self.N), np.full(self.n_env, np.inf)])
+            a_eq = np.concatenate([np.ones(self.N), np.zeros(self.n_env)])
+            self._kept = hf.HighsFeasibility(lb, ub, self.tail_A, self.tail_b, a_eq)
+            self._in_model = np.zeros(self.H.shape[:2], dtype=bool)
+            assert self._kept.n == n
+        model, in_model = self._kept, self._in_model
+        t, width = self.target / self.band, self.H.shape[1]
+        need = self._first_rows(s)
+        while True:
+            need &= ~in_model
+            v, j = np.nonzero(need)
+            G = np.hstack([self.H[v, j], np.zeros((v.size, self.n_env))])
+            model.add_ranged(v * width + j, G, np.full(v.size, t - 1), np.full(v.size, t + 1))
+            in_model |= need
+            model.switch(model.keys % width >= s)
+            self.n_lp += 1
+            x = model.solve()
+            if x is None:
+                return None
+            dev = np.abs(self.outputs(x, s)) - 1.0
+            need = np.zeros_like(in_model)
+            need[:, s:] = (dev > _ROW_TOL) & ~in_model[:, s:]
+            if not need.any():
+                return x
+
+    def _solve_fresh(self, s: int, objective: str) -> np.ndarray | None:
+        mask = self._first_rows(s)
         while True:
             x = self._solve_rows(mask, objective)
             if x is None:
