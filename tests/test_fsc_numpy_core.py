@@ -68,14 +68,19 @@ def modal_plants(draw: st.DrawFn) -> tuple[ModalPlant, float]:
 
 def _expm_per_mode(plant: ModalPlant, dt: float) -> tuple[np.ndarray, np.ndarray]:
     """Each mode's ``(Phi, Gamma)`` from ``scipy.linalg.expm`` of its own 3x3 Van Loan matrix
-    (the whole-matrix expm above errs by eps * ||A dt|| in every block, even a rigid body's)."""
+    (the whole-matrix expm above errs by eps * ||A dt|| in every block, even a rigid body's),
+    balanced: with ``T = diag(1, s, s^2)``, ``s = max(w, 1/dt)``, every entry of
+    ``T^-1 M T`` is at most about ``w dt``.  Unbalanced, ``w^2 dt`` sets expm's squarings: at
+    10000.1 Hz, dt 1e-4 it erred by 2.2e-11 in the balanced norm where the closed form is
+    within 2.8e-16 of a 50-digit ``mpmath.expm`` (hypothesis found it)."""
     Phis, Gammas = [], []
     for w, z, r in zip(*plant.arrays(), strict=True):
+        s = max(w, 1.0 / dt)
         # Gamma is linear in r: a unit input column keeps expm's scaling to the mode itself
-        M = np.array([[0.0, 1.0, 0.0], [-w * w, -2.0 * z * w, 1.0], [0.0, 0.0, 0.0]]) * dt
+        M = np.array([[0.0, s, 0.0], [-w * w / s, -2.0 * z * w, s], [0.0, 0.0, 0.0]]) * dt
         E = scipy.linalg.expm(M)
-        Phis.append(E[:2, :2])
-        Gammas.append(r * E[:2, 2])
+        Phis.append(E[:2, :2] * np.array([[1.0, 1.0 / s], [s, 1.0]]))
+        Gammas.append(r * E[:2, 2] * np.array([1.0 / (s * s), 1.0 / s]))
     return np.array(Phis), np.array(Gammas)
 
 
@@ -85,6 +90,7 @@ def _expm_per_mode(plant: ModalPlant, dt: float) -> tuple[np.ndarray, np.ndarray
 @example((ModalPlant(1e-9, (Mode(1e6, 1e-6, 1.0),)), 1e-3))  # 1000 periods, undamped
 @example((ModalPlant(1e9, (Mode(1e-3, 3.0, -1.0),)), 1e-5))  # overdamped, tiny step
 @example((ModalPlant(1e8, (Mode(0.0, 0.0, 1.0), Mode(10.0, 3.0, 1.0))), 0.1))
+@example((ModalPlant(1.0, (Mode(10000.1, 1e-6, 0.0),)), 1e-4))  # one period: expm unbalanced
 def test_design_model_equals_the_expm_of_each_mode(case) -> None:  # noqa: ANN001
     plant, dt = case
     A, B, n = augmented_design_model(plant, dt)

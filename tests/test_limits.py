@@ -133,6 +133,32 @@ def test_printed_e_beta_is_not_a_bound():
     assert vb.bound < var < vb.printed
 
 
+@pytest.mark.parametrize("k", [1, 2, 3])
+def test_printed_form_is_e_beta_plus_the_ke_tail(k):
+    """``printed`` = (Omega/pi) e^beta + the tail with exponent ke (k + 1 for odd k, whose
+    quadrature is the bound's own ``high``; k for even k, integrated separately)."""
+    from scipy.integrate import quad
+
+    dist = control.tf([1], [1 / 100, 1])
+    vb = variance_lower_bound(dist, 50.0, delta=0.5, k=k)
+    omega = 2 * np.pi * 50.0
+    ke = k + 1 if k % 2 else k
+    tail = (
+        quad(
+            lambda w: abs(dist(1j * w)) ** 2 / (1 + 0.5 * (omega / w) ** ke) ** 2,
+            omega,
+            np.inf,
+            limit=1000,
+        )[0]
+        / np.pi
+    )
+    assert vb.printed == pytest.approx(omega / np.pi * np.exp(vb.beta) + tail, rel=1e-9)
+    if k % 2:
+        assert vb.printed - omega / np.pi * np.exp(vb.beta) == pytest.approx(vb.high, rel=1e-12)
+    else:
+        assert vb.high > tail  # (Omega/w)^(k+1) <= (Omega/w)^k: the k + 1 tail is larger
+
+
 def test_discrete_variance_matches_simulation_free_closed_form():
     # D = 1 (unit white noise), S = 1/(1+L) with L = a/(z - 1): S = (z-1)/(z-1+a)
     # var = ||S||_2^2 = 1 + a^2/(1-(1-a)^2) = 2/(2-a)

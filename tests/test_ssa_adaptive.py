@@ -64,3 +64,38 @@ def test_beam_and_bad_input() -> None:
     with pytest.raises(ServokitValueError, match="duration"):
         simulate_adaptive(b, duration=0.0)
     assert np.all(np.isfinite(b.strain))
+
+
+def _numpy_rhs(beam, g, x):
+    """The right-hand side as numpy array expressions (the form before issue 24)."""
+    n = beam.tip.size
+    q, qd, iy, i_f, ys, k0 = x[:n], x[n : 2 * n], x[2 * n], x[2 * n + 1], x[2 * n + 2], x[-1]
+    y, f, yd = float(beam.tip @ q), float(beam.strain @ q), float(beam.tip @ qd)
+    kf = ys * ys if g.adaptive else 0.0
+    u = -g.kp * y - k0 * k0 * iy - kf * f * i_f
+    dys = g.alpha * ys * yd * f * i_f - g.beta * ys if g.adaptive else 0.0
+    dk0 = g.gamma * k0 * yd * iy
+    qdd = beam.tip * u - 2 * beam.damping * beam.omega * qd - beam.omega * beam.omega * q
+    return np.concatenate([qd, qdd, [y, f, dys, dk0]])
+
+
+@settings(max_examples=60, deadline=None)
+@given(
+    n=st.integers(1, 4),
+    damping=st.sampled_from([1e-6, 1e-3, 0.01, 0.5]),
+    first_hz=st.floats(1.0, 1e5),
+    scale_exp=st.integers(-12, 3),
+    adaptive=st.booleans(),
+    seed=st.integers(0, 10_000),
+)
+def test_float_rhs_is_the_numpy_rhs_bitwise(n, damping, first_hz, scale_exp, adaptive, seed):
+    """The Python-float right-hand side does the numpy form's arithmetic, bit for bit."""
+    import servokit.feedback.adaptive as ad
+
+    beam = cantilever_beam(n, first_hz=first_hz, damping=damping)
+    g = AdaptiveGains(adaptive=adaptive)
+    rng = np.random.default_rng(seed)
+    scale = np.r_[np.full(2 * n, 10.0**scale_exp), 1e-9, 1e-9, 1e4, 1e4]
+    rhs = ad._rhs(beam, g)
+    for x in rng.standard_normal((20, 2 * n + 4)) * scale:
+        assert np.array_equal(np.asarray(rhs(0.0, x)), _numpy_rhs(beam, g, x))

@@ -192,7 +192,8 @@ def variance_lower_bound(
 
     high = tail(kk + 1)
     ke = kk + 1 if kk % 2 else kk
-    printed = scale * omega / np.pi * np.exp(beta) + tail(ke)
+    # for odd k the printed exponent is k + 1: the same quadrature, not done twice
+    printed = scale * omega / np.pi * np.exp(beta) + (high if ke == kk + 1 else tail(ke))
     return VarianceBound(low + high, low, high, beta, gamma, printed)
 
 

@@ -13,6 +13,7 @@ most one state are vectorised in python-control already and are evaluated by it.
 
 from __future__ import annotations
 
+from functools import lru_cache
 from typing import Any
 
 import numpy as np
@@ -58,14 +59,25 @@ def _siso(sys: Any) -> tuple[int, int] | tuple[()]:
     return (0, 0) if sys.noutputs == 1 and sys.ninputs == 1 else ()
 
 
+@lru_cache(maxsize=16)
+def _eye(n: int) -> np.ndarray:
+    """Complex ``eye(n)``, read-only and shared (quadratures call :func:`lti_response`
+    per point)."""
+    e = np.eye(n, dtype=complex)
+    e.flags.writeable = False
+    return e
+
+
 def _chunk(sys: Any, x: np.ndarray) -> np.ndarray:
     """``(p, m, len(x))`` response at ``x``, as ``StateSpace.horner`` computes it."""
     A, B, C, D = sys.A, sys.B, sys.C, sys.D
-    # the same operands as horner's x * eye(n) - A, point by point
-    M = x[:, None, None] * np.eye(sys.nstates) - A
+    # the same operands as horner's x * eye(n) - A, point by point; numpy casts the real
+    # eye and A to complex for these operations, done here once instead of in every
+    # broadcast pass (the same values; a third of the time of forming M for 2000 points)
+    M = x[:, None, None] * _eye(A.shape[0]) - np.asarray(A, dtype=complex)
     try:
-        X = np.linalg.solve(M, np.broadcast_to(B, (x.size, *B.shape)))
+        X = np.linalg.solve(M, B[None])  # B broadcast over the points
     except np.linalg.LinAlgError:  # a pole in this chunk: python-control's own answer there
         return sys.horner(x)
     # C @ X_k + D per point (a (p, m) product each), stacked last like horner's output
-    return np.moveaxis(C @ X + D, 0, -1)
+    return (C @ X + D).transpose(1, 2, 0)

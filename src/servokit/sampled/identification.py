@@ -166,6 +166,7 @@ def _closed_loop(
         substeps=substeps,
         controller=controller,
         check_stability=False,
+        samples_only=True,  # the measurements read the samples only
         **signals,
     )
 
@@ -173,9 +174,7 @@ def _closed_loop(
 def _measure_sd(loop_plant, controller, dt, freq, substeps, n) -> np.ndarray:
     """Total plant-input samples v_k under a T-held sinusoid at the loop plant's input."""
     d = _held_sinusoids(freq, dt, substeps, substeps, n)
-    return _closed_loop(loop_plant, controller, dt, substeps, n, input_disturbance=d).u[
-        :, ::substeps
-    ]
+    return _closed_loop(loop_plant, controller, dt, substeps, n, input_disturbance=d).u
 
 
 def _measure_output(plant, loop_plant, controller, dt, freq, substeps, n) -> np.ndarray:
@@ -185,11 +184,18 @@ def _measure_output(plant, loop_plant, controller, dt, freq, substeps, n) -> np.
     d = _held_sinusoids(freq, dt, substeps, 1, n)
     if plant is loop_plant:
         return _closed_loop(plant, controller, dt, substeps, n, input_disturbance=d).yd
-    # the measured actuator sits outside the loop: its output adds to the PES (Fig. 5.9)
-    yc = simulate(
-        [plant] * freq.size, dt=dt, n_samples=n, substeps=substeps, input_disturbance=d
-    ).yc
-    return _closed_loop(loop_plant, controller, dt, substeps, n, output_disturbance=yc).yd
+    # the measured actuator sits outside the loop: its output adds to the PES (Fig. 5.9);
+    # the loop reads that output at its samples only (held here to the fine grid)
+    yk = simulate(
+        [plant] * freq.size,
+        dt=dt,
+        n_samples=n,
+        substeps=substeps,
+        input_disturbance=d,
+        samples_only=True,
+    ).yd
+    dc = np.repeat(yk, substeps, axis=1)
+    return _closed_loop(loop_plant, controller, dt, substeps, n, output_disturbance=dc).yd
 
 
 def excitation_frequencies(fmin_hz: float, fmax_hz: float, step_hz: float) -> np.ndarray:

@@ -82,13 +82,18 @@ def run_closed(
     u_open: np.ndarray,
     x0: np.ndarray | None = None,
     dc_samples: np.ndarray | None = None,
+    fine: bool = True,
 ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """Closed-loop response of one chunk: ``y`` (V, K*S) without ``dc``, ``yd`` and ``u``."""
+    """Closed-loop response of one chunk: ``y`` (V, K*S) without ``dc``, ``yd`` and ``u``.
+
+    With ``fine=False`` ``y`` is the output at the samples (V, K) (see :func:`run_chunk`);
+    ``u`` stays on the fine grid.
+    """
     V, M = bank.shape
     if x0 is None and not np.any(u_open):  # nothing but the loop: no open-loop pass
         y_open, yd_open = 0.0, np.zeros((1, K)) if dc_samples is None else dc_samples
     else:
-        y_open, yd_open = run_chunk(bank, S, K, u_open, x0, dc_samples)
+        y_open, yd_open = run_chunk(bank, S, K, u_open, x0, dc_samples, fine=fine)
     v, zs = _controller_output(cl, loop.reference[None, :] - yd_open)
     if loop.filt is None:
         u_fb = np.repeat(v, S, axis=1)
@@ -99,5 +104,5 @@ def run_closed(
         y_fb = yd_fb = zs[:, :, 0 : 2 * M : 2].sum(axis=-1)
     else:
         states = np.ascontiguousarray(zs[:, :, : 2 * M]).reshape(V, K, M, 2)
-        y_fb, yd_fb = run_chunk(bank, S, K, u_fb, states=states)
+        y_fb, yd_fb = run_chunk(bank, S, K, u_fb, states=states, fine=fine)
     return y_open + y_fb, yd_open + yd_fb, u_open + u_fb

@@ -77,26 +77,31 @@ def run_chunk(
     x0: np.ndarray | None = None,
     dc_samples: np.ndarray | None = None,
     states: np.ndarray | None = None,
+    fine: bool = True,
 ) -> tuple[np.ndarray, np.ndarray]:
     """Open-loop response of one chunk: ``y`` (V, K*S) without output disturbance, ``yd``.
 
     ``u_open`` is (1, K*S) when shared by every variant, else (V, K*S); ``x0`` is
     (V, M, 2) or None; ``dc_samples`` (1 or V, K) is the output disturbance at the
     sampling instants, included in ``yd``.  ``states`` (V, K, M, 2), when the caller
-    already has the modal states at the samples, replaces the time recursion.
+    already has the modal states at the samples, replaces the time recursion.  With
+    ``fine=False`` the outputs between the samples are not formed: ``y`` is then the
+    output at the samples (V, K), the same numbers as ``yd`` without ``dc_samples``
+    (and ``u_open`` is not read when ``states`` is given).
     """
     V, M = bank.shape
     Nt = K * S
     rows = bank.transition_rows(S)  # entries of Phi^i, (4, S+1, V, M)
-    B2 = bank.block_maps(S)  # (2S, V, 2M)
-    Vu = u_open.shape[0]
-    # u_j sits at ubuf[:, j + dd + 1]; the plant sees u[j-dd] (new) and u[j-dd-1] (old)
-    # (the feedback of a closed loop arrives here as a per-variant input, see _closed)
-    dd = bank.dd
-    ubuf = np.zeros((Vu, Nt + dd + 1))
-    ubuf[:, dd + 1 :] = u_open
-    W = _windows(ubuf, S, 0, K)
-    act = _active(ubuf, S, K)
+    if states is None or (fine and S > 1):
+        B2 = bank.block_maps(S)  # (2S, V, 2M)
+        Vu = u_open.shape[0]
+        # u_j sits at ubuf[:, j + dd + 1]; the plant sees u[j-dd] (new) and u[j-dd-1] (old)
+        # (the feedback of a closed loop arrives here as a per-variant input, see _closed)
+        dd = bank.dd
+        ubuf = np.zeros((Vu, Nt + dd + 1))
+        ubuf[:, dd + 1 :] = u_open
+        W = _windows(ubuf, S, 0, K)
+        act = _active(ubuf, S, K)
     if states is None:
         x0_ = (np.zeros((V, M)), np.zeros((V, M))) if x0 is None else (x0[..., 0], x0[..., 1])
         drive = np.zeros((K, V, M, 2))
@@ -108,8 +113,8 @@ def run_chunk(
         states = modal_scan(tuple(rows[:, S]), drive, x0_)  # (V, K, M, 2)
     y0 = states[..., 0].sum(axis=-1)
     yd = y0 if dc_samples is None else y0 + dc_samples
-    if S == 1:  # the inputs of a period act after its sample: the samples are the output
-        return y0, yd
+    if S == 1 or not fine:  # the inputs of a period act after its sample: the samples
+        return y0, yd  # are the output
     # outputs between the samples: free response of the stored states + forced response
     CPt = np.empty((V, M, 2, S))  # C Phi^i, contiguous so that matmul runs in BLAS
     CPt[:, :, 0] = rows[0, :S].transpose(1, 2, 0)

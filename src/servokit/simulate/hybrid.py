@@ -321,8 +321,10 @@ def _chunks(job: _Job, budget_mb: float) -> Iterator[tuple[int, int]]:
         yield lo, min(V, lo + size)
 
 
-def _run(job: _Job, lo: int, hi: int, check_stability: bool) -> SimulationResult:
-    """Simulate variants lo..hi-1 of the job."""
+def _run(
+    job: _Job, lo: int, hi: int, check_stability: bool, samples_only: bool = False
+) -> SimulationResult:
+    """Simulate variants lo..hi-1 of the job (only at the samples with ``samples_only``)."""
     bank = bank_for(job.plants[lo:hi], job.dt / job.S)
     V, M = bank.shape
     x0 = job.rows(job.x0, lo, hi)
@@ -336,19 +338,23 @@ def _run(job: _Job, lo: int, hi: int, check_stability: bool) -> SimulationResult
         u_open = job.rows(job.u_open, lo, hi)
         dcs = None if dc is None else dc[:, ::S]
         if job.loop is None:
-            y, yd = run_chunk(bank, S, job.K, u_open, x0, dcs)
+            y, yd = run_chunk(bank, S, job.K, u_open, x0, dcs, fine=not samples_only)
             u = np.broadcast_to(u_open, (V, job.K * S))
         else:
             cl = closed_loop(bank, job.loop.controller, job.dt, job.loop.multirate)
             if check_stability:
                 _check_stability(job, cl.A, lo)
-            y, yd, u = run_closed(bank, S, job.K, job.loop, cl, u_open, x0, dcs)
-        yc = y if dc is None else y + dc
+            y, yd, u = run_closed(
+                bank, S, job.K, job.loop, cl, u_open, x0, dcs, fine=not samples_only
+            )
+        yc = yd if samples_only else y if dc is None else y + dc
     if not np.isfinite(yc.sum()):  # a sum is finite iff all terms are (barring ~1e308)
         raise ServokitValueError(
             "the simulated output overflowed (an unstable loop or plant); check the controller"
         )
     t = job.t
+    if samples_only:
+        return SimulationResult(t=t[::S], yc=yc, td=t[::S], yd=yd, u=u[:, ::S], substeps=1)
     return SimulationResult(t=t, yc=yc, td=t[::S], yd=yd, u=u, substeps=S)
 
 
@@ -434,6 +440,7 @@ def simulate(
     x0: np.ndarray | None = None,
     check_stability: bool = True,
     max_memory_mb: float | None = None,
+    samples_only: bool = False,
 ) -> SimulationResult:
     """Simulate plant variants under feedforward and/or digital feedback.
 
@@ -479,6 +486,12 @@ def simulate(
     max_memory_mb : float, optional
         Memory budget [MB] (default 2000): the result must fit in it, and variants are
         simulated in chunks whose working set fits in what remains (at most 256 MB).
+    samples_only : bool
+        Return the response at the sampling instants only: ``t``, ``yc`` and ``u`` on
+        the grid ``td`` (``yc`` is then ``yd``, ``substeps`` of the result 1).  The
+        plant is still integrated on the fine grid, but the outputs between the
+        samples (a per-period convolution, most of the work after the time loop) are
+        not formed; ``yd`` and ``u`` are the same numbers as those of the full result.
 
     Returns
     -------
@@ -499,14 +512,17 @@ def simulate(
     budget = min(CHUNK_MEMORY_MB, max(limit - out_bytes / 1e6, 1.0))
     ranges = list(_chunks(job, budget))
     if len(ranges) == 1:
-        return _run(job, 0, V, check_stability)
-    yc, yd = np.empty((V, Nt)), np.empty((V, job.K))
-    u = np.empty((V, Nt)) if per_u else None
+        return _run(job, 0, V, check_stability, samples_only)
+    stride = job.S if samples_only else 1  # fine steps between the result's points
+    yc, yd = np.empty((V, Nt // stride)), np.empty((V, job.K))
+    u = np.empty((V, Nt // stride)) if per_u else None
     for lo, hi in ranges:
-        res = _run(job, lo, hi, check_stability)
+        res = _run(job, lo, hi, check_stability, samples_only)
         yc[lo:hi], yd[lo:hi] = res.yc, res.yd
         if u is not None:
             u[lo:hi] = res.u
-    u_out = np.broadcast_to(job.u_open, (V, Nt)) if u is None else u
+    u_out = np.broadcast_to(job.u_open[:, ::stride], (V, Nt // stride)) if u is None else u
     t = job.t
-    return SimulationResult(t=t, yc=yc, td=t[:: job.S], yd=yd, u=u_out, substeps=job.S)
+    return SimulationResult(
+        t=t[::stride], yc=yc, td=t[:: job.S], yd=yd, u=u_out, substeps=job.S // stride
+    )
