@@ -45,7 +45,7 @@ def figure_title(fig: Figure) -> str:
 #: zlib level of the PNG files: 3 encodes the report's figures in two thirds of the CPU
 #: of Pillow's default 6 for 6 % more bytes (78 figures: 0.97 s / 6.5 MB against
 #: 1.44 s / 6.2 MB, ``bench/figures_cpu.py``); the pixels are the same (lossless).
-#: Without Pillow's row filters (:mod:`servokit._png`) level 3 takes 0.34 s, 6.7 MB
+#: Without Pillow's row filters (:mod:`servokit._png`) level 3 takes 0.34 s, 6.8 MB
 PNG_COMPRESS_LEVEL = 3
 
 

@@ -3,8 +3,9 @@
 Pillow chooses a filter for every row of a PNG by trying all five PNG filters
 (libpng's heuristic); on the report's figures (mostly flat colour) that choice is two
 thirds of its encoding time and buys 5 % of the bytes: the 78 figures of ``servokit
-reproduce`` encode in 0.95 s with Pillow (zlib level 3, 6.4 MB) and in 0.34 s with
-filter type 0 ("None") on every row (zlib level 3, 6.7 MB), ``docs/guide/figures_cost_2.md``.
+reproduce`` encode in 0.95 s with Pillow (zlib level 3, 6.5 MB) and in 0.34 s with
+filter type 0 ("None") on every row (zlib level 3, 6.8 MB; timed alone, see
+``docs/guide/figures_cost_2.md``).
 Pillow has no option to fix the filter, hence this small writer of the format
 (PNG specification, ISO/IEC 15948, sections 5 and 11): signature, ``IHDR``, ``pHYs``
 (the resolution), one text chunk per metadata key, one ``IDAT``, ``IEND``.
