@@ -271,3 +271,26 @@ def test_in_process_chunks_run_on_one_blas_thread(threads, monkeypatch):
     assert blas_threads() == before
     direct = seek_time(VSET.monte_carlo(6, seed=3), FF, 1.0, band=0.1)
     np.testing.assert_array_equal(res.seek_times, direct)
+
+
+@pytest.mark.slow
+def test_dask_worker_readied_for_chunks():
+    """connect_dask readies each worker: the heap kept for arrays, one BLAS thread."""
+    pytest.importorskip("distributed")
+    from servokit.seek.sweep import connect_dask
+
+    client = connect_dask(workers=1)
+    try:
+
+        def state() -> tuple:
+            from threadpoolctl import threadpool_info
+
+            from servokit import _heap
+
+            blas = [p["num_threads"] for p in threadpool_info() if p["user_api"] == "blas"]
+            return _heap._TUNED, blas
+
+        ((tuned, blas),) = client.run(state).values()
+    finally:
+        client.close()
+    assert tuned and blas and all(n == 1 for n in blas)
