@@ -68,9 +68,11 @@ def test_previous_runtimes_is_a_hint_never_an_error(tmp_path) -> None:
     good = tmp_path / "results.json"
     cases = [{"name": "a", "runtime_s": 1.5}, {"name": "b", "runtime_s": float("nan")},
              {"name": "c", "runtime_s": -1}, {"name": "d", "runtime_s": "2"},
-             {"name": 3, "runtime_s": 1}, "junk"]  # fmt: skip
+             {"name": 3, "runtime_s": 1}, {"name": "e", "runtime_s": True}, "junk"]  # fmt: skip
     good.write_text(json.dumps({"cases": cases}))
     assert previous_runtimes(good) == {"a": 1.5}
+    good.write_text('{"cases": [{"name": "a", "runtime_s": 1%s}]}' % ("0" * 400))
+    assert previous_runtimes(good) == {}  # an integer beyond float: not an error
     assert previous_runtimes(good, max_bytes=10) == {}  # oversized: not read
     assert previous_runtimes(tmp_path / "missing.json") == {}
     assert previous_runtimes(tmp_path) == {}  # a directory
@@ -130,10 +132,25 @@ def test_workers_fork_from_a_frozen_heap(tmp_path) -> None:
         register(name, order=600 + i)(probe(name))
     try:
         assert gc.get_freeze_count() == 0
-        seen = [r.extra for _, done, _ in iter_cases(tmp_path, names, workers=2) for r in done]
+        # the pool is handed "b" first (the longer); the yield order stays the run order
+        runs = list(iter_cases(tmp_path, names, workers=2, costs={"zz-probe-b": 5.0}))
+        seen = [r.extra for _, done, _ in runs for r in done]
+        assert [name for name, _, _ in runs] == names
+        assert [r.name for _, done, _ in runs for r in done] == names
     finally:
         for name in names:
             _REGISTRY.pop(name, None)
     assert len(seen) == 2
     assert all(s["pid"] != os.getpid() and s["frozen"] > 1000 for s in seen)
     assert gc.get_freeze_count() == 0  # the parent unfrozen again
+
+
+def test_heap_setting_is_tried_once_per_process(monkeypatch: pytest.MonkeyPatch) -> None:
+    from servokit import _heap
+
+    tries = []
+    monkeypatch.setattr(_heap, "_TUNED", None)
+    monkeypatch.setattr(_heap, "_set_thresholds", lambda: tries.append(1) or False)
+    assert _heap.keep_freed_arrays() is False  # e.g. not glibc: remembered, not retried
+    assert _heap.keep_freed_arrays() is False
+    assert tries == [1]

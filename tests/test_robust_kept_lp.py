@@ -90,9 +90,13 @@ def test_design_equal_to_linprog_path(monkeypatch, how):
     d_kept = _design(plants)
     if how == "no binding":
         monkeypatch.setattr(hf, "_core", lambda: None)
+        hf.available.cache_clear()  # (its answer is kept per process)
     else:  # past the pivot limit every question goes to a fresh linprog
         monkeypatch.setattr(hf, "ITERATION_LIMIT", 1)
-    d_old = _design(plants)
+    try:
+        d_old = _design(plants)
+    finally:
+        hf.available.cache_clear()
     np.testing.assert_array_equal(d_kept.u, d_old.u)
     np.testing.assert_array_equal(d_kept.seek_times, d_old.seek_times)
     assert d_kept.guaranteed_seek_time == d_old.guaranteed_seek_time
@@ -117,3 +121,19 @@ def test_tail_maps_of_one_bank_equal_fresh_banks():
         kept, fresh = bank.tail_maps(N, J), PulseBank.build(plants, DT, 10, 0.5).tail_maps(N, J)
         for name in ("rigid", "a", "b"):
             np.testing.assert_array_equal(getattr(kept, name), getattr(fresh, name))
+
+
+def test_a_changed_private_binding_keeps_linprog(monkeypatch: pytest.MonkeyPatch) -> None:
+    # SciPy's binding is private: one whose calls fail in any way (here a changed
+    # solution type) is not used, rather than failing the design
+    def changed(self: object) -> None:
+        raise AttributeError("'HighsSolution' object has no attribute 'col_value'")
+
+    hf.available.cache_clear()
+    monkeypatch.setattr(hf.HighsFeasibility, "solve", changed)
+    try:
+        assert not hf.available()
+    finally:
+        hf.available.cache_clear()
+    monkeypatch.undo()
+    assert hf.available()

@@ -20,7 +20,9 @@ MMAP_THRESHOLD_BYTES = 32 << 20
 #: Freed memory at the top of the heap kept for reuse before it is returned.
 TRIM_THRESHOLD_BYTES = 64 << 20
 
-_TUNED = False
+#: None: not tried in this process; True/False: whether the thresholds are set (a
+#: failure is remembered too: the lookup of the C library can start a subprocess)
+_TUNED: bool | None = None
 
 
 def keep_freed_arrays() -> bool:
@@ -35,11 +37,16 @@ def keep_freed_arrays() -> bool:
     Returns
     -------
     bool
-        True when the thresholds are set in this process (now or by an earlier call).
+        True when the thresholds are set in this process (now or by an earlier call);
+        the answer of the first call is kept.
     """
     global _TUNED
-    if _TUNED:
-        return True
+    if _TUNED is None:
+        _TUNED = _set_thresholds()
+    return _TUNED
+
+
+def _set_thresholds() -> bool:
     import ctypes
     import ctypes.util
 
@@ -50,7 +57,6 @@ def keep_freed_arrays() -> bool:
         return False
     if mallopt is None:  # not glibc
         return False
-    _TUNED = bool(mallopt(_M_MMAP_THRESHOLD, MMAP_THRESHOLD_BYTES)) and bool(
+    return bool(mallopt(_M_MMAP_THRESHOLD, MMAP_THRESHOLD_BYTES)) and bool(
         mallopt(_M_TRIM_THRESHOLD, TRIM_THRESHOLD_BYTES)
     )
-    return _TUNED

@@ -194,12 +194,14 @@ def previous_runtimes(results_json: Path, max_bytes: int = 4 << 20) -> dict[str,
             return {}
         cases = json.loads(Path(results_json).read_bytes()).get("cases", [])
         pairs = ((c.get("name"), c.get("runtime_s")) for c in cases if isinstance(c, dict))
+        # bool is an int to Python, a JSON true is no time; an integer of 400 digits
+        # overflows float (OverflowError below)
         return {
             n: float(t)
             for n, t in pairs
-            if isinstance(n, str) and isinstance(t, (int, float)) and math.isfinite(t) and t >= 0
+            if isinstance(n, str) and type(t) in (int, float) and math.isfinite(t) and t >= 0
         }
-    except (OSError, ValueError, AttributeError, TypeError, RecursionError):
+    except (OSError, ValueError, AttributeError, TypeError, RecursionError, OverflowError):
         return {}
 
 
@@ -276,6 +278,18 @@ def iter_cases(
                 done = _run_one(outdir, name, svg)
             yield (name, *done)
         return
+    yield from _pooled(outdir, names, groups, svg, workers, costs or {})
+
+
+def _pooled(
+    outdir: Path,
+    names: Sequence[str],
+    groups: list[list[str]],
+    svg: bool,
+    workers: int,
+    costs: Mapping[str, float],
+) -> Iterator[tuple[str, list[CaseResult], float]]:
+    """:func:`iter_cases` in a pool of forked workers (longest groups submitted first)."""
     import multiprocessing
     from concurrent.futures import ProcessPoolExecutor
 
@@ -293,7 +307,7 @@ def iter_cases(
         ) as pool,
     ):
         with _frozen_heap():  # the workers fork at the first submit
-            order = _longest_first(groups, costs or {})
+            order = _longest_first(groups, costs)
             futures = {pool.submit(_run_group, outdir, g, svg): g for g in order}
         owner = {name: fut for fut, g in futures.items() for name in g}
         for name in names:

@@ -29,9 +29,10 @@ is (a relaxation that is infeasible proves the full problem infeasible, so the s
 decisions are exact).  All rows are scaled by the band, the inputs by ``u_max``.  The
 feasibility questions of one ``N`` share one HiGHS model (generated rows kept, rows
 before the settle index switched off, warm dual simplex;
-:mod:`servokit.seek._highs_feasibility`): the same decisions as fresh LPs at half the
-CPU, and the design's input comes from a fresh peak / energy solve at the chosen
-``(N, s)``, so it is the same array either way.
+:mod:`servokit.seek._highs_feasibility`): the decisions of fresh LPs up to HiGHS's
+feasibility tolerance (equal in every test and HDD design) at half the CPU, and the
+design's input comes from a fresh peak / energy solve at the chosen ``(N, s)``, so
+equal decisions give the same array.
 """
 
 from __future__ import annotations
