@@ -111,8 +111,9 @@ def test_kept_heap_stops_page_faulting_each_temporary() -> None:
     assert counts[False] >= 3 * counts[True]  # measured 26818 (numpy asks for huge pages)
 
 
-def test_workers_fork_from_a_frozen_heap(tmp_path) -> None:
+def test_workers_fork_from_a_frozen_heap(tmp_path, monkeypatch: pytest.MonkeyPatch) -> None:
     import gc
+    from concurrent.futures import ProcessPoolExecutor
 
     from servokit.cases import register
     from servokit.cases.registry import _REGISTRY
@@ -127,6 +128,14 @@ def test_workers_fork_from_a_frozen_heap(tmp_path) -> None:
 
         return case
 
+    submitted = []
+    real_submit = ProcessPoolExecutor.submit
+
+    def submit(self, fn, outdir, group, svg):  # noqa: ANN001, ANN202
+        submitted.append(list(group))
+        return real_submit(self, fn, outdir, group, svg)
+
+    monkeypatch.setattr(ProcessPoolExecutor, "submit", submit)
     names = ["zz-probe-a", "zz-probe-b"]
     for i, name in enumerate(names):
         register(name, order=600 + i)(probe(name))
@@ -137,6 +146,7 @@ def test_workers_fork_from_a_frozen_heap(tmp_path) -> None:
         seen = [r.extra for _, done, _ in runs for r in done]
         assert [name for name, _, _ in runs] == names
         assert [r.name for _, done, _ in runs for r in done] == names
+        assert submitted == [["zz-probe-b"], ["zz-probe-a"]]  # the longest handed out first
     finally:
         for name in names:
             _REGISTRY.pop(name, None)
@@ -154,3 +164,23 @@ def test_heap_setting_is_tried_once_per_process(monkeypatch: pytest.MonkeyPatch)
     assert _heap.keep_freed_arrays() is False  # e.g. not glibc: remembered, not retried
     assert _heap.keep_freed_arrays() is False
     assert tries == [1]
+
+
+def test_reproduce_hands_the_last_runs_times_to_the_pool(tmp_path, monkeypatch) -> None:
+    import json
+
+    from servokit.cases import runner
+    from servokit.cli.reproduce import _run_cases
+
+    (tmp_path / "results.json").write_text(
+        json.dumps({"cases": [{"name": "hdd-seek", "runtime_s": 2.5}]})
+    )
+    given = {}
+
+    def no_cases(stage, names, *, svg, costs):  # noqa: ANN001, ANN202
+        given.update(costs)
+        return iter(())
+
+    monkeypatch.setattr(runner, "iter_cases", no_cases)
+    _run_cases(tmp_path, ["hdd-seek"], False)
+    assert given == {"hdd-seek": 2.5}
