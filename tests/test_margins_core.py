@@ -6,7 +6,7 @@ from __future__ import annotations
 import numpy as np
 import pytest
 from _margin_loops import VISIBLE, LoopCase, brute_crossings, loops, packed_grid
-from hypothesis import HealthCheck, assume, given, settings
+from hypothesis import HealthCheck, assume, example, given, settings
 
 from servokit.feedback import stability_margins
 
@@ -61,8 +61,24 @@ def test_random_continuous_loops_match_brute_force_and_closed_loop_poles(case):
     _check_against_brute_force(case)
 
 
+def _edge_of_visibility() -> LoopCase:
+    """A phase crossover at |L| = 0.9925e-4, between grid points on either side of
+    VISIBLE (hypothesis: the reference judged it at the point before it)."""
+    import control
+
+    from servokit.models import ModalPlant, Mode
+
+    dt = 3.0303030303030302e-05
+    modes = (Mode(74.0, 0.4140625, 1.0), Mode(8709.0, 1e-5, 0.60546875))
+    plant = ModalPlant(1252119.3634061213, modes)
+    lead = control.tf([0.00152059, 1.0], [1.68954292e-04, 1.0])
+    ctrl = control.tf([8.34161707, -8.17702133], [1.0, -0.83540427], dt)
+    return LoopCase(plant=plant, lead=lead, dt=dt, ctrl=ctrl)
+
+
 @settings(max_examples=6, **_SETTINGS)
 @given(case=loops(discrete=True))
+@example(case=_edge_of_visibility())
 def test_random_discrete_loops_match_brute_force_and_closed_loop_poles(case):
     _check_against_brute_force(case)
 
