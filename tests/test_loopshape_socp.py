@@ -219,3 +219,38 @@ def test_warm_start_any_rows_same_optimum(frac, seed, stray, rho, phase1) -> Non
     pick = keys[rng.random(keys.size) < frac]
     junk = rng.integers(keys.max() + 1, keys.max() + 10**6, stray)
     _same_optimum(d, pb, WarmStart(np.concatenate([pick, junk]).astype(np.int64)))
+
+
+def test_warm_resolve_of_a_grown_mask() -> None:
+    # the step re-solved with a grown mask (as loopshape does where the first optimum
+    # broke the true bound at points outside it) from the warm start of its first solve:
+    # the optimum of every row of the grown mask, the valleys only of the new rows seeded
+    pb, theta0, tab = _problem((0, 6, 12), 1.0, 600, fixed_order_structure(12))
+    d = _data(pb, theta0, tab, phase1=False, rho=0.3)
+    warm = WarmStart()
+    first = solve_step(d, warm=warm)
+    assert first is not None and np.array_equal(warm.theta_k, theta0)
+    assert np.isin(warm.keys, warm.seen).all() and warm.seen.size == _all_keys(d).size
+    grown = StepData(**{**d.__dict__, "s_mask": d.s_mask | (np.abs(pb.P) > 0.5)})
+    keys = _all_keys(grown)
+    new = ~np.isin(keys, warm.seen)
+    assert new.any()
+    np.testing.assert_array_equal(socp._unseen(grown, _lin(grown), warm), new)
+    # the first program: warm rows, rows violated at θ_k, valleys of new rows only
+    lin = _lin(grown)
+    xk, F = grown.basis.polys(theta0)
+    sel = socp._start(grown, F, lin, warm)[lin.pt]
+    v = socp._lin_slack(lin, theta0, 0.0, np.abs(grown.basis.polys(theta0)[1] / F))
+    assert (np.isin(keys, warm.keys) | (v <= 0))[sel & ~new].all()
+    assert (sel & new).any()
+    _same_optimum(grown, pb, warm)
+    # a new step (θ_k moved) seeds no valleys; a cold start seeds every row's
+    moved = StepData(**{**d.__dict__, "theta_k": first[0]})
+    assert not socp._unseen(moved, _lin(moved), warm).any()
+    assert socp._unseen(moved, _lin(moved), WarmStart()).all()
+
+
+def _lin(d: StepData):
+    """Every linear row of the step's masks."""
+    xk, F = d.basis.polys(d.theta_k)
+    return socp._candidates(d, F, xk / F)[0]
