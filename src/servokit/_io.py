@@ -98,11 +98,9 @@ def decode_text(raw: bytes, path: str | Path, flag: str, *, plain_utf8: bool = F
     str
     """
     boms = (
-        (codecs.BOM_UTF32_LE, "utf-32"),
-        (codecs.BOM_UTF32_BE, "utf-32"),
+        (codecs.BOM_UTF32_LE, "utf-32"), (codecs.BOM_UTF32_BE, "utf-32"),
         (codecs.BOM_UTF8, "utf-8-sig"),
-        (codecs.BOM_UTF16_LE, "utf-16"),
-        (codecs.BOM_UTF16_BE, "utf-16"),
+        (codecs.BOM_UTF16_LE, "utf-16"), (codecs.BOM_UTF16_BE, "utf-16"),
     )  # fmt: skip; UTF-32 first: its LE mark starts with UTF-16's
     codec = next((c for bom, c in boms if raw.startswith(bom)), "utf-8")
     if plain_utf8 and codec != "utf-8":

@@ -93,8 +93,6 @@ app = typer.Typer(
     rich_markup_mode=None,
     context_settings={"help_option_names": ["-h", "--help"]},
 )
-
-
 def build_command() -> Any:
     """The click command tree of :data:`app` with the number-flag rules applied."""
     import typer.main
@@ -181,8 +179,9 @@ def main() -> None:
 def _memory_message(argv: list[str]) -> str:
     flag = "--max-memory-mb"
     has = any(a == flag or a.startswith(flag + "=") for a in argv)
-    return "the request needs more memory than this machine (or the limit) allows; reduce the " + (
-        "sizes or lower the request" if has else f"sizes (the limit is {flag})"
+    return (
+        "the request needs more memory than this machine (or the limit) allows; reduce the "
+        + ("sizes or lower the request" if has else f"sizes (the limit is {flag})")
     )
 
 

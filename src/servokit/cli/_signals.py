@@ -126,3 +126,5 @@ def install() -> None:
     if threading.current_thread() is threading.main_thread():
         signal.signal(signal.SIGINT, _on_sigint)
     sys.unraisablehook = _unraisable
+
+

@@ -42,7 +42,8 @@ _IDENTIFY_MAX_FREQ = 100_000
 @app.command(
     "identify",
     epilog=example(
-        "servokit identify --plant vcm-dual-stage --controller table-5.2 --fmax 60e3",
+        "servokit identify --plant vcm-dual-stage --controller table-5.2 "
+        "--fmax 60e3",
         "servokit identify --plant pzt-active-suspension --loop-plant vcm-dual-stage "
         "--controller table-5.2 --json",
     ),

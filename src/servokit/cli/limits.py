@@ -75,6 +75,7 @@ def _lti(loop):  # noqa: ANN001, ANN202
     )
 
 
+
 def _check_waterbed_range(alpha_db: float, ratio: float, freq: float) -> None:
     """Refuse an --alpha-db / --freq pair whose (6.20) bound ``-alpha_db * ratio`` [dB] no
     float holds (near Nyquist the ratio phi1 / (pi - phi1) grows without limit)."""
@@ -86,7 +87,6 @@ def _check_waterbed_range(alpha_db: float, ratio: float, freq: float) -> None:
             f"--alpha-db {alpha_db:g} up to --freq {freq:g} Hz bounds ||S|| by {bound_db:.4g} dB, "
             "beyond any float (no loop meets it); relax --alpha-db or lower --freq"
         )
-
 
 @limits_app.command(
     "waterbed",

@@ -29,9 +29,7 @@ def _unique(values: list | None) -> list | None:
 )
 def reproduce(
     out: str = typer.Option(
-        "out",
-        "--out",
-        help="directory for report.html, results.json and the figures",
+        "out", "--out", help="directory for report.html, results.json and the figures",
         metavar="DIR",
     ),
     case: list[str] | None = typer.Option(

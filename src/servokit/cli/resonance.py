@@ -461,14 +461,8 @@ def _margins_plot(loop: list[Any], m: Any, dt: float, target: Any) -> None:
 
 
 def _margins_over_file(
-    p: Any,
-    chain: list[Any],
-    path: str,
-    delay: float,
-    n_freq: int,
-    json_out: bool,
-    controller: str,
-    dt: float,
+    p: Any, chain: list[Any], path: str, delay: float, n_freq: int, json_out: bool,
+    controller: str, dt: float,
 ) -> None:
     from servokit.feedback import margins_over_set
     from servokit.models.variation_file import read_variations

@@ -232,14 +232,8 @@ _IVC_APPLIES = {
 
 
 def _ivc_design(
-    loop: SwitchedLoop,
-    method: str,
-    weight: str,
-    poles: str,
-    pole: float,
-    order: int | None,
-    input_weight: float,
-    jerk_weight: float,
+    loop: SwitchedLoop, method: str, weight: str, poles: str, pole: float,
+    order: int | None, input_weight: float, jerk_weight: float,
 ) -> tuple[dict, np.ndarray | None, object]:
     """The IVC of ``method``: (JSON data, gain K or None, additional-input design or None)."""
     from servokit.switching import ivc_additional_input, ivc_jmin, ivc_pole_zero, ivc_zeros

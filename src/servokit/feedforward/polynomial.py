@@ -41,6 +41,7 @@ __all__ = [
 POLYNOMIAL_ORDERS = (3, 4, 5, 6, 7, 8)
 
 
+
 @functools.cache
 def _symbols() -> tuple[sp.Symbol, sp.Symbol, sp.Symbol]:
     """The symbols ``n, N, i``; sympy is imported here, on first use (it costs about half

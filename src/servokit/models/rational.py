@@ -585,3 +585,4 @@ def siso_zeros(A: np.ndarray, b: np.ndarray, c: np.ndarray) -> np.ndarray:
     Q = vt[r:].T
     PA = A - np.outer(b, v @ A) / g
     return np.linalg.eigvals(Q.T @ PA @ Q).astype(complex)
+
