@@ -141,9 +141,11 @@ def test_generation_equals_the_program_of_every_row(phase1: bool) -> None:
     d = _data(pb, theta0, tab, phase1=phase1, rho=0.3)
     stats = _same_optimum(d, pb)
     # a fraction of the rows: the last program is much smaller than the one of every row
+    # (phase 1: 195 of 377 rows from the unrefined solves, 183 with refinement; the
+    # optimal set is not a point, its analytic centre moves with the solves' accuracy)
     n_all = int(d.s_mask.sum()) * (2 if phase1 else 1) + pb.floor_w.size
     n_all += 0 if d.c_mask is None else int(d.c_mask.sum())
-    assert stats["rows"][-1] < n_all / 2
+    assert stats["rows"][-1] < 0.6 * n_all
 
 
 def test_generation_with_complementary_sensitivity() -> None:
@@ -254,3 +256,36 @@ def _lin(d: StepData):
     """Every linear row of the step's masks."""
     xk, F = d.basis.polys(d.theta_k)
     return socp._candidates(d, F, xk / F)[0]
+
+
+def test_unrefined_solves_are_checked() -> None:
+    # a program solved without Clarabel's iterative refinement is taken only when its own
+    # rows hold to PROGRAM_FEAS at z (slack from the definitions, not from the program);
+    # always refusing it (every program solved again with refinement) gives the same step
+    pb, theta0, tab = _problem((0, 6, 12), 1.0, 600, fixed_order_structure(12))
+    d = _data(pb, theta0, tab, phase1=False, rho=0.3)
+    fast: dict = {}
+    got = solve_step(d, stats=fast)
+    assert got is not None and fast["refined"] < len(fast["rows"])
+    assert _worst_row(d, *got) > -10 * socp.PROGRAM_FEAS
+    with pytest.MonkeyPatch.context() as mp:
+        mp.setattr(socp, "PROGRAM_FEAS", -1.0)  # no z is good enough: always refined
+        slow: dict = {}
+        ref = solve_step(d, stats=slow)
+    assert ref is not None and slow["refined"] == len(slow["rows"])
+    assert got[1] == pytest.approx(ref[1], abs=1e-6)
+
+
+def test_worst_slack_from_the_definitions() -> None:
+    # the program's slack at z: linear rows b - A z and cones t - |q| (two-row example)
+    pb, theta0, tab = _problem((0,), 1.0, 300, fixed_order_structure(12))
+    d = _data(pb, theta0, tab, phase1=False, rho=0.3)
+    xk, F = d.basis.polys(theta0)
+    lin, _ = socp._candidates(d, F, xk / F)
+    prog = socp._program(d, F, lin.take(np.arange(5)), None, socp._trust(d, F, xk / F))
+    rng = np.random.default_rng(1)
+    z = rng.standard_normal(prog.nz)
+    s = prog.b - prog.A.toarray() @ z
+    c = s[prog.n_lin :].reshape(-1, 3)
+    want = min(s[: prog.n_lin].min(), (c[:, 0] - np.sqrt(c[:, 1] ** 2 + c[:, 2] ** 2)).min())
+    assert socp._worst_slack(prog, z) == pytest.approx(min(want, 0.0), rel=1e-12)

@@ -32,18 +32,19 @@ that program (the same ``τ``; ``θ`` itself is unique only where enough rows bi
 interior-point method returns the analytic centre of the optimal set). On the 54-loop
 HDD design a step takes 3-7 programs of 300-2300 rows instead of one of 13k-43k rows.
 A :class:`WarmStart` carried from step to step adds the rows within ``WARM_SLACK`` of
-binding at the previous step's optimum to the first program: 1-4 programs per step (32
-instead of 61 on the HDD design). From a warm start the first program takes the valleys
-at ``θ_k`` only of rows the previous step did not have (a re-solve of the same step with
-a grown mask; none for a new step): 28 programs of 780-1600 rows instead of 32 of
-900-2800, 1.95 instead of 2.3 s of Clarabel (docs/guide/loopshape_cpu.md).
-The trust-region cones are all in every program: at
-the HDD steps' optima 85-128 of the 150 are within 1e-3 of binding (scaled), so
-generating them saved no solver time (it was tried: 2.5 vs 2.4 s of Clarabel).
-The generated programs are solved to 1e-8 / 1e-9 (1e-6 / 1e-7 where Clarabel stalls);
-a program that is not "Solved" sends the step back to the one program of every row at
-1e-6 / 1e-7, as before (``solve_step(..., generate=False)``: the earlier matrices, bit
-for bit, checked on the 12 programs of the HDD design).
+binding at the previous step's optimum to the first program (32 programs instead of 61
+on the HDD design); the valleys at ``θ_k`` join it only for rows the previous step did
+not have (a re-solve of the same step with a grown mask; none for a new step): 28
+programs of 780-1600 rows instead of 32 of 900-2800. The trust-region cones are all in
+every program: at the HDD steps' optima 85-128 of the 150 are within 1e-3 of binding
+(scaled), so generating them saved no solver time (tried: 2.5 vs 2.4 s of Clarabel).
+The generated programs are solved to 1e-8 / 1e-9 (1e-6 / 1e-7 where Clarabel stalls),
+first without Clarabel's iterative refinement, whose ``z`` is taken only where every row
+and cone of the program holds to ``PROGRAM_FEAS`` (checked here): 1.2 instead of 1.95 s
+of Clarabel on the HDD design (docs/guide/loopshape_cpu.md). A program that is not
+"Solved" sends the step back to the one program of every row at 1e-6 / 1e-7, as before
+(``solve_step(..., generate=False)``: the earlier matrices, bit for bit, checked on the
+12 programs of the HDD design).
 """
 
 from __future__ import annotations
@@ -356,10 +357,18 @@ TOL_GEN = (1e-8, 1e-9)
 GEN_TOL = TOL_GEN[1]
 #: rounds of constraint generation before falling back to the one program
 GEN_ROUNDS = 50
+#: an unrefined solve is taken where every scaled row and cone holds to this (the HDD
+#: design's final programs: worst row -1.1e-7 unrefined, -3.2e-8 refined)
+PROGRAM_FEAS = 1e-6
 
 
-def _solve(prog: _Program, tol: tuple[float, float], ok: tuple[str, ...]) -> np.ndarray | None:
-    """Clarabel on one program (maximise ``τ``): ``z`` if its status is in ``ok``, else None."""
+def _solve(
+    prog: _Program, tol: tuple[float, float], ok: tuple[str, ...], refine: bool = True
+) -> np.ndarray | None:
+    """Clarabel on one program (maximise ``τ``): ``z`` if its status is in ``ok``, else None.
+
+    ``refine`` is Clarabel's iterative refinement of each KKT solve.
+    """
     import clarabel
 
     cones = [clarabel.NonnegativeConeT(prog.n_lin)] + [clarabel.SecondOrderConeT(3)] * prog.n_soc
@@ -369,6 +378,7 @@ def _solve(prog: _Program, tol: tuple[float, float], ok: tuple[str, ...]) -> np.
     settings.verbose = False
     settings.tol_gap_abs = settings.tol_gap_rel = tol[0]
     settings.tol_feas = tol[1]
+    settings.iterative_refinement_enable = refine
     P = sp.csc_matrix((prog.nz, prog.nz))
     sol = clarabel.DefaultSolver(P, q, prog.A, prog.b, cones, settings).solve()
     if str(sol.status) not in ok:
@@ -377,6 +387,27 @@ def _solve(prog: _Program, tol: tuple[float, float], ok: tuple[str, ...]) -> np.
     if not np.all(np.isfinite(z)):
         raise ServokitValueError("loop-shaping step returned non-finite parameters")
     return z
+
+
+def _worst_slack(prog: _Program, z: np.ndarray) -> float:
+    """Most negative slack of the program's (scaled) rows and cones at ``z``."""
+    s = prog.b - prog.A @ z
+    cones = s[prog.n_lin :].reshape(-1, 3)
+    soc = cones[:, 0] - np.hypot(cones[:, 1], cones[:, 2])
+    return float(min(s[: prog.n_lin].min(initial=0.0), soc.min(initial=0.0)))
+
+
+def _solve_generated(prog: _Program, stats: dict | None) -> np.ndarray | None:
+    """A generated program: without refinement if its rows hold (``PROGRAM_FEAS``), else
+    with it at ``TOL_GEN``, else at ``TOL_ONE`` (Clarabel stalled short of 1e-8 / 1e-9)."""
+    z = _solve(prog, TOL_GEN, ("Solved",), refine=False)
+    fast = z is not None and _worst_slack(prog, z) >= -PROGRAM_FEAS
+    if not fast:
+        z = _solve(prog, TOL_GEN, ("Solved",))
+    if stats is not None:
+        stats["refined"] = stats.get("refined", 0) + (not fast)
+        stats["loose"] = stats.get("loose", 0) + (z is None)
+    return z if z is not None else _solve(prog, TOL_ONE, ("Solved",))
 
 
 def _program(d: StepData, F, lin: _Lin, t_cones: _Soc | None, trust: _Soc) -> _Program:
@@ -511,12 +542,9 @@ def _generate(d: StepData, F, K, lin: _Lin, t_cones: _Soc | None, stats, warm):
         sel = inp[lin.pt]
         t_sel = None if t_cones is None else t_cones.take(inp[t_cones.pt])
         prog = _program(d, F, lin.take(sel), t_sel, trust)
-        z = _solve(prog, TOL_GEN, ("Solved",))
         if stats is not None:
             stats.setdefault("rows", []).append(int(sel.sum()))
-            stats["loose"] = stats.get("loose", 0) + (z is None)
-        if z is None:  # Clarabel stalled short of 1e-8 / 1e-9
-            z = _solve(prog, TOL_ONE, ("Solved",))
+        z = _solve_generated(prog, stats)
         if z is None:
             return None
         new, v = _violated(d, F, lin, t_cones, z, inp)
