@@ -127,16 +127,19 @@ class LoopTable:
         return [{"plant": n, **r.to_dict()} for n, r in zip(self.names, self.rows, strict=True)]
 
 
-def _crossings(freq_hz: np.ndarray, L: np.ndarray):
+def _crossings(freq_hz: np.ndarray, L: np.ndarray, mag: np.ndarray):
     """Every gain crossover of the loops ``L`` (rows): (row, frequency, phase margin [deg]).
 
     Log-log interpolation between the bracketing grid points; rows in order, each row's
-    crossovers by increasing frequency.
+    crossovers by increasing frequency. ``mag`` is ``|L|``: ``log|L|`` changes sign
+    where ``|L|`` passes 1 (``log`` is monotone with ``log 1 = 0``), so the logarithm is
+    taken only at the bracketing points.
     """
     logf = np.log(freq_hz)
-    lm = np.log(np.abs(L))
-    r, i = np.nonzero(np.sign(lm[:, :-1]) * np.sign(lm[:, 1:]) < 0)
-    frac = lm[r, i] / (lm[r, i] - lm[r, i + 1])
+    below, above = mag < 1.0, mag > 1.0
+    r, i = np.nonzero((below[:, :-1] & above[:, 1:]) | (above[:, :-1] & below[:, 1:]))
+    lo, hi = np.log(mag[r, i]), np.log(mag[r, i + 1])
+    frac = lo / (lo - hi)
     fc = np.exp(logf[i] + frac * (logf[i + 1] - logf[i]))
     # phase between neighbours along the shorter arc, so a wrap does not corrupt it
     step = np.angle(L[r, i + 1] / L[r, i])
@@ -154,9 +157,10 @@ def _first_per_row(r: np.ndarray) -> np.ndarray:
 
 def _gain_margins_db(L: np.ndarray) -> np.ndarray:
     """Per row, the phase-crossover margin nearest 0 dB (sign changes of Im L, Re L < 0)."""
-    im = L.imag
-    r, i = np.nonzero((np.sign(im[:, :-1]) * np.sign(im[:, 1:]) <= 0) & (L.real[:, :-1] < 0))
-    a, b = im[r, i], im[r, i + 1]
+    a, b = L.imag[:, :-1], L.imag[:, 1:]
+    # sign(a) sign(b) <= 0 without np.sign (False for NaN as there)
+    r, i = np.nonzero((((a <= 0) & (b >= 0)) | ((a >= 0) & (b <= 0))) & (L.real[:, :-1] < 0))
+    a, b = L.imag[r, i], L.imag[r, i + 1]
     frac = np.where(a != b, a / (a - b + 1e-300), 0.0)
     re = L.real[r, i] + frac * (L.real[r, i + 1] - L.real[r, i])
     gms = -20.0 * np.log10(np.abs(re))
@@ -210,21 +214,39 @@ def closed_loop_unstable(
 
 def _loop_rows(freq_hz, L: np.ndarray, dt: float, n_integrators: int, n_unstable: int):
     """:class:`LoopRow` of each row of ``L`` (loops on one grid), as arrays per column."""
-    m = L.shape[0]
-    r, fc, pm = _crossings(freq_hz, L)
+    m, mag = L.shape[0], np.abs(L)
+    r, fc, pm = _crossings(freq_hz, L, mag)
     first = _first_per_row(r)
-    down = np.any(np.abs(L[:, :-1]) >= 1.0, axis=1)
+    down = np.any(mag[:, :-1] >= 1.0, axis=1)
     crossover = np.where(down, np.nan, float(freq_hz[0]))
     crossover[r[first]] = fc[first]
     pm0, dm = np.zeros(m), np.full(m, np.inf)
     pm0[r[first]] = pm[first]
     np.minimum.at(dm, r, np.radians(np.mod(pm, 360.0)) / (2 * np.pi * fc))
     dm[np.isinf(dm)] = 0.0
+    ret = 1.0 + L
     with np.errstate(divide="ignore"):
-        s = 20 * np.log10(np.max(np.abs(1.0 / (1.0 + L)), axis=1))
-        t = 20 * np.log10(np.max(np.abs(L / (1.0 + L)), axis=1))
+        s = 20 * np.log10(_peak(np.ones(1), ret, 1.0 / np.abs(ret)))
+        t = 20 * np.log10(_peak(L, ret, mag / np.abs(ret)))
     z_out, resolved = _unstable(freq_hz, L, dt, n_integrators, n_unstable)
     return (crossover, pm0, _gain_margins_db(L), dm, s, t, z_out, resolved)
+
+
+def _peak(num: np.ndarray, den: np.ndarray, approx: np.ndarray) -> np.ndarray:
+    """Per row, ``max |num / den|`` with the complex division done only where it can win.
+
+    ``approx`` is ``|num| / |den|`` in real arithmetic, within a few ulp of the computed
+    ``|num / den|``: only the entries within 1e-9 of a row's largest can hold its largest
+    computed value, so the result is that of dividing everywhere (NaN rows included).
+    """
+    top = approx.max(axis=1)
+    if not np.all(np.isfinite(top)):  # inf or NaN: as numpy gives it
+        return np.max(np.abs(np.broadcast_to(num, den.shape) / den), axis=1)
+    r, i = np.nonzero(approx >= top[:, None] * (1.0 - 1e-9))
+    nums = num[r, i] if num.ndim == 2 else np.broadcast_to(num, r.shape)
+    out = np.full(den.shape[0], -np.inf)
+    np.maximum.at(out, r, np.abs(nums / den[r, i]))
+    return out
 
 
 def _rows_of(cols) -> list[LoopRow]:
