@@ -35,7 +35,7 @@ A :class:`WarmStart` carried from step to step adds the rows within ``WARM_SLACK
 binding at the previous step's optimum to the first program (32 programs instead of 61
 on the HDD design); the valleys at ``θ_k`` join it only for rows the previous step did
 not have (a re-solve of the same step with a grown mask; none for a new step), and
-``WARM_SLACK`` is 1e-5 (was 1e-3): 38 smaller programs. The 150 trust-region cones are
+``WARM_SLACK`` is 1e-5 (was 1e-3): 35 smaller programs. The 150 trust-region cones are
 in every program (85-128 bind at the HDD optima: generating them saved no time).
 The generated programs are solved to 1e-8 / 1e-9 (1e-6 / 1e-7 where Clarabel stalls),
 first without Clarabel's iterative refinement, whose ``z`` is taken only where every row
