@@ -126,8 +126,13 @@ def _same_optimum(d: StepData, pb, warm: socp.WarmStart | None = None) -> dict:
     # (programs stopped at the looser tolerance hold their rows as loosely: picks 0, 12,
     # 1, 2 at gain 0.90625, rho 0.0234, phase 1, two loose programs: -5.8e-4 against the
     # one program's -2.6e-4, tau 2.5e-7 from it)
+    # Solves taken without Clarabel's iterative refinement (PROGRAM_FEAS) hold their rows
+    # about 3x less tightly on this relative measure: frac 1.0, rho 0.25, phase 1 (every
+    # row in the first program): -3.1e-5 against the one program's -1.15e-5, while the
+    # program's own scaled rows hold to -1.6e-8 (refined: -6.1e-9) and tau agrees to 4e-8
     worst = [_worst_row(d, *sol) for sol in (gen, one, tight)]
-    factor = 3.0 if stats["loose"] else 2.0
+    unrefined = stats["refined"] < len(stats["rows"])
+    factor = 3.0 if stats["loose"] or unrefined else 2.0
     assert worst[0] > factor * min(worst[1], worst[2], -1e-5)
     # θ itself need not agree: where few rows bind (phase 1, a small trust radius) the
     # optimal set is not a point, and an interior-point method returns its analytic
