@@ -51,18 +51,12 @@ def _cpu(fn: Callable[[], Any]) -> tuple[Any, float]:
     return out, time.process_time() - t0
 
 
-def _refined_only(prog, stats):
-    """A generated program as before issue 24's pass: refined, 1e-6 / 1e-7 on a stall."""
-    z = socp._solve(prog, socp.TOL_GEN, ("Solved",))
-    return z if z is not None else socp._solve(prog, socp.TOL_ONE, ("Solved",))
-
-
 def _before(mp: dict) -> None:
     """Set (``mp`` empty) or restore the constraint generation before issue 24's pass."""
-    names = ("WARM_SLACK", "_solve_generated", "_unseen")
+    names = ("WARM_SLACK", "PROGRAM_FEAS", "_unseen")
     if not mp:
         mp.update({k: getattr(socp, k) for k in names})
-        socp.WARM_SLACK, socp._solve_generated = 1e-3, _refined_only
+        socp.WARM_SLACK, socp.PROGRAM_FEAS = 1e-3, None  # every program refined
         socp._unseen = lambda d, lin, warm: np.ones(lin.b.size, dtype=bool)
     else:
         for k, v in mp.items():

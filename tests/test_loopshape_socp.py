@@ -279,6 +279,18 @@ def test_unrefined_solves_are_checked() -> None:
         ref = solve_step(d, stats=slow)
     assert ref is not None and slow["refined"] == len(slow["rows"])
     assert got[1] == pytest.approx(ref[1], abs=1e-6)
+    # None: no unrefined attempt at all (one refined solve per program, as before)
+    calls: list[bool] = []
+    solve = socp._solve
+    with pytest.MonkeyPatch.context() as mp:
+        mp.setattr(socp, "PROGRAM_FEAS", None)
+        mp.setattr(
+            socp, "_solve", lambda *a, **k: calls.append(k.get("refine", True)) or solve(*a, **k)
+        )
+        before: dict = {}
+        old = solve_step(d, stats=before)
+    assert old is not None and all(calls) and len(calls) == len(before["rows"])
+    assert old[1] == pytest.approx(ref[1], abs=1e-6)
 
 
 def test_worst_slack_from_the_definitions() -> None:

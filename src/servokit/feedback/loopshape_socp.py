@@ -357,8 +357,8 @@ GEN_TOL = TOL_GEN[1]
 #: rounds of constraint generation before falling back to the one program
 GEN_ROUNDS = 50
 #: an unrefined solve is taken where every scaled row and cone holds to this (the HDD
-#: design's final programs: worst row -1.1e-7 unrefined, -3.2e-8 refined)
-PROGRAM_FEAS = 1e-6
+#: design's final programs: worst row -1.1e-7 unrefined, -3.2e-8 refined); None: refined
+PROGRAM_FEAS: float | None = 1e-6
 
 
 def _solve(
@@ -399,7 +399,7 @@ def _worst_slack(prog: _Program, z: np.ndarray) -> float:
 def _solve_generated(prog: _Program, stats: dict | None) -> np.ndarray | None:
     """A generated program: without refinement if its rows hold (``PROGRAM_FEAS``), else
     with it at ``TOL_GEN``, else at ``TOL_ONE`` (Clarabel stalled short of 1e-8 / 1e-9)."""
-    z = _solve(prog, TOL_GEN, ("Solved",), refine=False)
+    z = None if PROGRAM_FEAS is None else _solve(prog, TOL_GEN, ("Solved",), refine=False)
     fast = z is not None and _worst_slack(prog, z) >= -PROGRAM_FEAS
     if not fast:
         z = _solve(prog, TOL_GEN, ("Solved",))
