@@ -4,11 +4,12 @@ from __future__ import annotations
 
 import io
 from collections.abc import Iterator
-from contextlib import contextmanager
+from contextlib import contextmanager, nullcontext
 from contextvars import ContextVar
 from pathlib import Path
 from typing import TYPE_CHECKING
 
+from servokit._agg_text import cached_agg_text
 from servokit._io import write_atomic
 from servokit._png import encode_png
 from servokit._text_memo import memoised_text_layout
@@ -227,8 +228,10 @@ def save_figure(fig: Figure, path: str | Path, *, dpi: int = 110) -> Path:
     legends = _legends_out_of_layout(fig) if agg_png else []
     params = {k: getattr(fig.subplotpars, k) for k in _SUBPLOT_PARAMS}
     cache_tick_locations(fig)
-    # one layout per string and style for both passes (and the copies' draws)
-    with memoised_text_layout():
+    # one layout per string and style for both passes (and the copies' draws); the
+    # FreeType work of the Agg renderer kept across figures
+    agg_text = cached_agg_text(fig.canvas.get_renderer()) if agg_png else nullcontext()
+    with memoised_text_layout(), agg_text:
         _lay_out(fig)
         _write_files(fig, Path(path), dpi, agg_png, legends, params)
     plt.close(fig)

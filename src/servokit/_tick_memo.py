@@ -117,7 +117,7 @@ class _AxisMemo:
             and self._boxes_key == self._ticks_key
             and renderer is self._boxes_renderer
             and len(ticks) == len(self._boxes_ticks)
-            and all(a is b for a, b in zip(ticks, self._boxes_ticks))
+            and all(a is b for a, b in zip(ticks, self._boxes_ticks, strict=True))
         )
         if not same:
             self._boxes_key = None
