@@ -114,8 +114,18 @@ def _metrics(renderer: Any, original: Any, s: str, prop: Any, ismath: Any) -> An
     return found if found is not None else _remember(_METRICS, key, original(s, prop, ismath))
 
 
-def _draw_text(renderer: Any, original: Any, gc: Any, x: float, y: float, s: str,
-               prop: Any, angle: float, ismath: Any = False, mtext: Any = None) -> None:
+def _draw_text(
+    renderer: Any,
+    original: Any,
+    gc: Any,
+    x: float,
+    y: float,
+    s: str,
+    prop: Any,
+    angle: float,
+    ismath: Any = False,
+    mtext: Any = None,
+) -> None:
     """``RendererAgg.draw_text`` for plain text, with shaped strings and glyphs kept."""
     if ismath:
         return original(gc, x, y, s, prop, angle, ismath=ismath, mtext=mtext)
@@ -139,8 +149,16 @@ def _draw_text(renderer: Any, original: Any, gc: Any, x: float, y: float, s: str
     return None
 
 
-def _draw_glyphs(renderer: Any, gc: Any, x: float, y: float, angle: float, size: float,
-                 flags: Any, items: tuple[tuple[Any, int, float, float], ...]) -> None:
+def _draw_glyphs(
+    renderer: Any,
+    gc: Any,
+    x: float,
+    y: float,
+    angle: float,
+    size: float,
+    flags: Any,
+    items: tuple[tuple[Any, int, float, float], ...],
+) -> None:
     """The glyph loop of ``RendererAgg._draw_text_glyphs_and_boxes`` (no slant, no
     extension, no boxes: plain text), each bitmap rendered once per sub-pixel offset."""
     import numpy as np
