@@ -44,7 +44,7 @@ CHECKED_VERSIONS = ((3, 11),)
 MAX_ENTRIES = 50_000
 
 _METRICS: dict[tuple[Any, ...], tuple[float, float, float]] = {}
-_LAYOUTS: dict[tuple[Any, ...], tuple[tuple[Any, int, float, float], ...]] = {}
+_LAYOUTS: dict[tuple[Any, ...], tuple[float, tuple[tuple[Any, int, float, float], ...]]] = {}
 _BITMAPS: dict[tuple[Any, ...], tuple[Any, int, int]] = {}
 _PARSER: list[Any] = []  # the shared math text parser, made on first use
 
@@ -102,51 +102,81 @@ def _remember(cache: dict[tuple[Any, ...], Any], key: tuple[Any, ...], value: An
     return value
 
 
-def _metrics(renderer: Any, original: Any, s: str, prop: Any, ismath: Any) -> Any:
-    """``get_text_width_height_descent`` with plain text's answers kept across renderers."""
-    if ismath is not False:
-        return original(s, prop, ismath)  # math: the shared parser keeps it; TeX: as usual
-    from matplotlib.backends.backend_agg import get_hinting_flag
+def _rc_fingerprint() -> tuple[tuple[str, str], ...]:
+    """The rc settings a text's font, hinting and kerning come from (``font.*``,
+    ``text.*``, ``mathtext.*``), as text: part of every key of the caches."""
+    import matplotlib
 
-    font = renderer._prepare_font(prop)
-    key = (font, prop.get_size_in_points(), renderer.dpi, s, get_hinting_flag())
-    found = _METRICS.get(key)
-    return found if found is not None else _remember(_METRICS, key, original(s, prop, ismath))
+    rc = matplotlib.rcParams
+    prefixes = ("font.", "text.", "mathtext.")
+    return tuple((k, repr(rc[k])) for k in sorted(rc) if k.startswith(prefixes))
 
 
-def _draw_text(
-    renderer: Any,
-    original: Any,
-    gc: Any,
-    x: float,
-    y: float,
-    s: str,
-    prop: Any,
-    angle: float,
-    ismath: Any = False,
-    mtext: Any = None,
-) -> None:
-    """``RendererAgg.draw_text`` for plain text, with shaped strings and glyphs kept."""
-    if ismath:
-        return original(gc, x, y, s, prop, angle, ismath=ismath, mtext=mtext)
-    from matplotlib.backends.backend_agg import get_hinting_flag
+class _CachedText:
+    """The text methods of one renderer, answering from the process-wide caches.
 
-    font = renderer._prepare_font(prop)
-    flags = get_hinting_flag()
-    features = mtext.get_fontfeatures() if mtext is not None else None
-    language = mtext.get_language() if mtext is not None else None
-    size = prop.get_size_in_points()
-    key = (font, size, renderer.dpi, s, flags, features, language)
-    try:
-        items = _LAYOUTS.get(key)
-    except TypeError:  # unhashable features or language
-        return original(gc, x, y, s, prop, angle, ismath=ismath, mtext=mtext)
-    if items is None:
-        shaped = font._layout(s, flags=flags, features=features, language=language)
-        items = tuple((i.ft_object, i.glyph_index, i.x, i.y) for i in shaped)
-        _remember(_LAYOUTS, key, items)
-    _draw_glyphs(renderer, gc, x, y, angle, size, flags, items)
-    return None
+    A string's key is the rc fingerprint, its font properties (the values
+    ``FontProperties`` hashes), the dpi and the string, so that a hit does not even look
+    the font up (``_prepare_font``); a miss computes as matplotlib does.
+
+    Parameters
+    ----------
+    renderer : matplotlib.backends.backend_agg.RendererAgg
+        The renderer, its own methods still on its class.
+    """
+
+    def __init__(self, renderer: Any) -> None:
+        from matplotlib.backends.backend_agg import get_hinting_flag
+
+        self.renderer = renderer
+        self._metrics = renderer.get_text_width_height_descent
+        self._draw_text = renderer.draw_text
+        self._flags = get_hinting_flag()
+        self._rc = (_rc_fingerprint(), self._flags)
+
+    def _key(self, s: str, prop: Any) -> tuple[Any, ...]:
+        return (self._rc, type(prop), tuple(vars(prop).values()), self.renderer.dpi, s)
+
+    def metrics(self, s: str, prop: Any, ismath: Any) -> Any:
+        """``get_text_width_height_descent``, plain text's answers kept."""
+        if ismath is not False:
+            return self._metrics(s, prop, ismath)  # math: the shared parser keeps it
+        key = self._key(s, prop)
+        found = _METRICS.get(key)
+        return (
+            found if found is not None else _remember(_METRICS, key, self._metrics(s, prop, ismath))
+        )
+
+    def draw_text(
+        self,
+        gc: Any,
+        x: float,
+        y: float,
+        s: str,
+        prop: Any,
+        angle: float,
+        ismath: Any = False,
+        mtext: Any = None,
+    ) -> None:
+        """``RendererAgg.draw_text``; plain text from kept shaped strings and glyphs."""
+        if ismath:
+            return self._draw_text(gc, x, y, s, prop, angle, ismath=ismath, mtext=mtext)
+        features = mtext.get_fontfeatures() if mtext is not None else None
+        language = mtext.get_language() if mtext is not None else None
+        key = (*self._key(s, prop), features, language)
+        try:
+            found = _LAYOUTS.get(key)
+        except TypeError:  # unhashable features or language
+            return self._draw_text(gc, x, y, s, prop, angle, ismath=ismath, mtext=mtext)
+        if found is None:
+            font = self.renderer._prepare_font(prop)
+            flags = self._flags
+            shaped = font._layout(s, flags=flags, features=features, language=language)
+            items = tuple((i.ft_object, i.glyph_index, i.x, i.y) for i in shaped)
+            found = _remember(_LAYOUTS, key, (prop.get_size_in_points(), items))
+        size, items = found
+        _draw_glyphs(self.renderer, gc, x, y, angle, size, self._flags, items)
+        return None
 
 
 def _draw_glyphs(
@@ -223,12 +253,10 @@ def cached_agg_text(renderer: Any) -> Iterator[bool]:
     ):
         yield False
         return
-    draw_text, metrics = renderer.draw_text, renderer.get_text_width_height_descent
+    cached = _CachedText(renderer)
     parser = renderer.mathtext_parser
-    renderer.draw_text = lambda *a, **k: _draw_text(renderer, draw_text, *a, **k)
-    renderer.get_text_width_height_descent = lambda s, prop, ismath: _metrics(
-        renderer, metrics, s, prop, ismath
-    )
+    renderer.draw_text = cached.draw_text
+    renderer.get_text_width_height_descent = cached.metrics
     renderer.mathtext_parser = _shared_parser()
     try:
         yield True
