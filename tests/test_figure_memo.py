@@ -201,3 +201,21 @@ def test_glyph_bitmaps_moved_by_whole_pixels_are_exact(texts) -> None:
     np.testing.assert_array_equal(_text_pixels(True, texts), plain)
     moved = [(s, x + 7.0, y + 3.0, a, aa) for s, x, y, a, aa in texts]
     np.testing.assert_array_equal(_text_pixels(True, moved), _text_pixels(False, moved))
+
+
+def _math_fig():
+    fig, ax = plt.subplots(figsize=(3, 2))
+    ax.plot([1, 10, 100], [1, 2, 3])
+    ax.set_xscale("log")
+    ax.set(xlabel="$x_k$ [m]", ylabel="$\\alpha^2$")
+    return fig
+
+
+def test_math_parsed_under_each_rc(tmp_path: Path) -> None:
+    # the shared math parsers are per rc fingerprint: a parse reads mathtext.* settings
+    # that its cache key does not hold
+    for rc in ({}, {"mathtext.default": "regular"}, {}):
+        with matplotlib.rc_context(rc):
+            ref = plain_pixels(_math_fig())
+            with Image.open(save_figure(_math_fig(), tmp_path / "f.png")) as img:
+                np.testing.assert_array_equal(np.asarray(img), ref)

@@ -46,7 +46,9 @@ MAX_ENTRIES = 50_000
 _METRICS: dict[tuple[Any, ...], tuple[float, float, float]] = {}
 _LAYOUTS: dict[tuple[Any, ...], tuple[float, tuple[tuple[Any, int, float, float], ...]]] = {}
 _BITMAPS: dict[tuple[Any, ...], tuple[Any, int, int]] = {}
-_PARSER: list[Any] = []  # the shared math text parser, made on first use
+# the shared math text parsers, one per rc fingerprint (a parse reads the mathtext.*
+# settings, which its cache key does not hold), made on first use
+_PARSERS: dict[tuple[Any, ...], Any] = {}
 
 
 def clear_caches() -> None:
@@ -54,7 +56,7 @@ def clear_caches() -> None:
     _METRICS.clear()
     _LAYOUTS.clear()
     _BITMAPS.clear()
-    _PARSER.clear()
+    _PARSERS.clear()
 
 
 def _signature(func: Any) -> tuple[str, ...]:
@@ -132,10 +134,10 @@ class _CachedText:
         self._metrics = renderer.get_text_width_height_descent
         self._draw_text = renderer.draw_text
         self._flags = get_hinting_flag()
-        self._rc = (_rc_fingerprint(), self._flags)
+        self.rc = (_rc_fingerprint(), self._flags)
 
     def _key(self, s: str, prop: Any) -> tuple[Any, ...]:
-        return (self._rc, type(prop), tuple(vars(prop).values()), self.renderer.dpi, s)
+        return (self.rc, type(prop), tuple(vars(prop).values()), self.renderer.dpi, s)
 
     def metrics(self, s: str, prop: Any, ismath: Any) -> Any:
         """``get_text_width_height_descent``, plain text's answers kept."""
@@ -219,13 +221,15 @@ def _draw_glyphs(
         draw(buffer, left + (px >> 6), int(height) - (top + (py >> 6)) + buffer.shape[0], 0, gc)
 
 
-def _shared_parser() -> Any:
-    """The math text parser shared by the renderers (its parse cache serves them all)."""
-    if not _PARSER:
+def _shared_parser(rc: tuple[Any, ...]) -> Any:
+    """The math text parser shared by the renderers under the rc settings ``rc`` (its
+    parse cache serves them all)."""
+    parser = _PARSERS.get(rc)
+    if parser is None:
         from matplotlib.mathtext import MathTextParser
 
-        _PARSER.append(MathTextParser("path"))
-    return _PARSER[0]
+        parser = _remember(_PARSERS, rc, MathTextParser("path"))
+    return parser
 
 
 @contextmanager
@@ -257,7 +261,7 @@ def cached_agg_text(renderer: Any) -> Iterator[bool]:
     parser = renderer.mathtext_parser
     renderer.draw_text = cached.draw_text
     renderer.get_text_width_height_descent = cached.metrics
-    renderer.mathtext_parser = _shared_parser()
+    renderer.mathtext_parser = _shared_parser(cached.rc)
     try:
         yield True
     finally:
