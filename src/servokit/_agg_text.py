@@ -253,6 +253,7 @@ def cached_agg_text(renderer: Any) -> Iterator[bool]:
         type(renderer) is not RendererAgg
         # already wrapped (a nested block) or patched by its owner
         or any(n in vars(renderer) for n in ("draw_text", "get_text_width_height_descent"))
+        or not hasattr(getattr(renderer, "_renderer", None), "draw_text_image")
         or not agg_text_supported()
     ):
         yield False

@@ -131,7 +131,10 @@ class _AxisMemo:
 
 def _axes_of(fig: Figure) -> list[Any]:
     """Every axis (x and y, also of twins and insets) of ``fig``'s axes."""
-    return [axis for ax in fig.get_axes() for axis in ax._axis_map.values()]
+    axes = fig.get_axes()
+    return [
+        a for ax in axes for a in getattr(ax, "_axis_map", {"x": ax.xaxis, "y": ax.yaxis}).values()
+    ]
 
 
 @contextmanager
