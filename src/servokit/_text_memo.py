@@ -14,7 +14,9 @@ texts and TeX texts are laid out as usual.
 ``_get_layout`` is private matplotlib API and what it reads was checked on matplotlib
 3.11.2: the memo is installed only on matplotlib 3.11 and when the method and the
 attributes the key reads exist (:func:`layout_memo_supported`); otherwise texts are
-laid out by plain matplotlib.
+laid out by plain matplotlib.  The memo sits on the ``Text`` class while a figure is
+saved, so texts of other figures drawn meanwhile (another thread) go through it too;
+the renderer in the key keeps their layouts apart and exact.
 """
 
 from __future__ import annotations
