@@ -61,6 +61,9 @@ LIGHTLY_DAMPED = {
     k=1.0,
     form="tf",
 )  # the nearly triple pole that gave 1.5e-6 (the root-locus test)
+@example(
+    p0=-2.0, gaps=[-3.0, -3.0, -3.0], others=[0.0], k=0.578125, form="tf"
+)  # dc gain 1.0045: the gain crossover at 9.4e-5 Hz, below the old 1e-4 Hz band edge
 def test_clustered_poles_all_crossings_to_1e_9(p0, gaps, others, k, form):
     _check_cluster(p0, gaps, others, k, form)
 

@@ -218,10 +218,13 @@ def _contour_grid(
     """Starting grid over the whole positive half of the Nyquist contour, and its top."""
     small = f0[f0 > 0]
     start = min(lo, (small.min() if small.size else lo) * 1e-3)
-    # not closer to a boundary pole than its computed position is accurate (a Jordan
-    # block's eigenvalues split by ~sqrt(eps)): 1e-6 rad per sample, 1e-7 of the top
-    floor = 1e-6 / (2 * np.pi * dt) if dt is not None else 1e-7 * max(hi, f0.max(initial=0))
-    start = max(start, min(floor, lo))
+    if bp is None or bp.at_zero:
+        # not closer to a pole at dc than its computed position is accurate (a Jordan
+        # block's eigenvalues split by ~sqrt(eps)): 1e-6 rad per sample, 1e-7 of the top
+        floor = 1e-6 / (2 * np.pi * dt) if dt is not None else 1e-7 * max(hi, f0.max(initial=0))
+        start = max(start, min(floor, lo))
+    else:  # finite at dc: down to where |L| is on the side of 1 that L(0) is
+        start = _below_dc_crossing(resp, start)
     if dt is not None:
         top = 0.5 / dt * (1 - 1e-9 if bp is not None and bp.at_nyquist else 1.0)
     else:
@@ -240,6 +243,31 @@ def _contour_grid(
         f = f[np.abs(f[:, None] - b[None, :]).min(axis=1) > 1e-9 * f]
         return f, top
     return np.unique(np.concatenate(parts)), top
+
+
+def _below_dc_crossing(resp: Response, start: float) -> float:
+    """``start``, or a lower frequency below which ``|L|`` stays on the side of 1 of ``L(0)``.
+
+    A loop finite at dc (type 0) whose dc gain is close to 1 crosses 0 dB at a frequency
+    that tends to 0 with ``|L(0)| - 1`` (``|L(jω)|²`` is even in ω); the grid must start
+    below that crossing, whatever the poles and zeros.  Decades are added until the sign
+    of ``log |L|`` is that of ``log |L(0)|`` (at most 30: ``|L(jω)|² - |L(0)|²`` grows at
+    least as ω², so a crossing lies above ``sqrt(eps)`` times the nearest critical
+    frequency).
+    """
+    with np.errstate(divide="ignore", invalid="ignore", over="ignore"):
+        mags = np.abs(resp(np.array([0.0, start])))
+    dc = np.sign(np.log(mags[0]))
+    if not np.isfinite(mags).all() or dc == 0:
+        return start
+    side = np.sign(np.log(mags[1]))
+    for _ in range(30):
+        if side == dc:
+            break
+        start /= 10.0
+        with np.errstate(divide="ignore", invalid="ignore", over="ignore"):
+            side = np.sign(np.log(np.abs(resp(np.array([start]))[0])))
+    return start
 
 
 def stability_margins(
@@ -261,7 +289,9 @@ def stability_margins(
     fmin, fmax : float, optional
         Band [Hz] in which crossings are listed; defaults 1e-4/dt .. Nyquist for discrete
         loops and 1e-4 Hz .. 1 MHz (widened to a decade beyond every pole and zero) for
-        continuous ones. The stability verdict always uses the whole contour.
+        continuous ones; a loop finite at dc (no pole at s = 0 / z = 1) lists every
+        crossing down to dc by default (a dc gain near 1 crosses 0 dB at any low
+        frequency). The stability verdict always uses the whole contour.
     n_freq : int
         Points of the logarithmic background grid (the grid is also packed around every
         pole and zero and refined adaptively, so the default is right for any damping).
@@ -286,6 +316,8 @@ def stability_margins(
     known = all(fa.poles is not None for fa in factors)
     bp = boundary_poles(np.concatenate([fa.poles for fa in factors]), dt) if known else None
     f, top = _contour_grid(resp, lo, hi, n, f0, z, bp, dt)
+    if fmin is None and bp is not None and not bp.at_zero:
+        lo = min(lo, float(f[0]))  # finite at dc: every crossing down to the grid's start
     barriers = bp.freqs_hz if bp is not None else np.zeros(0)
     f, L = adapt_grid(resp, f, barriers=barriers, quiet_above=hi)
     stable = None if bp is None else winding_verdict(f, L, bp, dt is not None)
