@@ -23,6 +23,7 @@ is infeasible (:class:`InfeasibleConstraintsError`).
 
 from __future__ import annotations
 
+import functools
 import warnings
 from collections.abc import Iterable, Sequence
 from dataclasses import dataclass
@@ -35,6 +36,7 @@ import numpy as np
 import scipy
 
 from servokit.errors import ServokitTypeError, ServokitValueError, check_finite, check_positive
+from servokit.feedforward._qp_rows import solve_by_rows
 
 if TYPE_CHECKING:
     from servokit.feedforward.fsc import LiftedModel
@@ -552,11 +554,13 @@ def solve_fsc_qp(
 
     # with an empty null space every row is constant and was checked above
     w = np.zeros(0) if Z.shape[1] == 0 else None
+    start = None  # the unconstrained optimum, where the row generation starts
     if w is None:
         # the unconstrained optimum, when it meets every limit, is the answer: exact, and it
         # spares the interior-point solvers the degenerate case of limits touching it
         w0 = _stationary_point(Pw, qw)
         stationary = np.linalg.norm(Pw @ w0 + qw) <= 1e-10 * max(np.linalg.norm(qw), 1.0)
+        start = w0 if stationary else None
         # judged in U-space: in w-space the relative scale vanishes where w0 = 0
         if stationary and _max_violation(G, h, U_p + w_scale * (Z @ w0)) <= _INEQ_RTOL:
             w = w0
@@ -566,7 +570,8 @@ def solve_fsc_qp(
             w = _active_set(Pw, qw, Gw, hw, w0, iterations=12)
     backends = (solver, "clarabel" if solver == "piqp" else "piqp")
     for name in backends if w is None else ():
-        cand = _run_solver(name, Pw, qw, Gw, hw)
+        # on the rows the unconstrained optimum violates first (_qp_rows): same optimum
+        cand = solve_by_rows(functools.partial(_run_solver, name), Pw, qw, Gw, hw, start)
         if cand is not None and _max_violation(Gw, hw, cand) <= _INEQ_RTOL:
             w = _polish(Pw, qw, Gw, hw, cand)
             break
