@@ -36,6 +36,7 @@ import numpy as np
 import scipy
 
 from servokit.errors import ServokitTypeError, ServokitValueError, check_finite, check_positive
+from servokit.feedforward import _qp_rows
 from servokit.feedforward._qp_rows import solve_by_rows
 
 if TYPE_CHECKING:
@@ -564,9 +565,11 @@ def solve_fsc_qp(
         # judged in U-space: in w-space the relative scale vanishes where w0 = 0
         if stationary and _max_violation(G, h, U_p + w_scale * (Z @ w0)) <= _INEQ_RTOL:
             w = w0
-        elif stationary and Gw.shape[0]:
+        elif stationary and 0 < Gw.shape[0] < _qp_rows.MIN_ROWS:
             # active-set iterations from the unconstrained optimum: exact, and on the FSC
-            # problems a few dense solves instead of a whole interior-point run
+            # problems a few dense solves instead of a whole interior-point run (with more
+            # rows the generated-rows solve below is cheaper: the galvano N = 351 designs
+            # never settled in 12 iterations, 40 ms each)
             w = _active_set(Pw, qw, Gw, hw, w0, iterations=12)
     backends = (solver, "clarabel" if solver == "piqp" else "piqp")
     for name in backends if w is None else ():
