@@ -7,7 +7,9 @@ is laid out.  ``--against FILE`` then saves each pickled figure with the
 with the one of this tree, figure by figure, the order alternating, for ``--rounds``
 rounds: the load of a shared machine falls on both alike.  Reports the CPU seconds
 (``time.process_time``) of each round and whether the two PNG files of every figure
-decode to the same pixels.  Writes ``bench/out/figures_ab.json``.
+decode to the same pixels, in every round (the first runs with this tree's
+process-wide text caches of :mod:`servokit._agg_text` cold, the later ones warm).
+Writes ``bench/out/figures_ab.json``.
 
 Run: ``MPLBACKEND=Agg python bench/figures_ab.py --capture DIR`` then
 ``MPLBACKEND=Agg python bench/figures_ab.py --figures DIR --against FILE``.
@@ -85,10 +87,10 @@ def compare(figures_dir: Path, baseline: Path, rounds: int) -> dict:
                     t0 = time.process_time()
                     (old if which == "baseline" else new).save_figure(fig, dirs[which] / names[i])
                     cpu[which][r] += time.process_time() - t0
-                if r == 0:
-                    a, b = (np.asarray(Image.open(dirs[k] / names[i])) for k in dirs)
-                    if a.shape != b.shape or (a != b).any():
-                        differ.add(names[i])
+                # every round: later rounds run with the process-wide text caches warm
+                a, b = (np.asarray(Image.open(dirs[k] / names[i])) for k in dirs)
+                if a.shape != b.shape or (a != b).any():
+                    differ.add(f"{names[i]} (round {r + 1})")
     return {
         "n_figures": len(blobs),
         "baseline_cpu_s": cpu["baseline"],

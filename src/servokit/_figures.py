@@ -4,13 +4,16 @@ from __future__ import annotations
 
 import io
 from collections.abc import Iterator
-from contextlib import contextmanager
+from contextlib import contextmanager, nullcontext
 from contextvars import ContextVar
 from pathlib import Path
 from typing import TYPE_CHECKING
 
+from servokit._agg_text import cached_agg_text
 from servokit._io import write_atomic
 from servokit._png import encode_png
+from servokit._text_memo import memoised_text_layout
+from servokit._tick_memo import memoised_ticks
 
 if TYPE_CHECKING:
     from matplotlib.figure import Figure
@@ -91,7 +94,8 @@ def _lay_out(fig: Figure) -> None:
     # a figure with a layout engine of its own (constrained, tight) is laid out when it
     # is drawn: a tight_layout pass here would be redundant
     if engine is None or isinstance(engine, PlaceHolderLayoutEngine):
-        fig.tight_layout()
+        with memoised_ticks(fig):
+            fig.tight_layout()
         # tight_layout leaves a placeholder engine, for which savefig draws the whole
         # figure once more (a "dry" draw, 30 % of a save) before the real draw; the
         # layout is done, so no engine: one draw per file
@@ -131,13 +135,15 @@ def _agg_png(
     import matplotlib
     import numpy as np
 
-    fig.canvas.draw()
+    with memoised_ticks(fig):
+        fig.canvas.draw()
     if not _legends_inside(legends):
         for legend in legends:
             legend.set_in_layout(True)
         fig.subplots_adjust(**params)
         _lay_out(fig)
-        fig.canvas.draw()
+        with memoised_ticks(fig):
+            fig.canvas.draw()
     # the metadata savefig writes into a PNG: the software, then the caller's keys
     text = {"Software": f"Matplotlib version{matplotlib.__version__}, https://matplotlib.org/"}
     return encode_png(
@@ -146,6 +152,40 @@ def _agg_png(
         text=text | (meta or {}),
         level=PNG_COMPRESS_LEVEL,
     )
+
+
+def _write_files(
+    fig: Figure,
+    path: Path,
+    dpi: int,
+    agg_png: bool,
+    legends: list[Legend],
+    params: dict[str, float],
+) -> None:
+    """Draw the laid-out ``fig`` into ``path`` and the copies of :func:`also_save_as`.
+
+    ``agg_png``: the first file is drawn on the figure's Agg canvas and encoded by
+    :func:`_agg_png` (with ``legends`` and ``params``); the other files by ``savefig``.
+    """
+    title = figure_title(fig)
+    targets = [path] + [
+        path.with_suffix(f".{fmt}")
+        for fmt in _EXTRA_FORMATS.get()
+        if path.suffix.lower() != f".{fmt}"
+    ]
+    for target in targets:
+        fmt = target.suffix.lstrip(".").lower() or None
+        # the title travels in the file, so a report can caption any figure
+        meta = {"Title": title} if title and target.suffix.lower() in _META_FORMATS else None
+        if agg_png and target == targets[0]:
+            data = _agg_png(fig, dpi, meta, legends, params)
+        else:
+            extra = {"pil_kwargs": {"compress_level": PNG_COMPRESS_LEVEL}} if fmt == "png" else {}
+            buf = io.BytesIO()
+            with memoised_ticks(fig):
+                fig.savefig(buf, dpi=dpi, metadata=meta, format=fmt, **extra)
+            data = buf.getvalue()
+        write_atomic(target, data)  # an interrupted run leaves no torn image
 
 
 def save_figure(fig: Figure, path: str | Path, *, dpi: int = 110) -> Path:
@@ -188,24 +228,11 @@ def save_figure(fig: Figure, path: str | Path, *, dpi: int = 110) -> Path:
     legends = _legends_out_of_layout(fig) if agg_png else []
     params = {k: getattr(fig.subplotpars, k) for k in _SUBPLOT_PARAMS}
     cache_tick_locations(fig)
-    _lay_out(fig)
-    title = figure_title(fig)
-    targets = [Path(path)] + [
-        Path(path).with_suffix(f".{fmt}")
-        for fmt in _EXTRA_FORMATS.get()
-        if Path(path).suffix.lower() != f".{fmt}"
-    ]
-    for target in targets:
-        fmt = target.suffix.lstrip(".").lower() or None
-        # the title travels in the file, so a report can caption any figure
-        meta = {"Title": title} if title and target.suffix.lower() in _META_FORMATS else None
-        if agg_png and target == targets[0]:
-            data = _agg_png(fig, dpi, meta, legends, params)
-        else:
-            extra = {"pil_kwargs": {"compress_level": PNG_COMPRESS_LEVEL}} if fmt == "png" else {}
-            buf = io.BytesIO()
-            fig.savefig(buf, dpi=dpi, metadata=meta, format=fmt, **extra)
-            data = buf.getvalue()
-        write_atomic(target, data)  # an interrupted run leaves no torn image
+    # one layout per string and style for both passes (and the copies' draws); the
+    # FreeType work of the Agg renderer kept across figures
+    agg_text = cached_agg_text(fig.canvas.get_renderer()) if agg_png else nullcontext()
+    with memoised_text_layout(), agg_text:
+        _lay_out(fig)
+        _write_files(fig, Path(path), dpi, agg_png, legends, params)
     plt.close(fig)
     return Path(path)
