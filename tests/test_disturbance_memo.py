@@ -30,3 +30,13 @@ def test_memory_is_bounded_and_nan_is_not_found(monkeypatch):
     values = [float(mag(np.array([x]))[0]) for x in (100.0, 200.0, 300.0, 400.0, 100.0)]
     assert values[0] == values[-1]
     assert np.isnan(mag(np.array([np.nan]))[0])
+
+
+@settings(max_examples=30, deadline=None)
+@given(f=st.lists(st.floats(0.0, 0.5 / HDD_BENCHMARK_TS), min_size=2, max_size=12))
+def test_flutter_psd_of_one_point_equals_the_array(f):  # noqa: ANN001
+    bd = BenchmarkDisturbances()
+    whole = bd.flutter_psd(np.array(f))
+    one = np.array([bd.flutter_psd(np.array([x]))[0] for x in f])
+    np.testing.assert_array_equal(one, whole)
+    assert np.shape(bd.flutter_psd(f[0])) == () and bd.flutter_psd(f[0]) == whole[0]

@@ -195,6 +195,11 @@ class BenchmarkDisturbances:
         # operations, element by element): the quadratures of the variance bound (6.16)
         # call this 10^4 times with one frequency, where the per-filter calls cost 4x more
         terms = np.abs(_horner_rows(num, z) / _horner_rows(den, z)) ** 2
+        if z.size == 1:  # the same float additions in filter order, without array calls
+            acc = 0.0
+            for term in terms.ravel().tolist():
+                acc += term
+            return np.full(z.shape, 2.0 * self.dt * acc)
         total = np.zeros(z.shape)
         for term in terms:  # summed in filter order, as before
             total += term
