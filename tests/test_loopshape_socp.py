@@ -126,8 +126,13 @@ def _same_optimum(d: StepData, pb, warm: socp.WarmStart | None = None) -> dict:
     # (programs stopped at the looser tolerance hold their rows as loosely: picks 0, 12,
     # 1, 2 at gain 0.90625, rho 0.0234, phase 1, two loose programs: -5.8e-4 against the
     # one program's -2.6e-4, tau 2.5e-7 from it)
+    # Solves taken without Clarabel's iterative refinement (PROGRAM_FEAS) hold their rows
+    # about 3x less tightly on this relative measure: frac 1.0, rho 0.25, phase 1 (every
+    # row in the first program): -3.1e-5 against the one program's -1.15e-5, while the
+    # program's own scaled rows hold to -1.6e-8 (refined: -6.1e-9) and tau agrees to 4e-8
     worst = [_worst_row(d, *sol) for sol in (gen, one, tight)]
-    factor = 3.0 if stats["loose"] else 2.0
+    unrefined = stats["refined"] < len(stats["rows"])
+    factor = 3.0 if stats["loose"] or unrefined else 2.0
     assert worst[0] > factor * min(worst[1], worst[2], -1e-5)
     # θ itself need not agree: where few rows bind (phase 1, a small trust radius) the
     # optimal set is not a point, and an interior-point method returns its analytic
@@ -141,9 +146,11 @@ def test_generation_equals_the_program_of_every_row(phase1: bool) -> None:
     d = _data(pb, theta0, tab, phase1=phase1, rho=0.3)
     stats = _same_optimum(d, pb)
     # a fraction of the rows: the last program is much smaller than the one of every row
+    # (phase 1: 195 of 377 rows from the unrefined solves, 183 with refinement; the
+    # optimal set is not a point, its analytic centre moves with the solves' accuracy)
     n_all = int(d.s_mask.sum()) * (2 if phase1 else 1) + pb.floor_w.size
     n_all += 0 if d.c_mask is None else int(d.c_mask.sum())
-    assert stats["rows"][-1] < n_all / 2
+    assert stats["rows"][-1] < 0.6 * n_all
 
 
 def test_generation_with_complementary_sensitivity() -> None:
@@ -219,3 +226,83 @@ def test_warm_start_any_rows_same_optimum(frac, seed, stray, rho, phase1) -> Non
     pick = keys[rng.random(keys.size) < frac]
     junk = rng.integers(keys.max() + 1, keys.max() + 10**6, stray)
     _same_optimum(d, pb, WarmStart(np.concatenate([pick, junk]).astype(np.int64)))
+
+
+def test_warm_resolve_of_a_grown_mask() -> None:
+    # the step re-solved with a grown mask (as loopshape does where the first optimum
+    # broke the true bound at points outside it) from the warm start of its first solve:
+    # the optimum of every row of the grown mask, the valleys only of the new rows seeded
+    pb, theta0, tab = _problem((0, 6, 12), 1.0, 600, fixed_order_structure(12))
+    d = _data(pb, theta0, tab, phase1=False, rho=0.3)
+    warm = WarmStart()
+    first = solve_step(d, warm=warm)
+    assert first is not None and np.array_equal(warm.theta_k, theta0)
+    assert np.isin(warm.keys, warm.seen).all() and warm.seen.size == _all_keys(d).size
+    grown = StepData(**{**d.__dict__, "s_mask": d.s_mask | (np.abs(pb.P) > 0.5)})
+    keys = _all_keys(grown)
+    new = ~np.isin(keys, warm.seen)
+    assert new.any()
+    np.testing.assert_array_equal(socp._unseen(grown, _lin(grown), warm), new)
+    # the first program: warm rows, rows violated at θ_k, valleys of new rows only
+    lin = _lin(grown)
+    xk, F = grown.basis.polys(theta0)
+    sel = socp._start(grown, F, lin, warm)[lin.pt]
+    v = socp._lin_slack(lin, theta0, 0.0, np.abs(grown.basis.polys(theta0)[1] / F))
+    assert (np.isin(keys, warm.keys) | (v <= 0))[sel & ~new].all()
+    assert (sel & new).any()
+    _same_optimum(grown, pb, warm)
+    # a new step (θ_k moved) seeds no valleys; a cold start seeds every row's
+    moved = StepData(**{**d.__dict__, "theta_k": first[0]})
+    assert not socp._unseen(moved, _lin(moved), warm).any()
+    assert socp._unseen(moved, _lin(moved), WarmStart()).all()
+
+
+def _lin(d: StepData):
+    """Every linear row of the step's masks."""
+    xk, F = d.basis.polys(d.theta_k)
+    return socp._candidates(d, F, xk / F)[0]
+
+
+def test_unrefined_solves_are_checked() -> None:
+    # a program solved without Clarabel's iterative refinement is taken only when its own
+    # rows hold to PROGRAM_FEAS at z (slack from the definitions, not from the program);
+    # always refusing it (every program solved again with refinement) gives the same step
+    pb, theta0, tab = _problem((0, 6, 12), 1.0, 600, fixed_order_structure(12))
+    d = _data(pb, theta0, tab, phase1=False, rho=0.3)
+    fast: dict = {}
+    got = solve_step(d, stats=fast)
+    assert got is not None and fast["refined"] < len(fast["rows"])
+    assert _worst_row(d, *got) > -10 * socp.PROGRAM_FEAS
+    with pytest.MonkeyPatch.context() as mp:
+        mp.setattr(socp, "PROGRAM_FEAS", -1.0)  # no z is good enough: always refined
+        slow: dict = {}
+        ref = solve_step(d, stats=slow)
+    assert ref is not None and slow["refined"] == len(slow["rows"])
+    assert got[1] == pytest.approx(ref[1], abs=1e-6)
+    # None: no unrefined attempt at all (one refined solve per program, as before)
+    calls: list[bool] = []
+    solve = socp._solve
+    with pytest.MonkeyPatch.context() as mp:
+        mp.setattr(socp, "PROGRAM_FEAS", None)
+        mp.setattr(
+            socp, "_solve", lambda *a, **k: calls.append(k.get("refine", True)) or solve(*a, **k)
+        )
+        before: dict = {}
+        old = solve_step(d, stats=before)
+    assert old is not None and all(calls) and len(calls) == len(before["rows"])
+    assert old[1] == pytest.approx(ref[1], abs=1e-6)
+
+
+def test_worst_slack_from_the_definitions() -> None:
+    # the program's slack at z: linear rows b - A z and cones t - |q| (two-row example)
+    pb, theta0, tab = _problem((0,), 1.0, 300, fixed_order_structure(12))
+    d = _data(pb, theta0, tab, phase1=False, rho=0.3)
+    xk, F = d.basis.polys(theta0)
+    lin, _ = socp._candidates(d, F, xk / F)
+    prog = socp._program(d, F, lin.take(np.arange(5)), None, socp._trust(d, F, xk / F))
+    rng = np.random.default_rng(1)
+    z = rng.standard_normal(prog.nz)
+    s = prog.b - prog.A.toarray() @ z
+    c = s[prog.n_lin :].reshape(-1, 3)
+    want = min(s[: prog.n_lin].min(), (c[:, 0] - np.sqrt(c[:, 1] ** 2 + c[:, 2] ** 2)).min())
+    assert socp._worst_slack(prog, z) == pytest.approx(min(want, 0.0), rel=1e-12)

@@ -127,34 +127,62 @@ class LoopTable:
         return [{"plant": n, **r.to_dict()} for n, r in zip(self.names, self.rows, strict=True)]
 
 
-def _interp_at(logf: np.ndarray, y: np.ndarray, i: np.ndarray, frac: np.ndarray) -> np.ndarray:
-    return y[i] + frac * (y[i + 1] - y[i])
+def _crossings(freq_hz: np.ndarray, L: np.ndarray, mag: np.ndarray):
+    """Every gain crossover of the loops ``L`` (rows): (row, frequency, phase margin [deg]).
 
-
-def _crossings(freq_hz: np.ndarray, L: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """Every gain crossover (frequency, phase margin in degrees), by log-log interpolation."""
+    Log-log interpolation between the bracketing grid points; rows in order, each row's
+    crossovers by increasing frequency. ``mag`` is ``|L|``: ``log|L|`` changes sign
+    where ``|L|`` passes 1 (``log`` is monotone with ``log 1 = 0``), so the logarithm is
+    taken only at the bracketing points.
+    """
     logf = np.log(freq_hz)
-    lm = np.log(np.abs(L))
-    i = np.nonzero(np.sign(lm[:-1]) * np.sign(lm[1:]) < 0)[0]
-    frac = lm[i] / (lm[i] - lm[i + 1])
-    fc = np.exp(_interp_at(logf, logf, i, frac))
+    below, above = mag < 1.0, mag > 1.0
+    r, i = np.nonzero((below[:, :-1] & above[:, 1:]) | (above[:, :-1] & below[:, 1:]))
+    lo, hi = np.log(mag[r, i]), np.log(mag[r, i + 1])
+    frac = lo / (lo - hi)
+    fc = np.exp(logf[i] + frac * (logf[i + 1] - logf[i]))
     # phase between neighbours along the shorter arc, so a wrap does not corrupt it
-    step = np.angle(L[i + 1] / L[i])
-    ph = np.angle(L[i]) + frac * step
+    step = np.angle(L[r, i + 1] / L[r, i])
+    ph = np.angle(L[r, i]) + frac * step
     pm = 180.0 - np.mod(180.0 - (180.0 + np.degrees(ph)), 360.0)
-    return fc, pm
+    return r, fc, pm
 
 
-def _gain_margin_db(L: np.ndarray) -> float:
-    """Phase-crossover margin nearest 0 dB (sign changes of Im L with Re L < 0)."""
-    im = L.imag
-    i = np.nonzero((np.sign(im[:-1]) * np.sign(im[1:]) <= 0) & (L.real[:-1] < 0))[0]
-    if i.size == 0:
-        return float("inf")
-    frac = np.where(im[i] != im[i + 1], im[i] / (im[i] - im[i + 1] + 1e-300), 0.0)
-    re = L.real[i] + frac * (L.real[i + 1] - L.real[i])
+def _first_per_row(r: np.ndarray) -> np.ndarray:
+    """Mask of the first entry of each row in the row-sorted indices ``r``."""
+    first = np.ones(r.size, dtype=bool)
+    first[1:] = r[1:] != r[:-1]
+    return first
+
+
+def _gain_margins_db(L: np.ndarray) -> np.ndarray:
+    """Per row, the phase-crossover margin nearest 0 dB (sign changes of Im L, Re L < 0)."""
+    a, b = L.imag[:, :-1], L.imag[:, 1:]
+    # sign(a) sign(b) <= 0 without np.sign (False for NaN as there)
+    r, i = np.nonzero((((a <= 0) & (b >= 0)) | ((a >= 0) & (b <= 0))) & (L.real[:, :-1] < 0))
+    a, b = L.imag[r, i], L.imag[r, i + 1]
+    frac = np.where(a != b, a / (a - b + 1e-300), 0.0)
+    re = L.real[r, i] + frac * (L.real[r, i + 1] - L.real[r, i])
     gms = -20.0 * np.log10(np.abs(re))
-    return float(gms[np.argmin(np.abs(gms))])
+    order = np.lexsort((np.abs(gms), r))  # stable: the first of equal |GM| in a row
+    pick = order[_first_per_row(r[order])]
+    out = np.full(L.shape[0], np.inf)
+    out[r[pick]] = gms[pick]
+    return out
+
+
+def _unstable(freq_hz, L: np.ndarray, dt: float, n_integrators: int, n_unstable: int):
+    """Per row, ``Z_out`` and whether the grid resolved the phase (:func:`closed_loop_unstable`)."""
+    w = 2 * np.pi * freq_hz[0] * dt
+    g = L[:, 0] * (np.exp(1j * w) - 1.0) ** n_integrators
+    start = np.where(g.real >= 0, 0.0, np.pi) - n_integrators * np.pi / 2
+    r = 1.0 + L
+    steps = np.angle(r[:, 1:] / r[:, :-1])
+    first = np.angle(r[:, 0] * np.exp(-1j * start))
+    delta = first + steps.sum(axis=1)
+    z_out = n_unstable + n_integrators / 2 - delta / np.pi
+    resolved = np.all(np.abs(steps) < MAX_PHASE_STEP, axis=1) & (np.abs(first) < MAX_PHASE_STEP)
+    return np.rint(z_out).astype(int), resolved
 
 
 def closed_loop_unstable(
@@ -180,16 +208,53 @@ def closed_loop_unstable(
     tuple of (int, bool)
         ``Z_out`` (0 for a stable loop) and whether the grid resolved every phase step.
     """
-    w = 2 * np.pi * freq_hz[0] * dt
-    g = L[0] * (np.exp(1j * w) - 1.0) ** n_integrators
-    start = (0.0 if g.real >= 0 else np.pi) - n_integrators * np.pi / 2
-    r = 1.0 + L
-    steps = np.angle(r[1:] / r[:-1])
-    first = np.angle(r[0] * np.exp(-1j * start))
-    delta = first + steps.sum()
-    z_out = n_unstable + n_integrators / 2 - delta / np.pi
-    resolved = bool(np.all(np.abs(steps) < MAX_PHASE_STEP)) and bool(abs(first) < MAX_PHASE_STEP)
-    return int(np.rint(z_out)), resolved
+    z_out, resolved = _unstable(freq_hz, np.asarray(L)[None, :], dt, n_integrators, n_unstable)
+    return int(z_out[0]), bool(resolved[0])
+
+
+def _loop_rows(freq_hz, L: np.ndarray, dt: float, n_integrators: int, n_unstable: int):
+    """:class:`LoopRow` of each row of ``L`` (loops on one grid), as arrays per column."""
+    m, mag = L.shape[0], np.abs(L)
+    r, fc, pm = _crossings(freq_hz, L, mag)
+    first = _first_per_row(r)
+    down = np.any(mag[:, :-1] >= 1.0, axis=1)
+    crossover = np.where(down, np.nan, float(freq_hz[0]))
+    crossover[r[first]] = fc[first]
+    pm0, dm = np.zeros(m), np.full(m, np.inf)
+    pm0[r[first]] = pm[first]
+    np.minimum.at(dm, r, np.radians(np.mod(pm, 360.0)) / (2 * np.pi * fc))
+    dm[np.isinf(dm)] = 0.0
+    ret = 1.0 + L
+    with np.errstate(divide="ignore"):
+        s = 20 * np.log10(_peak(np.ones(1), ret, 1.0 / np.abs(ret)))
+        t = 20 * np.log10(_peak(L, ret, mag / np.abs(ret)))
+    z_out, resolved = _unstable(freq_hz, L, dt, n_integrators, n_unstable)
+    return (crossover, pm0, _gain_margins_db(L), dm, s, t, z_out, resolved)
+
+
+def _peak(num: np.ndarray, den: np.ndarray, approx: np.ndarray) -> np.ndarray:
+    """Per row, ``max |num / den|`` with the complex division done only where it can win.
+
+    ``approx`` is ``|num| / |den|`` in real arithmetic, within a few ulp of the computed
+    ``|num / den|``: only the entries within 1e-9 of a row's largest can hold its largest
+    computed value, so the result is that of dividing everywhere (NaN rows included).
+    """
+    top = approx.max(axis=1)
+    if not np.all(np.isfinite(top)):  # inf or NaN: as numpy gives it
+        return np.max(np.abs(np.broadcast_to(num, den.shape) / den), axis=1)
+    r, i = np.nonzero(approx >= top[:, None] * (1.0 - 1e-9))
+    nums = num[r, i] if num.ndim == 2 else np.broadcast_to(num, r.shape)
+    out = np.full(den.shape[0], -np.inf)
+    np.maximum.at(out, r, np.abs(nums / den[r, i]))
+    return out
+
+
+def _rows_of(cols) -> list[LoopRow]:
+    """One :class:`LoopRow` per entry of the column arrays of :func:`_loop_rows`."""
+    return [
+        LoopRow(*(float(v) for v in vals[:6]), int(vals[6]), bool(vals[7]))
+        for vals in zip(*(c.tolist() for c in cols), strict=True)
+    ]
 
 
 def evaluate_loop(
@@ -216,29 +281,12 @@ def evaluate_loop(
         Lowest crossover with its phase margin, gain and delay margins, ``‖S‖∞`` and
         ``‖T‖∞`` [dB] and the count of unstable closed-loop poles.
     """
-    fc, pm = _crossings(freq_hz, L)
-    down = np.nonzero(np.abs(L[:-1]) >= 1.0)[0]
-    if fc.size:
-        crossover, pm0 = float(fc[0]), float(pm[0])
-        dm = float(np.min(np.radians(np.mod(pm, 360.0)) / (2 * np.pi * fc)))
-    else:
-        crossover, pm0, dm = (float(freq_hz[0]) if down.size == 0 else float("nan")), 0.0, 0.0
-    with np.errstate(divide="ignore"):
-        s = 20 * np.log10(np.max(np.abs(1.0 / (1.0 + L))))
-        t = 20 * np.log10(np.max(np.abs(L / (1.0 + L))))
-    z_out, resolved = closed_loop_unstable(
-        freq_hz, L, dt, n_integrators=n_integrators, n_unstable=n_unstable
-    )
-    return LoopRow(
-        crossover_hz=crossover,
-        phase_margin_deg=pm0,
-        gain_margin_db=_gain_margin_db(L),
-        delay_margin_s=dm,
-        s_peak_db=float(s),
-        t_peak_db=float(t),
-        unstable_poles=z_out,
-        resolved=resolved,
-    )
+    cols = _loop_rows(freq_hz, np.asarray(L)[None, :], dt, n_integrators, n_unstable)
+    return _rows_of(cols)[0]
+
+
+#: loops evaluated together by :func:`evaluate_set` (complex blocks of ~3 MB at 3000 points)
+CHUNK = 128
 
 
 def evaluate_set(
@@ -275,15 +323,10 @@ def evaluate_set(
     LoopTable
         One row per plant.
     """
-    rows = tuple(
-        evaluate_loop(
-            freq_hz,
-            p * controller_response,
-            dt,
-            n_integrators=n_integrators,
-            n_unstable=n_unstable,
-        )
-        for p in responses
-    )
+    out: list[LoopRow] = []
+    for lo in range(0, len(responses), CHUNK):
+        L = responses[lo : lo + CHUNK] * controller_response[None, :]
+        out += _rows_of(_loop_rows(freq_hz, L, dt, n_integrators, n_unstable))
+    rows = tuple(out)
     names = names or tuple(str(i) for i in range(len(rows)))
     return LoopTable(rows=rows, names=tuple(names))
