@@ -148,3 +148,26 @@ def test_vcm_peak_filter_phase_confirms_the_inverse_delay() -> None:
     # without the delay the reading misses by ~27 deg
     no_delay = peak_filter_phases(Unknowns(notch_damping=0.7, extra_notch_depth_damping=0.005))
     assert abs(no_delay["phi_vcm_deg"] - np.degrees(2.5414)) > 20
+
+
+def test_plant_responses_kept_are_the_fresh_ones():
+    """The kept ``PV``, ``PM`` of a (delays, grid) pair equal a fresh evaluation bit for bit."""
+    from servokit.feedback import dual_stage_design as dsd
+
+    dsd._PLANTS.clear()
+    f = np.geomspace(10.0, 5.0e4, 300)
+    for delays in ((0.0, 0.0), (2e-5, 1e-5), (-0.0, 0.0), (2e-5, 1e-5)):
+        u = dsd.Unknowns(delay_vcm_s=delays[0], delay_pzt_s=delays[1])
+        for grid in (f, f[::-1].copy(), f.tolist()):
+            pv, pm = dsd._plant_responses(u, np.asarray(grid))
+            np.testing.assert_array_equal(
+                pv, vcm_dual_stage().replace(delay=delays[0]).freqresp(grid)
+            )
+            np.testing.assert_array_equal(
+                pm, pzt_active_suspension().replace(delay=delays[1]).freqresp(grid)
+            )
+            assert not pv.flags.writeable and not pm.flags.writeable
+    assert len(dsd._PLANTS) == 6  # (-0.0, 0.0) is its own entry; the repeat is found
+    for k in range(dsd._PLANTS_MAX + 3):  # bounded
+        dsd._plant_responses(dsd.Unknowns(delay_vcm_s=k * 1e-6), f)
+    assert len(dsd._PLANTS) == dsd._PLANTS_MAX

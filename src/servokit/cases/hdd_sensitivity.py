@@ -29,6 +29,7 @@ import numpy as np
 
 from servokit._figures import save_figure
 from servokit.cases import register
+from servokit.errors import ServokitValueError
 from servokit.models import (
     HDD_SAMPLED_DATA_TS,
     controller_eq_4_69,
@@ -236,6 +237,21 @@ def _frequency_figures(outdir: Path, res: SampledDataSensitivity, mr: Multirate)
     return figs
 
 
+def _first_crossings(loop: np.ndarray) -> tuple[int, int] | None:
+    """Indices of the first gain crossover (``|L|`` from >= 1 to < 1) and of the first
+    -180 deg crossing above it (imaginary part changes sign with a negative real part),
+    None until both are inside ``loop``."""
+    mag = np.abs(loop)
+    down = np.flatnonzero((mag[:-1] >= 1) & (mag[1:] < 1))
+    if down.size == 0:
+        return None
+    ic = int(down[0])
+    k = np.arange(loop.size - 1)
+    neg = (np.diff(np.sign(loop.imag)) != 0) & (loop.real[:-1] < 0) & (k > ic)
+    ip = np.flatnonzero(neg)
+    return (ic, int(ip[0])) if ip.size else None
+
+
 def _margins(mr: Multirate, n: int = 20_000, *, delay: bool = True) -> dict[str, float]:
     """Margins of Pdm C read on a dense grid below Nyquist.
 
@@ -249,12 +265,22 @@ def _margins(mr: Multirate, n: int = 20_000, *, delay: bool = True) -> dict[str,
     f = np.linspace(1.0, 0.5 / dt, n)
     z = np.exp(2j * np.pi * f * dt)
     plant = hdd_sampled_data() if delay else without_delay(hdd_sampled_data())[0]
-    loop = eval_discrete(mr.discretize(plant, dt), z) * eval_discrete(controller_eq_4_69(), z)
+    pdm, ctrl = mr.discretize(plant, dt), controller_eq_4_69()
+    # the grid is evaluated in eighths until both crossings are inside (the phase
+    # crossover lies near the middle): every point is its own solve, so the values, and
+    # the first crossings found in a prefix, are those of the whole grid
+    loop, found = np.zeros(0, dtype=complex), None
+    for stop in np.linspace(0, n, 9).astype(int)[1:]:
+        part = z[loop.size : stop]
+        loop = np.concatenate([loop, eval_discrete(pdm, part) * eval_discrete(ctrl, part)])
+        found = _first_crossings(loop)
+        if found is not None:
+            break
+    if found is None:
+        raise ServokitValueError("the loop has no gain and phase crossover below Nyquist")
+    ic, ip = found
     mag = np.abs(loop)
-    ic = int(np.flatnonzero((mag[:-1] >= 1) & (mag[1:] < 1))[0])
     pm = 180.0 + np.degrees(np.angle(loop[ic]))
-    neg = (np.diff(np.sign(loop.imag)) != 0) & (loop.real[:-1] < 0) & (np.arange(n - 1) > ic)
-    ip = int(np.flatnonzero(neg)[0])
     return {
         "gain_crossover_hz": float(f[ic]),
         "phase_margin_deg": float(pm),

@@ -23,6 +23,7 @@ is infeasible (:class:`InfeasibleConstraintsError`).
 
 from __future__ import annotations
 
+import functools
 import warnings
 from collections.abc import Iterable, Sequence
 from dataclasses import dataclass
@@ -35,6 +36,8 @@ import numpy as np
 import scipy
 
 from servokit.errors import ServokitTypeError, ServokitValueError, check_finite, check_positive
+from servokit.feedforward import _qp_rows
+from servokit.feedforward._qp_rows import solve_by_rows
 
 if TYPE_CHECKING:
     from servokit.feedforward.fsc import LiftedModel
@@ -348,9 +351,9 @@ def _feasible(G: np.ndarray, h: np.ndarray) -> bool:
     """Whether ``G w <= h`` has a solution (HiGHS LP with zero cost)."""
     if G.shape[0] == 0:
         return True
-    res = scipy.optimize.linprog(
-        np.zeros(G.shape[1]), A_ub=G, b_ub=h, bounds=(None, None), method="highs"
-    )
+    from servokit._highs_lp import linprog_highs  # linprog's answer, less call overhead
+
+    res = linprog_highs(np.zeros(G.shape[1]), G, h, [(None, None)] * G.shape[1])
     return bool(res.status == 0)
 
 
@@ -552,21 +555,26 @@ def solve_fsc_qp(
 
     # with an empty null space every row is constant and was checked above
     w = np.zeros(0) if Z.shape[1] == 0 else None
+    start = None  # the unconstrained optimum, where the row generation starts
     if w is None:
         # the unconstrained optimum, when it meets every limit, is the answer: exact, and it
         # spares the interior-point solvers the degenerate case of limits touching it
         w0 = _stationary_point(Pw, qw)
         stationary = np.linalg.norm(Pw @ w0 + qw) <= 1e-10 * max(np.linalg.norm(qw), 1.0)
+        start = w0 if stationary else None
         # judged in U-space: in w-space the relative scale vanishes where w0 = 0
         if stationary and _max_violation(G, h, U_p + w_scale * (Z @ w0)) <= _INEQ_RTOL:
             w = w0
-        elif stationary and Gw.shape[0]:
+        elif stationary and 0 < Gw.shape[0] < _qp_rows.MIN_ROWS:
             # active-set iterations from the unconstrained optimum: exact, and on the FSC
-            # problems a few dense solves instead of a whole interior-point run
+            # problems a few dense solves instead of a whole interior-point run (with more
+            # rows the generated-rows solve below is cheaper: the galvano N = 351 designs
+            # never settled in 12 iterations, 40 ms each)
             w = _active_set(Pw, qw, Gw, hw, w0, iterations=12)
     backends = (solver, "clarabel" if solver == "piqp" else "piqp")
     for name in backends if w is None else ():
-        cand = _run_solver(name, Pw, qw, Gw, hw)
+        # on the rows the unconstrained optimum violates first (_qp_rows): same optimum
+        cand = solve_by_rows(functools.partial(_run_solver, name), Pw, qw, Gw, hw, start)
         if cand is not None and _max_violation(Gw, hw, cand) <= _INEQ_RTOL:
             w = _polish(Pw, qw, Gw, hw, cand)
             break

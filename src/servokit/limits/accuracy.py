@@ -245,6 +245,12 @@ def rolloff_bandwidth(
 
     On a logarithmic grid: with ``g(w) = w (|L|/delta)^(1/(k+1))`` the condition reads
     ``sup_{w >= Omega} g <= Omega``, so ``Omega = min_i max(w_i, max_{j >= i} g_j)``.
+    The tail maximum ``T_i = max_{j >= i} g_j`` does not increase with ``i`` and ``w_i``
+    increases, so once a suffix ``i >= s`` of the grid has ``T_s >= w_s``, every term
+    before it is ``>= T_s`` and the minimum lies in the suffix: ``|L|`` is evaluated on
+    suffixes of 1/16, 1/8, ... of the grid until one holds the minimum (each point is its
+    own solve, so the value is that of the whole grid; only a NaN response before the
+    suffix, which the whole grid would return as NaN, is not seen).
 
     Parameters
     ----------
@@ -267,9 +273,15 @@ def rolloff_bandwidth(
     resp = _response(loop, dt)
     top = np.pi / dt if dt else 1e3 * max(1.0, float(np.max(np.abs(loop.poles()))))
     w = np.geomspace(top * 1e-8, top * (1 - 1e-9), n)
-    g = w * (np.abs(resp(w)) / d) ** (1.0 / (kk + 1))
-    tail_max = np.maximum.accumulate(g[::-1])[::-1]
-    return float(np.min(np.maximum(w, tail_max)) / (2 * np.pi))
+    g = np.empty(n)
+    lo = n
+    for start in (n - n // 16, n - n // 8, n - n // 4, n - n // 2, 0):
+        g[start:lo] = w[start:lo] * (np.abs(resp(w[start:lo])) / d) ** (1.0 / (kk + 1))
+        lo = start
+        tail_max = np.maximum.accumulate(g[lo:][::-1])[::-1]
+        if lo == 0 or tail_max[0] >= w[lo]:
+            break
+    return float(np.min(np.maximum(w[lo:], tail_max)) / (2 * np.pi))
 
 
 @dataclass(frozen=True)

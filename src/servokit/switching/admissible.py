@@ -123,15 +123,13 @@ class AdmissibleSet:
 
     def chebyshev_centre(self) -> np.ndarray:
         """Centre of the largest ball inside the set (LP); refuses an empty/flat set."""
-        from scipy.optimize import linprog
+        from servokit._highs_lp import linprog_highs  # linprog's answer, less overhead
 
         N = self.dim
         c = np.zeros(N + 1)
         c[-1] = -1.0
         A = np.hstack([self.H, np.ones((len(self.h), 1))])
-        res = linprog(
-            c, A_ub=A, b_ub=self.h, bounds=[(None, None)] * N + [(0, None)], method="highs"
-        )
+        res = linprog_highs(c, A, self.h, [(None, None)] * N + [(0, None)])
         if res.status != 0 or res.x[-1] <= 0:
             raise ServokitValueError("the admissible set is empty or has no interior")
         return res.x[:N]

@@ -9,8 +9,9 @@
    rows stays within its bound (the same test).
 
 Each costs a HiGHS solve through ``scipy.optimize.linprog`` (ms each, mostly call
-overhead: 1749 of them made 10 % of ``servokit reproduce``, issue 24).  Most answers
-have a certificate that takes one matrix product for all rows at once:
+overhead: 1749 of them made 10 % of ``servokit reproduce``, issue 24; the LPs that are
+left go through :func:`servokit._highs_lp.linprog_highs`, ``linprog``'s answer with
+less overhead).  Most answers have a certificate that takes one matrix product for all rows at once:
 
 * **a witness point** (answer "not implied"/"not redundant"): a point ``x`` that meets
   every other row and breaks the tested one by more than the tolerance proves the LP
@@ -63,12 +64,12 @@ def lp_max(c: np.ndarray, H: np.ndarray, h: np.ndarray) -> float:
     float
         The maximum.
     """
-    from scipy.optimize import linprog
+    from servokit._highs_lp import linprog_highs  # linprog's answer, less call overhead
 
     free = [(None, None)] * len(c)
-    res = linprog(-c, A_ub=H, b_ub=h, bounds=free, method="highs")
+    res = linprog_highs(-c, H, h, free)
     if res.status == 2:  # HiGHS presolve may report an unbounded LP as infeasible
-        res = linprog(-c, A_ub=H, b_ub=h, bounds=free, method="highs", options={"presolve": False})
+        res = linprog_highs(-c, H, h, free, presolve=False)
     if res.status == 3:
         return np.inf
     if res.status != 0:
@@ -130,9 +131,9 @@ def _interior(H: np.ndarray, h: np.ndarray) -> np.ndarray | None:
     c = np.zeros(N + 1)
     c[-1] = -1.0
     A = np.hstack([H, np.ones((len(h), 1))])
-    from scipy.optimize import linprog
+    from servokit._highs_lp import linprog_highs
 
-    res = linprog(c, A_ub=A, b_ub=h, bounds=[(None, None)] * N + [(0, 1.0)], method="highs")
+    res = linprog_highs(c, A, h, [(None, None)] * N + [(0, 1.0)])
     if res.status != 0 or res.x[-1] <= 0:
         return None
     return res.x[:N]
