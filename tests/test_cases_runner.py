@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import os
 import sys
+from pathlib import Path
 
 import pytest
 
@@ -100,15 +101,22 @@ def test_kept_heap_stops_page_faulting_each_temporary() -> None:
         "for k in range(1, 41): np.ones(k << 16).sum()\n"
         "print(int(tuned), resource.getrusage(resource.RUSAGE_SELF).ru_minflt - before)\n"
     )
+    thp = Path("/sys/kernel/mm/transparent_hugepage/enabled")
+    if thp.is_file() and "[always]" in thp.read_text():
+        pytest.skip("transparent huge pages for every mapping: fault counts depend on them")
+    # numpy asks for huge pages on large arrays; whether the kernel has them free varies
+    # (26818 or 9955 faults untuned on the same machine): counted in 4 kB pages
+    env = dict(os.environ, NUMPY_MADVISE_HUGEPAGE="0")
     counts = {}
     for tuned in (False, True):
         out = subprocess.run([sys.executable, "-c", code.format(tuned=tuned)],
-                             capture_output=True, text=True, check=True).stdout.split()  # fmt: skip
+                             capture_output=True, text=True, check=True,
+                             env=env).stdout.split()  # fmt: skip
         assert out[0] == str(int(tuned))
         counts[tuned] = int(out[1])
     growth = (40 << 16) * 8 // 4096  # pages of the largest array: 5120
     assert counts[True] <= 1.2 * growth  # measured 5109
-    assert counts[False] >= 3 * counts[True]  # measured 26818 (numpy asks for huge pages)
+    assert counts[False] >= 3 * counts[True]  # measured 105001 (every array afresh)
 
 
 def test_workers_fork_from_a_frozen_heap(tmp_path, monkeypatch: pytest.MonkeyPatch) -> None:
