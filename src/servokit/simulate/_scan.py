@@ -21,10 +21,14 @@ from __future__ import annotations
 
 import numpy as np
 
-__all__ = ["DOUBLING_MAX_VARIANTS", "matrix_scan", "modal_scan"]
+__all__ = ["DOUBLING_MAX_VARIANTS", "POWER_GROWTH", "matrix_scan", "modal_scan"]
 
 #: Chunks with at most this many variants use the doubling scan.
 DOUBLING_MAX_VARIANTS = 8
+#: Largest rounding growth ``||A|| ||A^(j-1)|| / ||A^j||`` that :func:`forced_outputs`
+#: accepts inside its blocks (else it halves the block; after balancing, the HDD PES
+#: loops measure 5-8).
+POWER_GROWTH = 16.0
 
 
 def modal_scan(
@@ -79,13 +83,16 @@ def forced_outputs(
     """Outputs ``y[k] = C x[k] + D u[k]`` of ``x[k+1] = A x[k] + B u[k]``, ``x[0] = 0``.
 
     python-control's discrete ``forced_response`` (``scipy.signal.dlsim``: one Python
-    step per sample) for one system, in blocks of ``L = block`` samples: the states at
+    step per sample) for one system, in blocks of ``L <= block`` samples (``block``
+    halved in a non-normal basis, :func:`_accurate_block`; ``A`` balanced first): the
+    states at
     the block starts by ``x[(b+1)L] = A^L x[bL] + [A^(L-1) B ... B] u_b`` (one step per
     block), the outputs inside every block at once from them and the block's inputs,
     ``y_b = [C A^j] x[bL] + T u_b + D u_b`` with ``T`` the lower block-Toeplitz matrix of
     the Markov parameters ``C A^k B``.  The same sums grouped differently: for a stable
     system the outputs agree with the step-by-step recursion to rounding (1e-11 of the
-    largest output, ~1e-13 for the PES loop; tests/test_numpy_loops.py).  The rounding
+    largest output times cond(T)/100 in a basis T, ~1e-13 for the PES loop;
+    tests/test_numpy_loops.py).  The rounding
     of ``A^L`` enters every block, which a defective eigenvalue on the unit circle (a
     rigid body in open loop) amplifies: ~1e-10 after 700 samples; use it for stable loops.
 
@@ -102,17 +109,26 @@ def forced_outputs(
     -------
     ndarray (K, p)
     """
+    import scipy.linalg
+
     K, m = u.shape
     N, p = A.shape[0], C.shape[0]
+    # an exact similarity (powers of 2) that evens out the rows and columns of A: a badly
+    # scaled loop (the PES loop's ||A|| = 1e5 with a spectral radius below 1) becomes
+    # ||A|| = 6 (fewer digits lost, and full blocks below)
+    A, (scale, _) = scipy.linalg.matrix_balance(A, permute=False, separate=True)
+    B, C = B / scale[:, None], C * scale[None, :]
     L = max(1, min(int(block), K))
-    nb = -(-K // L)
-    padded = np.zeros((nb * L, m))
-    padded[:K] = u
-    ub = padded.reshape(nb, L * m)  # row b: u[bL], ..., u[bL + L - 1]
     powers = np.empty((L + 1, N, N))
     powers[0] = np.eye(N)
     for j in range(1, L + 1):
         powers[j] = A @ powers[j - 1]
+    L = _accurate_block(A, powers, L)
+    powers = powers[: L + 1]
+    nb = -(-K // L)
+    padded = np.zeros((nb * L, m))
+    padded[:K] = u
+    ub = padded.reshape(nb, L * m)  # row b: u[bL], ..., u[bL + L - 1]
     apb = powers[:L] @ B  # A^k B, (L, N, m)
     markov = C @ apb  # C A^k B, (L, p, m)
     j, i = np.tril_indices(L, -1)
@@ -127,3 +143,25 @@ def forced_outputs(
         x = a_l @ x + drive[b]
     y = starts @ (C @ powers[:L]).reshape(L * p, N).T + ub @ toeplitz.reshape(L * p, L * m).T
     return y.reshape(nb * L, p)[:K] + u @ D.T
+
+
+def _accurate_block(A: np.ndarray, powers: np.ndarray, L: int) -> int:
+    """The largest ``L' = L / 2^i`` whose products of powers of ``A`` keep the recursion's digits.
+
+    The block form multiplies by ``A^j`` precomputed; the recursion by ``A`` ``j`` times.
+    In a strongly non-normal basis (``||A||`` far above ``||A^j||``) the first loses
+    about ``g_j = ||A|| ||A^(j-1)|| / ||A^j||`` times more than the second: with
+    ``||A|| = 916`` and ``||A^2|| = 1208``, 2-sample blocks were 600 times further from
+    a long-double recursion than the recursion itself (tests/test_numpy_loops.py).
+    ``L`` is halved until every ``g_j, j <= L`` is at most :data:`POWER_GROWTH` (1 is
+    the recursion itself).
+    """
+    with np.errstate(all="ignore"):
+        norms = np.linalg.norm(powers[: L + 1], axis=(1, 2))
+        growth = norms[1] * norms[:-1] / norms[1:]  # g_j for j = 1..L
+    # nilpotent powers (exact zeros) lose nothing; NaN (overflow) fails the test
+    worst = np.maximum.accumulate(np.where(norms[1:] == 0.0, 1.0, growth))
+    ok = np.flatnonzero(worst <= POWER_GROWTH)
+    while L > 1 and (ok.size == 0 or ok[-1] + 1 < L):
+        L //= 2
+    return L
