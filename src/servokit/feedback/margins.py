@@ -257,10 +257,9 @@ def _below_dc_crossing(resp: Response, start: float) -> float:
     """
     with np.errstate(divide="ignore", invalid="ignore", over="ignore"):
         mags = np.abs(resp(np.array([0.0, start])))
-    dc = np.sign(np.log(mags[0]))
+        dc, side = np.sign(np.log(mags))  # a zero at dc: -inf, below 1
     if not np.isfinite(mags).all() or dc == 0:
         return start
-    side = np.sign(np.log(mags[1]))
     for _ in range(30):
         if side == dc:
             break
