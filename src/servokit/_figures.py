@@ -13,6 +13,7 @@ from servokit._agg_text import cached_agg_text
 from servokit._io import write_atomic
 from servokit._png import encode_png
 from servokit._text_memo import memoised_text_layout
+from servokit._tick_clone import cloned_ticks
 from servokit._tick_memo import memoised_ticks
 
 if TYPE_CHECKING:
@@ -229,9 +230,10 @@ def save_figure(fig: Figure, path: str | Path, *, dpi: int = 110) -> Path:
     params = {k: getattr(fig.subplotpars, k) for k in _SUBPLOT_PARAMS}
     cache_tick_locations(fig)
     # one layout per string and style for both passes (and the copies' draws); the
-    # FreeType work of the Agg renderer kept across figures
+    # FreeType work of the Agg renderer kept across figures; new ticks copied from a
+    # fresh one per axis
     agg_text = cached_agg_text(fig.canvas.get_renderer()) if agg_png else nullcontext()
-    with memoised_text_layout(), agg_text:
+    with memoised_text_layout(), agg_text, cloned_ticks(fig):
         _lay_out(fig)
         _write_files(fig, Path(path), dpi, agg_png, legends, params)
     plt.close(fig)
