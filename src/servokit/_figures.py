@@ -11,6 +11,7 @@ from typing import TYPE_CHECKING
 
 from servokit._agg_text import cached_agg_text
 from servokit._io import write_atomic
+from servokit._legend_memo import memoised_legends
 from servokit._png import encode_png
 from servokit._text_memo import memoised_text_layout
 from servokit._tick_clone import cloned_ticks
@@ -231,9 +232,9 @@ def save_figure(fig: Figure, path: str | Path, *, dpi: int = 110) -> Path:
     cache_tick_locations(fig)
     # one layout per string and style for both passes (and the copies' draws); the
     # FreeType work of the Agg renderer kept across figures; new ticks copied from a
-    # fresh one per axis
+    # fresh one per axis; each legend laid out and placed once per draw
     agg_text = cached_agg_text(fig.canvas.get_renderer()) if agg_png else nullcontext()
-    with memoised_text_layout(), agg_text, cloned_ticks(fig):
+    with memoised_text_layout(), agg_text, cloned_ticks(fig), memoised_legends(fig):
         _lay_out(fig)
         _write_files(fig, Path(path), dpi, agg_png, legends, params)
     plt.close(fig)
