@@ -136,18 +136,12 @@ def memoised_legends(fig: Figure) -> Iterator[bool]:
     """
     from matplotlib.legend import Legend
 
+    from servokit._instance_patch import on_instances
+
     if not legend_memo_supported():
         yield False
         return
     legends = [ax.get_legend() for ax in fig.get_axes()] + list(fig.legends)
-    installed = []
-    try:
-        for legend in legends:
-            # a legend of matplotlib's own class, not wrapped yet
-            if type(legend) is Legend and "draw" not in vars(legend):
-                legend.draw = _MemoDraw(legend)
-                installed.append(legend)
+    # legends of matplotlib's own class only
+    with on_instances((lg for lg in legends if type(lg) is Legend), "draw", _MemoDraw):
         yield True
-    finally:
-        for legend in installed:
-            del legend.draw

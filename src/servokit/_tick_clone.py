@@ -253,18 +253,11 @@ def cloned_ticks(fig: Figure) -> Iterator[bool]:
         True if installed, False on an unchecked matplotlib (:func:`clone_supported`):
         the ticks are then made as usual.
     """
+    from servokit._instance_patch import on_instances
     from servokit._tick_memo import _axes_of
 
     if not clone_supported():
         yield False
         return
-    installed = []
-    try:
-        for axis in _axes_of(fig):
-            if "_get_tick" not in vars(axis):  # not patched by its owner or a nested block
-                axis._get_tick = _TickSource(axis)
-                installed.append(axis)
+    with on_instances(_axes_of(fig), "_get_tick", _TickSource):
         yield True
-    finally:
-        for axis in installed:
-            del axis._get_tick
