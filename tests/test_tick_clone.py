@@ -164,3 +164,14 @@ def test_fallback_leaves_axes_alone(monkeypatch):
         assert on == clone_supported()
     assert all("_get_tick" not in vars(a) for ax in fig.axes for a in (ax.xaxis, ax.yaxis))
     plt.close(fig)
+
+
+@pytest.mark.skipif(not clone_supported(), reason="unchecked matplotlib")
+def test_axis_with_uncopyable_ticks_makes_fresh_ones(monkeypatch):
+    fig, ax = plt.subplots()
+    ax.spines.bottom.set_position(("outward", 5))  # a tick-line transform per tick
+    monkeypatch.setattr(_tick_clone, "_copy", lambda tick: pytest.fail("copied"))
+    with cloned_ticks(fig):
+        ticks = [ax.xaxis._get_tick(True) for _ in range(3)]
+    assert len({id(t) for t in ticks}) == 3
+    plt.close(fig)

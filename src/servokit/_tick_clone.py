@@ -234,7 +234,10 @@ class _TickSource:
         if not same:
             proto = self._make(axis, major)
             # checked once; an axis whose ticks hold unknown state makes fresh ones
-            self._protos[major] = found = (kw, proto if copyable(proto) else None)
+            if not copyable(proto):
+                self._protos[major] = (kw, None)
+                return proto  # fresh and unchanged: the tick asked for
+            self._protos[major] = found = (kw, proto)
         return self._make(axis, major) if found[1] is None else _copy(found[1])
 
 
