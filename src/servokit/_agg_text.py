@@ -18,6 +18,10 @@ process-wide caches in front of one renderer while a figure is saved:
   outline is moved by a multiple of 64 units, the pixel grid of its box with it), so
   the bitmap rendered at the sub-pixel offset and moved is the one matplotlib renders.
 
+The renderer's fonts are read from memory while the caches are installed
+(:mod:`servokit._memory_fonts`: FreeType's reads of a font file otherwise go through
+Python and two system calls each).
+
 Math text (``10^k`` tick labels) is parsed by one parser shared by all renderers, whose
 cache of parses then serves every figure.  The drawn pixels are those of plain matplotlib
 (checked on the report's 78 figures and in tests/test_agg_text.py).
@@ -29,6 +33,7 @@ The wrapped methods and the font calls are private matplotlib API, read on matpl
 
 from __future__ import annotations
 
+import functools
 import inspect
 import math
 from collections.abc import Iterator
@@ -258,14 +263,22 @@ def cached_agg_text(renderer: Any) -> Iterator[bool]:
     ):
         yield False
         return
+    from servokit._memory_fonts import memory_fonts_supported, prepare_font
+
     cached = _CachedText(renderer)
     parser = renderer.mathtext_parser
     renderer.draw_text = cached.draw_text
     renderer.get_text_width_height_descent = cached.metrics
     renderer.mathtext_parser = _shared_parser(cached.rc)
+    # its fonts read from memory, not through a Python stream on the file
+    in_memory = "_prepare_font" not in vars(renderer) and memory_fonts_supported()
+    if in_memory:
+        renderer._prepare_font = functools.partial(prepare_font, renderer)
     try:
         yield True
     finally:
         del renderer.draw_text
         del renderer.get_text_width_height_descent
         renderer.mathtext_parser = parser
+        if in_memory:
+            del renderer._prepare_font
