@@ -131,7 +131,9 @@ def test_workers_fork_from_a_frozen_heap(tmp_path, monkeypatch: pytest.MonkeyPat
     def probe(name: str):
         def case(out):
             # the parent's objects are frozen in the worker: its collections skip them
-            seen = {"pid": os.getpid(), "frozen": gc.get_freeze_count()}
+            from servokit import _heap
+
+            seen = {"pid": os.getpid(), "frozen": gc.get_freeze_count(), "heap": _heap._TUNED}
             return CaseResult(name, "probe", [], [], extra=seen)
 
         return case
@@ -160,6 +162,11 @@ def test_workers_fork_from_a_frozen_heap(tmp_path, monkeypatch: pytest.MonkeyPat
             _REGISTRY.pop(name, None)
     assert len(seen) == 2
     assert all(s["pid"] != os.getpid() and s["frozen"] > 1000 for s in seen)
+    if sys.platform.startswith("linux"):  # glibc: the thresholds of a short-lived worker
+        from servokit._heap import WORKER_MMAP_THRESHOLD_BYTES, WORKER_TRIM_THRESHOLD_BYTES
+
+        worker = (WORKER_MMAP_THRESHOLD_BYTES, WORKER_TRIM_THRESHOLD_BYTES)
+        assert all(s["heap"] == worker for s in seen)
     assert gc.get_freeze_count() == 0  # the parent unfrozen again
 
 
@@ -168,10 +175,24 @@ def test_heap_setting_is_tried_once_per_process(monkeypatch: pytest.MonkeyPatch)
 
     tries = []
     monkeypatch.setattr(_heap, "_TUNED", None)
-    monkeypatch.setattr(_heap, "_set_thresholds", lambda: tries.append(1) or False)
+    monkeypatch.setattr(_heap, "_MALLOPT", None)
+    monkeypatch.setattr(_heap, "_find_mallopt", lambda: tries.append(1) or False)
     assert _heap.keep_freed_arrays() is False  # e.g. not glibc: remembered, not retried
-    assert _heap.keep_freed_arrays() is False
+    assert _heap.keep_freed_arrays(1 << 20, 2 << 20) is False
     assert tries == [1]
+
+
+def test_heap_thresholds_are_set_as_asked(monkeypatch: pytest.MonkeyPatch) -> None:
+    from servokit import _heap
+
+    calls = []
+    monkeypatch.setattr(_heap, "_TUNED", None)
+    monkeypatch.setattr(_heap, "_MALLOPT", lambda key, value: calls.append((key, value)) or 1)
+    assert _heap.keep_freed_arrays()
+    assert _heap.keep_freed_arrays()  # the same values: set once
+    assert _heap.keep_freed_arrays(_heap.WORKER_MMAP_THRESHOLD_BYTES,
+                                   _heap.WORKER_TRIM_THRESHOLD_BYTES)  # fmt: skip
+    assert calls == [(-3, 32 << 20), (-1, 64 << 20), (-3, 128 << 20), (-1, 256 << 20)]
 
 
 def test_reproduce_hands_the_last_runs_times_to_the_pool(tmp_path, monkeypatch) -> None:
