@@ -447,3 +447,24 @@ def test_block_form_as_accurate_as_the_recursion_in_a_non_normal_basis(
     recursion = err(_dlsim(A, B, C, D, u))
     # measured up to 36 times over 600 random loops (600 times without the halving)
     assert err(forced_outputs(A, B, C, D, u, block)) <= 64 * max(recursion, 1e-15)
+
+
+@settings(max_examples=60, deadline=None)
+@given(
+    seed=st.integers(0, 2**32 - 1),
+    n=st.integers(1, 12),
+    spread=st.floats(0.0, 8.0),
+)
+def test_balance_is_an_exact_similarity_like_lapacks(seed: int, n: int, spread: float) -> None:
+    from servokit.simulate._scan import balance
+
+    rng = np.random.default_rng(seed)
+    d = 10.0 ** rng.uniform(-spread, spread, n)  # a badly scaled basis
+    A = (d[:, None] * rng.standard_normal((n, n))) / d[None, :]
+    got, scale = balance(A)
+    assert np.all(np.log2(scale) == np.round(np.log2(scale)))  # powers of 2: exact
+    assert np.array_equal(got, (A / scale[:, None]) * scale[None, :])
+    assert np.array_equal(np.diag(got), np.diag(A))
+    assert np.linalg.norm(got) <= np.linalg.norm(A)
+    lapack = scipy.linalg.matrix_balance(A, permute=False)[0]  # gebal's scaling
+    assert np.linalg.norm(got) <= 1.5 * np.linalg.norm(lapack) + 1e-300

@@ -30,6 +30,7 @@ __all__ = [
     "PeakFilterSpec",
     "disturbance_magnitude",
     "loop_report",
+    "variants_discretized",
     "peak_filtered_controller",
     "run",
 ]
@@ -54,7 +55,22 @@ class LoopReport:
     pes: object
 
 
-def loop_report(controller: control.TransferFunction, record) -> LoopReport:
+def variants_discretized() -> list:
+    """The 18 plants of Table 2.3 discretised at the benchmark's Ts (state space, delay).
+
+    Returns
+    -------
+    list of control.StateSpace
+        One discrete model per plant, in the order of ``hdd_benchmark_variants()``.
+    """
+    from servokit.models import HDD_BENCHMARK_TS, hdd_benchmark_variants
+
+    return [p.discretize(HDD_BENCHMARK_TS) for p in hdd_benchmark_variants()]
+
+
+def loop_report(
+    controller: control.TransferFunction, record, plants_d: list | None = None
+) -> LoopReport:
     """NRPE on the nominal plant and margins / stability on the 18 plants of Table 2.3.
 
     The worst margins are the smallest ``|GM|`` and ``|PM|`` over every crossover of every
@@ -66,6 +82,11 @@ def loop_report(controller: control.TransferFunction, record) -> LoopReport:
         ``C(z)`` at the benchmark's Ts.
     record : DisturbanceRecord
         Disturbances of the nominal-plant run.
+    plants_d : list of control.StateSpace, optional
+        :func:`variants_discretized`, when the caller reports several controllers: the
+        same model objects let the margin computation reuse each plant's factor
+        (:mod:`servokit.feedback.factor_response` keeps them by identity), the numbers
+        being those of fresh models (issue 24).
 
     Returns
     -------
@@ -73,14 +94,13 @@ def loop_report(controller: control.TransferFunction, record) -> LoopReport:
         NRPE 3 sigma, RPE p-p, worst margins over the 18 plants and their stability.
     """
     from servokit.feedback import stability_margins
-    from servokit.models import HDD_BENCHMARK_TS, hdd_benchmark, hdd_benchmark_variants
+    from servokit.models import hdd_benchmark
     from servokit.simulate.pes import track_following_pes
 
     pes = track_following_pes(hdd_benchmark(), controller, record)
     gms, pms, stable = [], [], True
     c_ss = control.ss(controller)
-    for p in hdd_benchmark_variants():
-        pd = p.discretize(HDD_BENCHMARK_TS)
+    for pd in variants_discretized() if plants_d is None else plants_d:
         stable &= bool(np.all(np.abs(control.feedback(c_ss * pd, 1).poles()) < 1.0))
         m = stability_margins([controller, pd], n_freq=4000)
         gms.append(min(np.abs(m.gain_margins_db), default=np.inf))
@@ -222,7 +242,8 @@ def run(outdir: Path) -> CaseResult:
     pd = hdd_benchmark().discretize(HDD_BENCHMARK_TS)
     c0 = benchmark_controller()
     c1 = peak_filtered_controller(c0, pd, CASE_FILTER)
-    base, filt = loop_report(c0, record), loop_report(c1, record)
+    plants_d = variants_discretized()  # shared by both reports (their factors are reused)
+    base, filt = loop_report(c0, record, plants_d), loop_report(c1, record, plants_d)
     spec = f"{CASE_FILTER.freq_hz:g} Hz, zeta {CASE_FILTER.damping:g}, {CASE_FILTER.depth_db:g} dB"
     rows = [
         _flag(
@@ -255,21 +276,7 @@ def run(outdir: Path) -> CaseResult:
         )
     )
     figs = [*_freq_figures(c0, c1, pd, outdir), _pes_figure((base, filt), outdir), psd_fig]
-    extra = {
-        "runtime_s": time.perf_counter() - t0,
-        "filter": spec,
-        **{
-            f"{name}_{k}": getattr(rep, k)
-            for name, rep in (("baseline", base), ("filtered", filt))
-            for k in (
-                "nrpe_3sigma_percent",
-                "rpe_pp_track",
-                "worst_gain_margin_db",
-                "worst_phase_margin_deg",
-                "all_stable",
-            )
-        },
-    }
+    extra = {"runtime_s": time.perf_counter() - t0, "filter": spec, **_report_extra(base, filt)}
     return CaseResult(
         "hdd-pes",
         "Disturbance-model loop shaping on the HDD benchmark (§6.1.4)",
@@ -278,3 +285,19 @@ def run(outdir: Path) -> CaseResult:
         extra=extra,
         chapter=6,
     )
+
+
+def _report_extra(base: LoopReport, filt: LoopReport) -> dict[str, object]:
+    """The reports' numbers for ``extra``: ``baseline_<field>`` and ``filtered_<field>``."""
+    fields = (
+        "nrpe_3sigma_percent",
+        "rpe_pp_track",
+        "worst_gain_margin_db",
+        "worst_phase_margin_deg",
+        "all_stable",
+    )
+    return {
+        f"{name}_{k}": getattr(rep, k)
+        for name, rep in (("baseline", base), ("filtered", filt))
+        for k in fields
+    }

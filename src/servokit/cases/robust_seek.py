@@ -31,15 +31,15 @@ from servokit.models import (
     hdd_benchmark_variation_set,
     without_delay,
 )
+from servokit.models.variation_arrays import modal_arrays_from_draws
 from servokit.report import CaseResult, Comparison
 from servokit.seek import RobustFeedforwardInput, robust_minimum_time
 from servokit.seek.hdd import BAND, DESIGNS
 from servokit.seek.outcome import simulate_seek
 from servokit.seek.plots import seek_plot
-from servokit.simulate import seek_time
-from servokit.simulate.metrics import READOUT_SUBSTEPS
+from servokit.simulate.metrics import READOUT_SUBSTEPS, seek_time_of_arrays
 
-__all__ = ["held_out_plants", "robust_seek_case"]
+__all__ = ["held_out_arrays", "held_out_plants", "robust_seek_case"]
 
 #: the issue's requirement: robust worst seek at least 15 % shorter than Design 2's
 REQUIRED_GAIN = 0.15
@@ -65,8 +65,38 @@ def held_out_plants(n: int = HELD_OUT, seed: int = HELD_OUT_SEED) -> list[ModalP
         ``n`` HDD benchmark plants drawn uniformly from the Table 2.3 ranges with the
         loop-gain range set to zero and the 10 us input delay removed.
     """
-    vs = dataclasses.replace(hdd_benchmark_variation_set(), gain=(0.0, 0.0))
-    return without_delay(vs.monte_carlo(n, seed=seed))
+    return without_delay(_held_out_set().monte_carlo(n, seed=seed))
+
+
+def _held_out_set():
+    """The Table 2.3 ranges with the loop-gain range not drawn."""
+    return dataclasses.replace(hdd_benchmark_variation_set(), gain=(0.0, 0.0))
+
+
+def held_out_arrays(
+    n: int = HELD_OUT, seed: int = HELD_OUT_SEED
+) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+    """The modal arrays of :func:`held_out_plants` (the same draws, no plant objects).
+
+    :func:`~servokit.models.variation_arrays.modal_arrays_from_draws` gives the arrays the
+    simulator would read back from the plants, bit for bit, without building 1000
+    ``ModalPlant`` objects and re-reading them into a bank for every chunk of every
+    seek-time call (issue 24).
+
+    Parameters
+    ----------
+    n : int
+        Number of plants.
+    seed : int
+        Random seed, as for :func:`held_out_plants`.
+
+    Returns
+    -------
+    tuple of numpy.ndarray
+        ``(w [rad/s], zeta, r, real)``, each ``(n, modes)``; the delay is 0.
+    """
+    vs = _held_out_set()
+    return modal_arrays_from_draws(vs, *vs.draw(n, seed=seed))
 
 
 def _met(quantity: str, ok: bool, note: str, source: str) -> Comparison:
@@ -158,7 +188,7 @@ def robust_seek_case(outdir: Path) -> CaseResult:
     outdir.mkdir(parents=True, exist_ok=True)
     plants = without_delay(hdd_benchmark_variants())
     nominal = plants[0]
-    held_out = held_out_plants()
+    held_out = held_out_arrays()
     comps: list[Comparison] = []
     figures: list[Path] = []
     hist: dict[str, dict[str, np.ndarray]] = {}
@@ -173,7 +203,7 @@ def robust_seek_case(outdir: Path) -> CaseResult:
         extra["design_time_s"][f"{tracks:g}"] = time.perf_counter() - t0
         out = simulate_seek(plants, rob, tracks, horizon=VERIFY_HORIZON)
         mc = {
-            name: seek_time(held_out, ff, tracks, band=BAND)
+            name: seek_time_of_arrays(held_out, 0.0, ff, tracks, band=BAND)
             for name, ff in (("d1", ff1), ("d2", ff2), ("robust", rob))
         }
         w = {

@@ -40,7 +40,7 @@ from __future__ import annotations
 
 import functools
 import time
-from collections.abc import Callable
+from collections.abc import Callable, Iterable
 from dataclasses import dataclass, field
 from typing import Any
 
@@ -59,7 +59,7 @@ from servokit.feedback.loopshape_problem import (
 )
 from servokit.feedback.loopshape_socp import Basis, StepData, WarmStart, solve_step
 
-__all__ = ["LoopshapeResult", "loopshape", "certify_models"]
+__all__ = ["LoopshapeResult", "loopshape", "certify_banks", "certify_models"]
 
 
 @dataclass(frozen=True)
@@ -427,7 +427,6 @@ def _peaks(f: np.ndarray, P: np.ndarray, dt: float, n_pi: int, n: int = 3):
     return tuple((float(f[i]), 0.2) for i in sorted(keep))
 
 
-@_one_blas_thread
 def certify_models(
     controller: control.TransferFunction, plants: list, gains: tuple[float, ...] = (1.0,)
 ) -> np.ndarray:
@@ -448,12 +447,42 @@ def certify_models(
         Shape ``(len(gains), len(plants))``: the largest closed-loop pole modulus (< 1 is
         stable).
     """
+    banks = modal_banks(plants, float(controller.dt))
+    return certify_banks(controller, banks, len(plants), gains)
+
+
+@_one_blas_thread
+def certify_banks(
+    controller: control.TransferFunction,
+    banks: Iterable[tuple[np.ndarray, Any]],
+    n_plants: int,
+    gains: tuple[float, ...] = (1.0,),
+) -> np.ndarray:
+    """:func:`certify_models` of plants already in plant banks (e.g. from modal arrays).
+
+    Parameters
+    ----------
+    controller : control.TransferFunction
+        Discrete controller.
+    banks : iterable of (ndarray, PlantBank)
+        Indices into the output columns and the bank of those plants at the controller's
+        ``dt``, as :func:`~servokit.feedback.loopshape_problem.modal_banks` yields them.
+    n_plants : int
+        Number of output columns (every index below it).
+    gains : tuple of float
+        Loop-gain factors applied to every plant.
+
+    Returns
+    -------
+    ndarray
+        Shape ``(len(gains), n_plants)``: the largest closed-loop pole modulus.
+    """
     dt = float(controller.dt)
     k_ss = control.tf2ss(controller)
     Ak, Bk, Ck = (np.asarray(m, dtype=float) for m in (k_ss.A, k_ss.B, k_ss.C))
     Dk = float(np.asarray(k_ss.D).ravel()[0])
-    out = np.empty((len(gains), len(plants)))
-    for idx, bank in modal_banks(plants, dt):
+    out = np.empty((len(gains), n_plants))
+    for idx, bank in banks:
         A, B, C = bank.discrete(dt)  # (V, N, N), (V, N), (N,): modal states, delay line
         n, nk = A.shape[1], Ak.shape[0]
         for i, g in enumerate(gains):

@@ -17,7 +17,9 @@ the fact the stability certificate of :mod:`~servokit.feedback.loopshape_solve` 
 
 from __future__ import annotations
 
+from collections.abc import Iterable
 from dataclasses import dataclass
+from typing import Any
 
 import numpy as np
 
@@ -25,6 +27,7 @@ from servokit._lazy import control
 from servokit.errors import ServokitValueError, check_count, check_finite, check_positive
 
 __all__ = [
+    "bank_frfs",
     "Structure",
     "pid_notch_structure",
     "fixed_order_structure",
@@ -380,9 +383,36 @@ def _block_frfs(plants: list, dt: float, z: np.ndarray) -> np.ndarray:
     the modes in numpy's own order (:func:`_mode_sum`), so the same numbers bit for bit
     at 60 % of the CPU (issue 24).
     """
-    out = np.empty((len(plants), z.size), dtype=complex)
+    return bank_frfs(modal_banks(plants, dt), len(plants), z)
+
+
+def bank_frfs(banks: Iterable[tuple[np.ndarray, Any]], n_plants: int, z: np.ndarray) -> np.ndarray:
+    """``model_frfs(..., method="blocks")`` of plants already in plant banks, at ``z``.
+
+    For plants held as modal arrays (e.g. Monte-Carlo draws by
+    :func:`~servokit.models.variation_arrays.modal_arrays_from_draws` and
+    :meth:`PlantBank.from_arrays <servokit.simulate._bank.PlantBank.from_arrays>`): no
+    ``ModalPlant`` objects, and one bank serves the FRFs and :func:`certify_banks
+    <servokit.feedback.loopshape_iterate.certify_banks>` (issue 24).
+
+    Parameters
+    ----------
+    banks : iterable of (ndarray, PlantBank)
+        Indices into the output rows and the bank of those plants at the sampling period,
+        as :func:`modal_banks` yields them.
+    n_plants : int
+        Number of output rows (every index below it).
+    z : ndarray
+        Points ``e^{jωT}`` of the unit circle.
+
+    Returns
+    -------
+    ndarray
+        Shape ``(n_plants, len(z))``.
+    """
+    out = np.empty((n_plants, z.size), dtype=complex)
     zr = z[None, None, :]
-    for idx, bank in modal_banks(plants, dt):
+    for idx, bank in banks:
         delay_factor = z ** (-bank.dd)
         # plants in chunks: (modes, plants, frequencies) complex arrays of ~1 MB, which stay
         # in cache between the elementwise passes

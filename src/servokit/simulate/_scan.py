@@ -21,7 +21,7 @@ from __future__ import annotations
 
 import numpy as np
 
-__all__ = ["DOUBLING_MAX_VARIANTS", "POWER_GROWTH", "matrix_scan", "modal_scan"]
+__all__ = ["DOUBLING_MAX_VARIANTS", "POWER_GROWTH", "balance", "matrix_scan", "modal_scan"]
 
 #: Chunks with at most this many variants use the doubling scan.
 DOUBLING_MAX_VARIANTS = 8
@@ -109,14 +109,12 @@ def forced_outputs(
     -------
     ndarray (K, p)
     """
-    import scipy.linalg
-
     K, m = u.shape
     N, p = A.shape[0], C.shape[0]
     # an exact similarity (powers of 2) that evens out the rows and columns of A: a badly
     # scaled loop (the PES loop's ||A|| = 1e5 with a spectral radius below 1) becomes
     # ||A|| = 6 (fewer digits lost, and full blocks below)
-    A, (scale, _) = scipy.linalg.matrix_balance(A, permute=False, separate=True)
+    A, scale = balance(A)
     B, C = B / scale[:, None], C * scale[None, :]
     L = max(1, min(int(block), K))
     powers = np.empty((L + 1, N, N))
@@ -165,3 +163,49 @@ def _accurate_block(A: np.ndarray, powers: np.ndarray, L: int) -> int:
     while L > 1 and (ok.size == 0 or ok[-1] + 1 < L):
         L //= 2
     return L
+
+
+def balance(A: np.ndarray, sweeps: int = 64) -> tuple[np.ndarray, np.ndarray]:
+    """``D^-1 A D`` with ``D = diag(scale)`` of powers of 2 evening out rows and columns.
+
+    The scaling step of LAPACK's ``gebal`` (``scipy.linalg.matrix_balance`` without
+    permutations), in numpy because the PES and seek commands run without SciPy
+    (issue 23): state ``i`` is scaled by the power of 2 nearest
+    ``sqrt(||row i|| / ||column i||)`` (off-diagonal 2-norms) while that shrinks
+    ``||row|| + ||column||`` by 5 %, sweeping until nothing changes.  Powers of 2 make the
+    similarity exact in floating point; the diagonal is unchanged.
+
+    Parameters
+    ----------
+    A : ndarray (N, N)
+        Square matrix.
+    sweeps : int
+        Most passes over the states.
+
+    Returns
+    -------
+    A_balanced : ndarray (N, N)
+        ``D^-1 A D``.
+    scale : ndarray (N,)
+        The diagonal of ``D`` (so ``B -> B / scale[:, None]``, ``C -> C * scale``).
+    """
+    A = np.array(A, dtype=float)
+    n = A.shape[0]
+    scale = np.ones(n)
+    off = ~np.eye(n, dtype=bool)
+    for _ in range(sweeps):
+        changed = False
+        for i in range(n):
+            c = float(np.linalg.norm(A[off[:, i], i]))
+            r = float(np.linalg.norm(A[i, off[i]]))
+            if c == 0.0 or r == 0.0 or not np.isfinite(c + r):
+                continue
+            f = 2.0 ** round(0.5 * np.log2(r / c))
+            if f != 1.0 and c * f + r / f < 0.95 * (c + r):
+                A[:, i] *= f
+                A[i, :] /= f
+                scale[i] *= f
+                changed = True
+        if not changed:
+            break
+    return A, scale
