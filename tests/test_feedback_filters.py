@@ -5,7 +5,7 @@ from __future__ import annotations
 import control
 import numpy as np
 import pytest
-from hypothesis import given, settings
+from hypothesis import example, given, settings
 from hypothesis import strategies as st
 
 from servokit.errors import ServokitValueError
@@ -186,6 +186,9 @@ def test_sensitivity_factorises_as_s0_times_sf(f, k, phi):
     ratio=st.floats(0.5, 2.0),
     z_d=st.floats(0.05, 1.0),
     nyquist_share=st.floats(0.01, 0.9),
+)
+@example(  # zeros = poles: the notch is 1, and so is its Tustin map (was refused)
+    f_r=10.0, z_r=0.5, ratio=1.0, z_d=0.5, nyquist_share=0.5
 )
 def test_numpy_notch_and_tustin_match_python_control(f_r, z_r, ratio, z_d, nyquist_share) -> None:
     # the CLI's control-free path (start-up) against notch() + control.sample_system

@@ -513,7 +513,7 @@ def discretize_filter(filt: control.LTI, dt: float, freq_hz: float) -> control.L
     """
     h, f = _tustin_rate(dt, freq_hz)
     fd = control.sample_system(filt, h, method="tustin", prewarp_frequency=TWO_PI * f)
-    _check_not_degenerate(fd.num[0][0], fd.den[0][0], h, f)
+    _check_not_degenerate(fd.num[0][0], fd.den[0][0], h, f, complex(filt(1j * TWO_PI * f)))
     return fd
 
 
@@ -540,7 +540,7 @@ def discretize_filter_data(filt: RationalTF, dt: float, freq_hz: float) -> Ratio
     """
     h, f = _tustin_rate(dt, freq_hz)
     fd = filt.tustin(h, TWO_PI * f)
-    _check_not_degenerate(fd.numerator, fd.denominator, h, f)
+    _check_not_degenerate(fd.numerator, fd.denominator, h, f, complex(filt(1j * TWO_PI * f)))
     return fd
 
 
@@ -594,25 +594,31 @@ def tustin_coefficients(
 
     num_z, den_z = mapped(num), mapped(den)
     num_z, den_z = num_z / den_z[0], den_z / den_z[0]
-    _check_not_degenerate(num_z, den_z, h, f)
+    asked = complex(np.polyval(num, 1j * TWO_PI * f) / np.polyval(den, 1j * TWO_PI * f))
+    _check_not_degenerate(num_z, den_z, h, f, asked)
     return num_z, den_z
 
 
-def _check_not_degenerate(num: np.ndarray, den: np.ndarray, dt: float, freq_hz: float) -> None:
+def _check_not_degenerate(
+    num: np.ndarray, den: np.ndarray, dt: float, freq_hz: float, asked: complex
+) -> None:
     """Refuse a Tustin filter whose coefficients no longer tell it from 1 (or are not finite).
 
     Far above the filter's frequencies the bilinear map pushes every pole and zero to
     z = 1: the numerator and denominator then agree to double precision (a notch at
     4449 Hz with dt = 1e-300 s gives num = den) and the discrete filter is a wire, not the
-    filter asked for.
+    filter asked for.  ``asked`` is the continuous filter at ``freq_hz``, where the
+    prewarped map is exact: a filter that is 1 there (a notch whose zeros equal its
+    poles, an identity) is rightly 1 after the map and passes.
     """
     num = np.atleast_1d(np.asarray(num, dtype=float))
     den = np.atleast_1d(np.asarray(den, dtype=float))
     if not (np.all(np.isfinite(num)) and np.all(np.isfinite(den))):
         raise ServokitValueError(f"dt {dt:g} s gives a non-finite Tustin filter at {freq_hz:g} Hz")
-    if num.size == den.size and np.max(np.abs(num - den)) <= 1e3 * np.finfo(float).eps * np.max(
+    wire = num.size == den.size and np.max(np.abs(num - den)) <= 1e3 * np.finfo(float).eps * np.max(
         np.abs(den)
-    ):
+    )
+    if wire and not abs(asked - 1.0) <= 1e-9:
         raise ServokitValueError(
             f"dt {dt:g} s is {1 / (dt * freq_hz):.3g} samples per cycle of {freq_hz:g} Hz: the "
             "Tustin filter's numerator equals its denominator to double precision (a "
