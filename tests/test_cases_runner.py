@@ -213,3 +213,31 @@ def test_reproduce_hands_the_last_runs_times_to_the_pool(tmp_path, monkeypatch) 
     monkeypatch.setattr(runner, "iter_cases", no_cases)
     _run_cases(tmp_path, ["hdd-seek"], False)
     assert given == {"hdd-seek": 2.5}
+
+
+@pytest.mark.parametrize(
+    ("argv", "preset", "numpy_first", "want"),
+    [
+        (["servokit", "reproduce", "--out", "x"], None, False, "1"),
+        (["servokit", "--json", "reproduce"], None, False, "1"),
+        (["servokit", "margins", "reproduce"], None, False, None),  # another command
+        (["servokit", "reproduce"], "4", False, "4"),  # the user's own setting wins
+        (["servokit", "reproduce"], None, True, None),  # numpy loaded: too late, untouched
+    ],
+)
+def test_reproduce_asks_one_blas_thread_before_numpy_loads(argv, preset, numpy_first, want):
+    import subprocess
+
+    code = (
+        "import os, sys\n"
+        f"sys.argv = {argv!r}\n"
+        + ("import numpy\n" if numpy_first else "")
+        + "import servokit.cli\n"
+        "print(os.environ.get('OPENBLAS_NUM_THREADS'))\n"
+    )
+    env = {k: v for k, v in os.environ.items() if k != "OPENBLAS_NUM_THREADS"}
+    if preset is not None:
+        env["OPENBLAS_NUM_THREADS"] = preset
+    out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True,
+                         check=True, env=env).stdout.strip()  # fmt: skip
+    assert out == str(want)

@@ -20,6 +20,8 @@ from servokit.cases.registry import CASES, case_chapter, case_names, registry, r
 from servokit.errors import ServokitValueError
 
 if TYPE_CHECKING:
+    from multiprocessing.context import BaseContext
+
     from servokit.report import CaseResult
 
 __all__ = ["default_workers", "iter_cases", "previous_runtimes", "run_cases", "select_cases"]
@@ -297,21 +299,37 @@ def _pooled(
 ) -> Iterator[tuple[str, list[CaseResult], float]]:
     """:func:`iter_cases` in a pool of forked workers (longest groups submitted first)."""
     import multiprocessing
+
+    ctx = multiprocessing.get_context("fork")
+    # one BLAS thread from before the case modules import (SciPy's OpenBLAS loads then and
+    # reads the variable): threads started by a BLAS call at import spin idle for a while
+    # afterwards (0.35-0.4 s of the parent's CPU); inherited by the forked workers
+    with one_blas_thread():
+        import matplotlib.pyplot  # noqa: F401  (imported once here, inherited by the workers)
+
+        # every case module (and numpy, scipy, python-control) imported before the fork:
+        # the workers inherit the imports and the registry (cases registered at run time
+        # included)
+        registry()
+        yield from _submit_and_collect(ctx, outdir, names, groups, svg, workers, costs)
+
+
+def _submit_and_collect(
+    ctx: BaseContext,
+    outdir: Path,
+    names: Sequence[str],
+    groups: list[list[str]],
+    svg: bool,
+    workers: int,
+    costs: Mapping[str, float],
+) -> Iterator[tuple[str, list[CaseResult], float]]:
+    """The pool of :func:`_pooled`: groups submitted longest first, results in run order."""
     from concurrent.futures import ProcessPoolExecutor
 
-    import matplotlib.pyplot  # noqa: F401  (imported once here, inherited by the workers)
-
-    registry()  # imports every case module (and numpy, scipy, python-control) before the fork
-    # fork: the workers inherit the imports and the case registry (cases registered at run
-    # time included)
-    ctx = multiprocessing.get_context("fork")
     done: dict[str, tuple[list[CaseResult], float]] = {}
-    with (
-        one_blas_thread(),  # inherited by the forked workers
-        ProcessPoolExecutor(
-            min(workers, len(groups)), mp_context=ctx, initializer=_init_worker
-        ) as pool,
-    ):
+    with ProcessPoolExecutor(
+        min(workers, len(groups)), mp_context=ctx, initializer=_init_worker
+    ) as pool:
         with _frozen_heap():  # the workers fork at the first submit
             order = _longest_first(groups, costs)
             futures = {pool.submit(_run_group, outdir, g, svg): g for g in order}
