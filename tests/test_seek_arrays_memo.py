@@ -43,3 +43,20 @@ def test_large_sets_are_not_kept(monkeypatch):
     seek_time_of_arrays(modal, 0.0, ff, DESIGNS[0].tracks, band=BAND)
     assert not metrics._bank_memo
     assert np.all(np.isfinite(seek_time_of_arrays(modal, 0.0, ff, 1.0, band=BAND)))
+
+
+def test_a_bank_replaced_by_another_thread_right_after_the_store(monkeypatch):
+    # the sweeps call from several threads; emulate the interleaving where another
+    # thread replaces the kept bank between this call's store and its return
+    class Replaced(dict):
+        def __setitem__(self, key, value) -> None:  # noqa: ANN001
+            super().__setitem__(key, value)
+            super().clear()  # the other thread's bank landed just after ours
+
+    monkeypatch.setattr(metrics, "_bank_memo", Replaced())
+    nominal = without_delay(hdd_benchmark_variants())[0]
+    ff = DESIGNS[0].design(nominal)
+    modal = held_out_arrays(4, seed=2)
+    got = seek_time_of_arrays(modal, 0.0, ff, DESIGNS[0].tracks, band=BAND)
+    monkeypatch.setattr(metrics, "_bank_memo", {})
+    assert got.tobytes() == _fresh(modal, ff, DESIGNS[0].tracks).tobytes()

@@ -315,10 +315,13 @@ def _bank_of_arrays(modal: tuple[np.ndarray, ...], delay: float, h: float):  # n
         digest.update(repr((a.shape, a.dtype.str)).encode())
         digest.update(a.tobytes())
     key = (digest.digest(), delay, h)
-    if key not in _bank_memo:
+    # a local reference: the sweeps call this from several threads, and another thread
+    # may replace the kept bank between our store and our return
+    bank = _bank_memo.get(key)
+    if bank is None:
         bank = PlantBank.from_arrays(*(a.copy() for a in arrays), delay, h)
         for arr in (bank.w, bank.zeta, bank.r, bank.real, bank.Phi, bank.Gnew, bank.Gold):
             arr.flags.writeable = False  # shared with later calls: nobody may change it
         _bank_memo.clear()
         _bank_memo[key] = bank
-    return _bank_memo[key]
+    return bank
