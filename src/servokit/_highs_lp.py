@@ -27,7 +27,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-__all__ = ["LPResult", "linprog_highs"]
+__all__ = ["LPResult", "highs_core", "linprog_highs"]
 
 
 @dataclass(frozen=True)
@@ -52,10 +52,27 @@ class LPResult:
     message: str
 
 
-@functools.cache
-def _parts():  # noqa: ANN202 - private SciPy objects, None when absent
+def highs_core():  # noqa: ANN201 - the private binding has no public type
+    """SciPy's bundled HiGHS binding (``scipy.optimize._highspy._core``), or None.
+
+    Returns
+    -------
+    module or None
+        None before SciPy 1.15 (no bundled binding); callers then keep ``linprog``.
+    """
     try:
         from scipy.optimize._highspy import _core
+    except ImportError:
+        return None
+    return _core
+
+
+@functools.cache
+def _parts():  # noqa: ANN202 - private SciPy objects, None when absent
+    _core = highs_core()
+    if _core is None:
+        return None
+    try:
         from scipy.optimize._linprog_highs import _highs_to_scipy_status_message
         from scipy.optimize._linprog_util import _check_result
 

@@ -20,8 +20,6 @@ from servokit.cases.registry import CASES, case_chapter, case_names, registry, r
 from servokit.errors import ServokitValueError
 
 if TYPE_CHECKING:
-    from multiprocessing.context import BaseContext
-
     from servokit.report import CaseResult
 
 __all__ = ["default_workers", "iter_cases", "previous_runtimes", "run_cases", "select_cases"]
@@ -299,8 +297,9 @@ def _pooled(
 ) -> Iterator[tuple[str, list[CaseResult], float]]:
     """:func:`iter_cases` in a pool of forked workers (longest groups submitted first)."""
     import multiprocessing
+    from concurrent.futures import ProcessPoolExecutor
 
-    ctx = multiprocessing.get_context("fork")
+    done: dict[str, tuple[list[CaseResult], float]] = {}
     # one BLAS thread from before the case modules import (SciPy's OpenBLAS loads then and
     # reads the variable): threads started by a BLAS call at import spin idle for a while
     # afterwards (0.35-0.4 s of the parent's CPU); inherited by the forked workers
@@ -311,34 +310,19 @@ def _pooled(
         # the workers inherit the imports and the registry (cases registered at run time
         # included)
         registry()
-        yield from _submit_and_collect(ctx, outdir, names, groups, svg, workers, costs)
-
-
-def _submit_and_collect(
-    ctx: BaseContext,
-    outdir: Path,
-    names: Sequence[str],
-    groups: list[list[str]],
-    svg: bool,
-    workers: int,
-    costs: Mapping[str, float],
-) -> Iterator[tuple[str, list[CaseResult], float]]:
-    """The pool of :func:`_pooled`: groups submitted longest first, results in run order."""
-    from concurrent.futures import ProcessPoolExecutor
-
-    done: dict[str, tuple[list[CaseResult], float]] = {}
-    with ProcessPoolExecutor(
-        min(workers, len(groups)), mp_context=ctx, initializer=_init_worker
-    ) as pool:
-        with _frozen_heap():  # the workers fork at the first submit
-            order = _longest_first(groups, costs)
-            futures = {pool.submit(_run_group, outdir, g, svg): g for g in order}
-        owner = {name: fut for fut, g in futures.items() for name in g}
-        for name in names:
-            fut = owner[name]
-            if name not in done:
-                done.update(zip(futures[fut], fut.result(), strict=True))
-            yield (name, *done.pop(name))
+        ctx = multiprocessing.get_context("fork")
+        with ProcessPoolExecutor(
+            min(workers, len(groups)), mp_context=ctx, initializer=_init_worker
+        ) as pool:
+            with _frozen_heap():  # the workers fork at the first submit
+                order = _longest_first(groups, costs)
+                futures = {pool.submit(_run_group, outdir, g, svg): g for g in order}
+            owner = {name: fut for fut, g in futures.items() for name in g}
+            for name in names:
+                fut = owner[name]
+                if name not in done:
+                    done.update(zip(futures[fut], fut.result(), strict=True))
+                yield (name, *done.pop(name))
 
 
 def run_cases(

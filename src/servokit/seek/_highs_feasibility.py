@@ -48,9 +48,10 @@ ITERATION_LIMIT = 1000
 
 
 def _core():  # noqa: ANN202 - the private binding has no public type
-    try:
-        from scipy.optimize._highspy import _core
-    except ImportError:  # SciPy < 1.15: no bundled highspy binding
+    from servokit._highs_lp import highs_core
+
+    _core = highs_core()
+    if _core is None:  # SciPy < 1.15: no bundled highspy binding
         return None
     highs = getattr(_core, "_Highs", None)
     if highs is None or not all(hasattr(highs, m) for m in _METHODS):
