@@ -64,6 +64,9 @@ LIGHTLY_DAMPED = {
 @example(
     p0=-2.0, gaps=[-3.0, -3.0, -3.0], others=[0.0], k=0.578125, form="tf"
 )  # dc gain 1.0045: the gain crossover at 9.4e-5 Hz, below the old 1e-4 Hz band edge
+@example(
+    p0=-2.50446849246768, gaps=[-3.1875, -4.0625, -4.875], others=[], k=1.0, form="ss"
+)  # a companion form's nearly defective cluster: the Schur form 3e-5 off, no phase crossover
 def test_clustered_poles_all_crossings_to_1e_9(p0, gaps, others, k, form):
     _check_cluster(p0, gaps, others, k, form)
 
@@ -165,6 +168,58 @@ def test_cancelling_partial_fractions_are_not_used():
     factors, dt = loop_factors(g)
     assert factors[0].pf is None
     assert abs(loop_evaluator(factors, 0.0, dt)(f)[0] - ref) <= 1e-14 * abs(ref)
+
+
+def test_ill_separated_split_is_not_used():
+    # four real poles within 1e-3 relative (the hypothesis find): three fall in the
+    # "repeated" cluster, the fourth 2e-6 away, so the Sylvester decoupling of the split
+    # Schur form is ill-conditioned and its response 1e-6..3e-5 relative off near the
+    # cluster (measured here); the factor now keeps the whole Schur form
+    from servokit.feedback.factor_response import _balanced, _split, _triangular
+
+    gaps = 1 + 10.0 ** np.array([-3.1875, -4.0625, -4.875])
+    poles = 10.0**-2.50446849246768 * np.cumprod([1.0, *gaps])
+    g = control.ss(control.tf([1.5e-10], np.poly(-poles)))
+    f = np.geomspace(1e-4, 2e-3, 40)
+    with mpmath.workdps(50):
+        ref = np.array([complex(mp_loop([g], mpmath.mpf(float(x)))) for x in f])
+    A, B, C = _balanced(g.A, g.B, g.C)
+    T, S, Z, k = _split(A, np.linalg.eigvals(A))
+    assert 0 < k < 4
+    b = np.linalg.solve(S, Z.conj().T @ B[:, 0])
+    c = C[0] @ Z @ S
+    split = _triangular(T[:k, :k], b[:k], c[:k], 0j, lambda x: 2j * np.pi * x)(f) + (
+        c[k:] * b[k:] / (2j * np.pi * f[:, None] - np.diag(T)[k:])
+    ).sum(axis=1)
+    assert np.max(np.abs(split / ref - 1)) > 1e-7
+    factors, dt = loop_factors(g)
+    assert factors[0].near is None
+    assert np.max(np.abs(loop_evaluator(factors, 0.0, dt)(f) / ref - 1)) <= 1e-13
+
+
+def test_inaccurate_schur_form_gives_way_to_lu():
+    # six poles within 6e-5 relative and two others (a random search's worst case): the
+    # whole complex Schur form of the balanced companion form is 6e-8 relative off at
+    # the poles' frequencies (measured here), so the factor takes the LU solve everywhere
+    import scipy.linalg
+
+    from servokit.feedback.factor_response import _balanced, _triangular
+
+    cluster = [4.031348245481641, 4.03141371027523, 4.031430513415015, 4.031440512879716]
+    cluster += [4.031547956791278, 4.031591989387617]
+    others = [0.5661120975576363, 35.64420199647519]
+    g = control.ss(control.tf([1.0], np.poly(-np.array([*cluster, *others]))))
+    f = np.outer([0.5, 1.0, 2.0], [cluster[0], *others]).ravel() / (2 * np.pi)
+    with mpmath.workdps(50):
+        ref = np.array([complex(mp_loop([g], mpmath.mpf(float(x)))) for x in f])
+    A, B, C = _balanced(g.A, g.B, g.C)
+    T, Z = scipy.linalg.schur(A.astype(complex), output="complex")
+    x_of = lambda x: 2j * np.pi * x  # noqa: E731
+    schur = _triangular(T, Z.conj().T @ B[:, 0], C[0] @ Z, 0j, x_of)(f)
+    assert np.max(np.abs(schur / ref - 1)) > 1e-9
+    factors, dt = loop_factors(g)
+    assert factors[0].pf is None
+    assert np.max(np.abs(loop_evaluator(factors, 0.0, dt)(f) / ref - 1)) <= 1e-13
 
 
 def test_accurate_evaluator_at_the_crossings_of_the_dual_stage_loop():
