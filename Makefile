@@ -19,10 +19,15 @@ $(STAMP): $(BIN)/python pyproject.toml
 	$(BIN)/pip install --quiet -e ".[test,dask]"
 	touch $(STAMP)
 
+# bytecode of the editable sources, as a regular install compiles it: where the
+# environment sets PYTHONDONTWRITEBYTECODE, every run would compile the ~200 modules
+# again (0.25 s of reproduce's CPU); incremental, 0.04 s when up to date
 demo: $(VENV)/.installed-demo
+	$(BIN)/python -m compileall -q src
 	MPLBACKEND=Agg $(BIN)/servokit reproduce --out $(OUT)
 
 test: $(STAMP)
+	$(BIN)/python -m compileall -q src
 	MPLBACKEND=Agg $(BIN)/python -m pytest
 	$(MAKE) test-dask
 

@@ -77,6 +77,18 @@ def per_case_cpu(cases: list[str], out: Path) -> dict[str, float]:
     return result
 
 
+def compile_sources() -> None:
+    """Write the bytecode of servokit's sources, as ``make demo`` does (an editable
+    install has none, and PYTHONDONTWRITEBYTECODE keeps Python from writing it)."""
+    import compileall
+    import importlib.util
+
+    spec = importlib.util.find_spec("servokit")
+    if spec is not None and spec.submodule_search_locations:
+        for path in spec.submodule_search_locations:
+            compileall.compile_dir(path, quiet=1)
+
+
 def main() -> None:
     """Measure one run; print the per-case table and write ``bench/out/reproduce.json``."""
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
@@ -89,6 +101,7 @@ def main() -> None:
         "cases of the last run first, as a user's repeated run does)",
     )  # fmt: skip
     args = parser.parse_args()
+    compile_sources()
     with tempfile.TemporaryDirectory(prefix="servokit-reproduce-") as tmp:
         out = Path(args.out) if args.out else Path(tmp) / "out"
         runs = [run_reproduce(args.case, out) for _ in range(max(1, args.runs))]
