@@ -175,3 +175,54 @@ def test_axis_with_uncopyable_ticks_makes_fresh_ones(monkeypatch):
         ticks = [ax.xaxis._get_tick(True) for _ in range(3)]
     assert len({id(t) for t in ticks}) == 3
     plt.close(fig)
+
+
+def _props_pair(axis, src):
+    """Two fresh ticks with ``src``'s props copied: by matplotlib and by TickProps."""
+    plain, fast = axis._get_tick(True), axis._get_tick(True)
+    type(axis)._copy_tick_props(axis, src, plain)
+    _tick_clone.TickProps(axis)(src, fast)
+    return plain, fast
+
+
+@pytest.mark.skipif(not clone_supported(), reason="unchecked matplotlib")
+def test_tick_props_equal_matplotlibs_copy():
+    fig, axes = _axes_cases()
+    for axis, _ in axes:
+        src = axis.get_major_ticks()[0]
+        plain, fast = _props_pair(axis, src)
+        for name in ("tick1line", "tick2line", "gridline"):
+            a, b = getattr(fast, name), getattr(plain, name)
+            assert _tick_clone.same_marker(a._marker, b._marker), (axis, name)
+            assert a._marker is not src.__dict__[name]._marker
+            a._marker = b._marker = None  # compared; the rest as object graphs
+        # the rest: equal values, sharing with src exactly where matplotlib's copy does
+        assert _same_graph(fast, plain, src, src) == [], axis
+    plt.close(fig)
+
+
+@pytest.mark.skipif(not clone_supported(), reason="unchecked matplotlib")
+@pytest.mark.parametrize("change", ["in_place", "user_transform"])
+def test_tick_props_deep_copy_a_changed_marker(change):
+    from matplotlib.markers import MarkerStyle
+    from matplotlib.transforms import Affine2D
+
+    fig, ax = plt.subplots()
+    src = ax.xaxis.get_major_ticks()[0]
+    if change == "in_place":  # a marker changed in place, as polar ticks do
+        src.tick1line._marker._transform = Affine2D().rotate(0.3)
+    else:
+        src.tick1line._marker = MarkerStyle(
+            src.tick1line._marker.get_marker(), transform=Affine2D().rotate(0.3)
+        )
+    plain, fast = _props_pair(ax.xaxis, src)
+    a, b = fast.tick1line._marker, plain.tick1line._marker
+    assert _tick_clone.same_marker(a, b)
+    want = src.tick1line._marker.get_transform().get_matrix()
+    assert np.array_equal(a.get_transform().get_matrix(), want)
+    if change == "user_transform":  # copied, as matplotlib does, not shared
+        assert a._user_transform is not src.tick1line._marker._user_transform
+    assert not np.array_equal(
+        want, ax.xaxis._get_tick(True).tick1line._marker.get_transform().get_matrix()
+    )
+    plt.close(fig)

@@ -19,6 +19,13 @@ and only when every attribute of the fresh tick is of a kind it knows (an immuta
 value, a shared object as above, or one of the objects listed); otherwise the axis makes
 its ticks as usual.  tests/test_tick_clone.py walks the object graphs of a copy and a
 fresh tick and checks they are the same values with the same sharing.
+
+While the figure is saved, the axes' ``_copy_tick_props`` is :class:`TickProps`:
+matplotlib's copy of the first tick's properties onto each new tick, except that the
+markers of the three tick lines, which ``Line2D.update_from`` deep-copies (0.1 ms of the
+0.12 ms a tick), are made again from their arguments wherever the source marker holds
+exactly the state those arguments make (:func:`same_marker`); tests compare the result
+with matplotlib's copy.
 """
 
 from __future__ import annotations
@@ -33,7 +40,7 @@ from typing import TYPE_CHECKING, Any
 if TYPE_CHECKING:
     from matplotlib.figure import Figure
 
-__all__ = ["clone_supported", "clone_tick", "cloned_ticks", "copyable"]
+__all__ = ["TickProps", "clone_supported", "clone_tick", "cloned_ticks", "copyable", "same_marker"]
 
 #: the matplotlib versions (major, minor) whose ticks this module copies
 CHECKED_VERSIONS = ((3, 11),)
@@ -44,6 +51,7 @@ _OWN = frozenset(
      "_fontproperties", "_transform"}
 )  # fmt: skip
 _CHILDREN = ("tick1line", "tick2line", "gridline", "label1", "label2")
+_LINES = _CHILDREN[:3]
 
 
 def clone_supported() -> bool:
@@ -241,6 +249,110 @@ class _TickSource:
         return self._make(axis, major) if found[1] is None else _copy(found[1])
 
 
+def _rebuilt(marker: Any) -> Any:
+    """A new ``MarkerStyle`` from the arguments ``marker`` was made with (None when it
+    has a user transform, which a rebuild would share instead of copy)."""
+    from matplotlib.markers import MarkerStyle
+
+    if marker._user_transform is not None:
+        return None
+    m = marker
+    return MarkerStyle(m._marker, m._fillstyle, None, m._user_capstyle, m._user_joinstyle)
+
+
+def _same_value(key: str, x: Any, y: Any) -> bool:
+    import numpy as np
+    from matplotlib.path import Path
+    from matplotlib.transforms import Transform
+
+    if key == "_marker_function":  # bound to each marker: the same function
+        return getattr(x, "__func__", x) is getattr(y, "__func__", y)
+    if isinstance(x, Path) or isinstance(y, Path):
+        return (
+            type(x) is type(y)
+            and np.array_equal(x.vertices, y.vertices)
+            and (x.codes is None) == (y.codes is None)
+            and (x.codes is None or np.array_equal(x.codes, y.codes))
+            and x._interpolation_steps == y._interpolation_steps
+        )
+    if isinstance(x, Transform) or isinstance(y, Transform):
+        return type(x) is type(y) and np.array_equal(x.get_matrix(), y.get_matrix())
+    if isinstance(x, np.ndarray) or isinstance(y, np.ndarray):
+        return type(x) is type(y) and np.array_equal(x, y)
+    return type(x) is type(y) and bool(x == y)
+
+
+def same_marker(a: Any, b: Any) -> bool:
+    """Whether two ``MarkerStyle`` hold the same state: the same attributes, equal
+    values, paths and transforms equal as data, the same marker function.
+
+    Parameters
+    ----------
+    a, b : matplotlib.markers.MarkerStyle
+
+    Returns
+    -------
+    bool
+    """
+    va, vb = vars(a), vars(b)
+    if va.keys() != vb.keys():
+        return False
+    try:
+        return all(_same_value(k, va[k], vb[k]) for k in va)
+    except (TypeError, ValueError):  # values that do not compare: not known
+        return False
+
+
+class TickProps:
+    """``Axis._copy_tick_props`` of one axis with the tick lines' markers rebuilt.
+
+    Matplotlib's copy runs ``Line2D.update_from`` on the three lines of every new tick,
+    each deep-copying the first tick's ``MarkerStyle`` (its paths, transforms and, through
+    its bound marker function, the marker once more): 32 µs a line, 0.1 ms of the 0.12 ms
+    a tick takes to copy.  A marker that holds exactly the state its arguments make
+    (checked once per source marker: :func:`same_marker`) is instead made again from
+    them, as a fresh tick's is (8 µs); the other properties are copied by matplotlib's own
+    method.  Any other marker is deep-copied as before.
+
+    Parameters
+    ----------
+    axis : matplotlib.axis.Axis
+        The axis whose method this replaces while installed.
+    """
+
+    def __init__(self, axis: Any) -> None:
+        self.axis = axis
+        self._plain = type(axis)._copy_tick_props
+        self._known: dict[int, tuple[Any, bool]] = {}
+
+    def _rebuildable(self, marker: Any) -> bool:
+        found = self._known.get(id(marker))
+        if found is None or found[0] is not marker:
+            again = _rebuilt(marker)
+            found = (marker, again is not None and same_marker(again, marker))
+            self._known[id(marker)] = found
+        return found[1]
+
+    def __call__(self, src: Any, dest: Any) -> None:
+        """Copy the properties of tick ``src`` to tick ``dest``."""
+        if src is None or dest is None:
+            return
+        lines = [getattr(src, name, None) for name in _LINES]
+        markers = [getattr(line, "_marker", None) for line in lines]
+        if not all(m is not None and self._rebuildable(m) for m in markers):
+            self._plain(self.axis, src, dest)
+            return
+        try:  # matplotlib's copy, with a marker that is cheap to copy in the source lines
+            for line in lines:
+                line._marker = "none"
+            self._plain(self.axis, src, dest)
+        finally:
+            for line, marker in zip(lines, markers, strict=True):
+                line._marker = marker
+        for name, marker in zip(_LINES, markers, strict=True):
+            getattr(dest, name)._marker = _rebuilt(marker)
+
+
 @contextmanager
 def cloned_ticks(fig: Figure) -> Iterator[bool]:
     """While active, the axes of ``fig`` make new ticks as copies of a fresh one.
@@ -262,5 +374,9 @@ def cloned_ticks(fig: Figure) -> Iterator[bool]:
     if not clone_supported():
         yield False
         return
-    with on_instances(_axes_of(fig), "_get_tick", _TickSource):
+    axes = list(_axes_of(fig))
+    with (
+        on_instances(axes, "_get_tick", _TickSource),
+        on_instances(axes, "_copy_tick_props", TickProps),
+    ):
         yield True
