@@ -110,6 +110,54 @@ def test_interrupt_swallowed_by_a_weakref_callback_still_exits_130(tmp_path) -> 
     _assert_interrupted(code, seconds, err, seen)
 
 
+def test_interrupt_wrapped_by_python_still_exits_130(tmp_path) -> None:
+    """Ctrl-C inside ``__set_name__`` while a class is made (matplotlib's axes at import)
+    reaches the command as ``RuntimeError`` from ``KeyboardInterrupt`` (Python 3.11): still
+    the one line and 130, not a traceback (a make-test run hit it at random)."""
+    script = (
+        "import sys, time\n"
+        "from servokit.cli import _app\n"
+        "_app._install_interrupt_handling()\n"
+        "class Slow:\n"
+        "    def __set_name__(self, owner, name):\n"
+        "        print('in set_name', file=sys.stderr, flush=True)\n"
+        "        time.sleep(30)\n"
+        "class App:\n"
+        "    def main(self, **kw):\n"
+        "        class Made:\n"
+        "            x = Slow()\n"
+        "_app.build_command = App\n"
+        "sys.exit(_app._run(()))\n"
+    )
+    env = dict(os.environ, PYTHONPATH=str(SRC))
+    proc = subprocess.Popen(
+        [sys.executable, "-c", script], env=env, cwd=tmp_path,
+        stdout=subprocess.PIPE, stderr=subprocess.PIPE, start_new_session=True,
+    )  # fmt: skip
+    seen = _wait_for_stderr(proc, "in set_name")
+    code, seconds, err = _interrupt(proc, seen)
+    _assert_interrupted(code, seconds, err, seen)
+
+
+def test_from_interrupt_follows_causes_and_contexts() -> None:
+    from servokit.cli._app import from_interrupt
+
+    try:
+        try:
+            raise KeyboardInterrupt
+        except KeyboardInterrupt:
+            raise ValueError("while interrupted") from None  # no cause, a context
+    except ValueError as exc:
+        assert not from_interrupt(exc)  # `from None` hides the context: not ours
+    wrapped = RuntimeError("Error calling __set_name__")
+    wrapped.__cause__ = KeyboardInterrupt()
+    assert from_interrupt(wrapped)
+    loop = ValueError("a")
+    loop.__context__ = TypeError("b")
+    loop.__context__.__context__ = loop  # a cycle ends the walk
+    assert not from_interrupt(loop)
+
+
 @pytest.mark.slow
 def test_ctrl_c_with_dask_workers_exits_130_quietly(tmp_path) -> None:
     pytest.importorskip("distributed")

@@ -160,7 +160,8 @@ def main() -> None:
     from servokit.cli import _discover
 
     try:
-        _discover(sys.argv[1:])  # imports the command's module: Ctrl-C may land here too
+        # imports the command's module: Ctrl-C may land here too
+        _interruptible(_discover, sys.argv[1:])
     except KeyboardInterrupt:
         announce_interrupt()
         sys.exit(EXIT_INTERRUPTED)
@@ -189,7 +190,7 @@ def _run(usage: tuple[type[BaseException], ...]) -> int:
     """Run the app; return the exit status (errors printed as one line)."""
     try:
         # typer returns (not raises) the status of typer.Exit, and turns Ctrl-C into 130
-        code = build_command().main(prog_name="servokit", standalone_mode=False)
+        code = _interruptible(build_command().main, prog_name="servokit", standalone_mode=False)
         code = code if isinstance(code, int) else 0
         if code == EXIT_INTERRUPTED:
             announce_interrupt()
@@ -225,6 +226,47 @@ def _run(usage: tuple[type[BaseException], ...]) -> int:
             f"servokit: error: {text.strip().splitlines()[0] if text.strip() else exc}", err=True
         )
         return 2
+
+
+def _interruptible(func: Any, *args: Any, **kwargs: Any) -> Any:
+    """``func(*args, **kwargs)``; an exception caused by Ctrl-C is raised as the interrupt.
+
+    Python wraps an exception raised by ``__set_name__`` while a class is made (3.11:
+    ``RuntimeError: Error calling __set_name__``), so a Ctrl-C landing while matplotlib
+    imports arrived as a RuntimeError: a traceback and exit 1 instead of 130.
+    """
+    try:
+        return func(*args, **kwargs)
+    except Exception as exc:
+        if from_interrupt(exc):
+            raise KeyboardInterrupt from exc
+        raise
+
+
+def from_interrupt(exc: BaseException) -> bool:
+    """Whether ``exc`` was caused by a ``KeyboardInterrupt`` (in the chain of causes and
+    contexts a traceback would show).
+
+    Parameters
+    ----------
+    exc : BaseException
+
+    Returns
+    -------
+    bool
+    """
+    seen: set[int] = set()
+    link: BaseException | None = exc
+    while link is not None and id(link) not in seen:
+        if isinstance(link, KeyboardInterrupt):
+            return True
+        seen.add(id(link))
+        # the chain a traceback shows: the cause, else the context unless suppressed
+        if link.__cause__ is not None:
+            link = link.__cause__
+        else:
+            link = None if link.__suppress_context__ else link.__context__
+    return False
 
 
 def internal_names_to_flags(message: str) -> str:
