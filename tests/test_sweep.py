@@ -62,13 +62,19 @@ def test_memory_limit_refused_before_allocating():
         sweep_seek_times(VSET, FF, 1.0, n=10**9, max_memory_mb=100.0)
 
 
+@pytest.mark.parametrize("distribution", ["uniform", "normal"])
 @pytest.mark.parametrize("task_bytes", [None, 1000])
-def test_dask_local_cluster_matches_numpy(task_bytes, monkeypatch):
-    """Same numbers on Dask; with ``task_bytes`` the draws are split into tasks of at most
-    that many bytes (1000: 18 variants of 7 numbers each, 23 tasks instead of 8)."""
+def test_dask_local_cluster_matches_numpy(task_bytes, distribution, monkeypatch):
+    """Same numbers on Dask; with ``task_bytes`` the set is split into tasks of at most
+    that many bytes of draws (1000: 18 variants of 7 numbers each, 23 tasks instead of 8).
+    Uniform draws are made by each task (it carries ``(n, seed, lo, hi)``, no arrays);
+    normal draws travel with their task."""
+    import dataclasses
+
     distributed = pytest.importorskip("distributed")
     import servokit.seek.sweep as sweep_mod
 
+    vset = dataclasses.replace(VSET, distribution=distribution)
     submitted = []
     if task_bytes is not None:
         monkeypatch.setattr(sweep_mod, "TASK_BYTES", task_bytes)
@@ -81,19 +87,26 @@ def test_dask_local_cluster_matches_numpy(task_bytes, monkeypatch):
         submit = client.submit
 
         def counting(fn, *a, **k):  # noqa: ANN001, ANN002, ANN003, ANN202
-            submitted.append(a[1].nbytes)  # the task's draws
+            submitted.append(a[1])  # the task's rows
             return submit(fn, *a, **k)
 
         monkeypatch.setattr(client, "submit", counting)
-        on_dask = sweep_seek_times(VSET, FF, 1.0, n=400, seed=5, client=client)
-    in_proc = sweep_seek_times(VSET, FF, 1.0, n=400, seed=5)
+        on_dask = sweep_seek_times(vset, FF, 1.0, n=400, seed=5, client=client)
+    in_proc = sweep_seek_times(vset, FF, 1.0, n=400, seed=5)
     assert on_dask.backend == "dask" and on_dask.chunk_size == 50  # 4 chunks per worker
     np.testing.assert_array_equal(on_dask.seek_times, in_proc.seek_times)
+    np.testing.assert_array_equal(on_dask.draws, in_proc.draws)  # the worst plant
+    assert on_dask.gains == in_proc.gains
     assert on_dask.percentiles() == in_proc.percentiles()
     per_variant = (VSET.draw(1, 0)[0].shape[1] + 1) * 8
     cap = 50 if task_bytes is None else task_bytes // per_variant
     assert len(submitted) == -(-400 // cap)
-    assert max(submitted) <= cap * (per_variant - 8)  # the draws of one task
+    if distribution == "uniform":
+        assert all(len(r) == 4 and r[:2] == (400, 5) for r in submitted)
+        sizes = [r[3] - r[2] for r in submitted]
+    else:
+        sizes = [r[0].shape[0] for r in submitted]
+    assert sum(sizes) == 400 and max(sizes) <= cap
 
 
 def test_missing_dask_extra_is_one_clear_error(monkeypatch):
@@ -233,8 +246,11 @@ def test_worker_chunk_tunes_the_heap_and_gives_the_same_numbers(monkeypatch):
     args = (held, 1.0, 0.1, None, None)
     ref = sweep_mod._chunk_seek_times(VSET, draws, gains, *args)
     for chunk in (7, 3, 1):  # a task in chunks; the heap set up once (idempotent)
-        task = sweep_mod._chunk_on_worker(VSET, draws, gains, args, chunk)
+        task = sweep_mod._chunk_on_worker(VSET, (draws, gains), args, chunk)
         np.testing.assert_array_equal(task, ref)
+        # a task that draws its own rows (2:6 of the same seven) gives theirs
+        task = sweep_mod._chunk_on_worker(VSET, (7, 3, 2, 6), args, chunk)
+        np.testing.assert_array_equal(task, ref[2:6])
     assert calls  # the task set the heap up
 
 

@@ -284,6 +284,54 @@ class VariationSet:
         both = np.clip((lows + highs) / 2 + z * (highs - lows) / 6, lows, highs)
         return both[:, :-1], both[:, -1]
 
+    @property
+    def rows_drawable(self) -> bool:
+        """Whether :meth:`draw_rows` makes rows of :meth:`draw` without the others (uniform
+        draws: one 64-bit output of the generator per number)."""
+        return self.distribution == "uniform"
+
+    def draw_rows(
+        self, n: int, seed: int | None, lo: int, hi: int
+    ) -> tuple[np.ndarray, np.ndarray]:
+        """Rows ``lo:hi`` of ``draw(n, seed)``, bit for bit.
+
+        Uniform draws take one 64-bit output of NumPy's default generator (PCG64) per
+        number, ranges row by row and then the gains, so the generator is advanced past
+        the rows before ``lo`` (``PCG64.advance``) and only ``hi - lo`` rows are made: a
+        Dask worker draws its own plants instead of receiving them.  Normal draws
+        (ziggurat: a varying number of outputs per number) are made whole and sliced.
+
+        Parameters
+        ----------
+        n : int
+            Number of draws of the whole set.
+        seed : int, optional
+            Random seed (default :attr:`seed`).
+        lo, hi : int
+            Rows ``0 <= lo <= hi <= n``.
+
+        Returns
+        -------
+        draws : numpy.ndarray
+            Shape ``(hi - lo, len(ranges))``.
+        gains : numpy.ndarray
+            Shape ``(hi - lo,)``.
+        """
+        if n < 1 or not 0 <= lo <= hi <= n:
+            raise ServokitValueError(f"need 0 <= lo <= hi <= n (got {lo}, {hi}, {n})")
+        rng = np.random.default_rng(self.seed if seed is None else seed)
+        if not (self.rows_drawable and type(rng.bit_generator) is np.random.PCG64):
+            draws, gains = self.draw(n, seed)
+            return draws[lo:hi].copy(), gains[lo:hi].copy()
+        width = len(self.ranges)
+        lows = np.array([p.low for p in self.ranges])
+        highs = np.array([p.high for p in self.ranges])
+        rng.bit_generator.advance(lo * width)
+        draws = rng.uniform(lows, highs, size=(hi - lo, width))
+        rng.bit_generator.advance((n - hi) * width + lo)  # to the gain of row lo
+        gains = rng.uniform(self.gain[0], self.gain[1], size=hi - lo)
+        return draws, gains
+
     def from_draws(self, draws: np.ndarray, gains: np.ndarray) -> list[ModalPlant]:
         """Plants for rows of relative changes (one per range) and relative gains.
 

@@ -142,12 +142,13 @@ def _chunk_seek_times(
     )
 
 
-def _chunk_on_worker(
-    vset: VariationSet, draws: np.ndarray, gains: np.ndarray, args: tuple, chunk_size: int
-) -> np.ndarray:
+def _chunk_on_worker(vset: VariationSet, rows: tuple, args: tuple, chunk_size: int) -> np.ndarray:
     """One Dask task: its plants in chunks of ``chunk_size`` in a worker process (heap
-    tuned first), as :func:`_chunk_seek_times` does in-process."""
+    tuned first), as :func:`_chunk_seek_times` does in-process. ``rows`` is
+    ``(n, seed, lo, hi)`` (rows ``lo:hi`` of ``vset.draw(n, seed)``, drawn here) or
+    ``(draws, gains)``."""
     keep_freed_arrays()
+    draws, gains = vset.draw_rows(*rows) if len(rows) == 4 else rows
     out = np.empty(draws.shape[0])
     for sl in _chunks(draws.shape[0], chunk_size):
         out[sl] = _chunk_seek_times(vset, draws[sl], gains[sl], *args)
@@ -343,27 +344,27 @@ def sweep_seek_times(
         max_memory_mb=max_memory_mb,
         n_workers=n_workers,
     )
-    draws, gains = vset.draw(n, seed)
     args = (held, float(target), band, grid, horizon)
     times = np.empty(n)
     tick = progress or (lambda k: None)
     if client is None:
         from threadpoolctl import threadpool_limits
 
+        draws, gains = vset.draw(n, seed)
         # the parallelism is across chunks: BLAS threads on top of it oversubscribe the
         # cores and spin (measured at 10^5 variants on 2 cores: 7.4 -> 3.1 CPU s with
         # one sweep thread, 2.7 -> 1.6 s wall with two)
         keep_freed_arrays()  # 2x in-process as in the workers (3.0 -> 1.5 s at 10^5)
         with threadpool_limits(limits=1):
             _run_local(vset, draws, gains, args, chunk_size, times, tick, threads)
-        backend = "numpy"
+        worst = int(np.argmax(times))
+        draw, gain, backend = draws[worst], gains[worst], "numpy"
     else:
-        _run_dask(client, vset, draws, gains, args, chunk_size, times, tick, n_workers)
-        backend = "dask"
-    worst = int(np.argmax(times))
-    return SweepResult(
-        times, draws[worst], gains[worst], chunk_size, chunk_size * per_plant / 1e6, backend
-    )
+        _run_dask(client, vset, (n, seed), args, chunk_size, times, tick, n_workers)
+        worst = int(np.argmax(times))
+        rows = vset.draw_rows(n, seed, worst, worst + 1)  # the workers drew the plants
+        draw, gain, backend = rows[0][0], rows[1][0], "dask"
+    return SweepResult(times, draw, gain, chunk_size, chunk_size * per_plant / 1e6, backend)
 
 
 def _run_local(
@@ -400,8 +401,7 @@ TASK_BYTES = 4_000_000
 def _run_dask(
     client: Any,
     vset: VariationSet,
-    draws: np.ndarray,
-    gains: np.ndarray,
+    sample: tuple[int, int],
     args: tuple,
     chunk_size: int,
     out: np.ndarray,
@@ -414,22 +414,24 @@ def _run_dask(
     A task per chunk (~800 plants, 0.03-0.1 s) made the scheduler round trips a large
     part of the run on a busy machine; a few tasks per worker keep all of them busy to
     the end, and the chunks inside a task keep the working set (and the memory) of an
-    in-process chunk. A task carries its draws in its graph (up to :data:`TASK_BYTES`, so
+    in-process chunk. A task draws its own plants where the draws allow it
+    (:meth:`~servokit.models.VariationSet.draw_rows`: the rows of ``draw(n, seed)``
+    bit for bit) and otherwise carries them in its graph (up to :data:`TASK_BYTES`, so
     that no graph is the size Dask warns about); scattered draws would be lost with a
     worker that dies, and the sweep with them.
     """
     from distributed import as_completed
 
-    n = draws.shape[0]
-    per_variant = (draws.shape[1] + 1) * draws.itemsize
+    n, seed = sample
+    per_variant = (len(vset.ranges) + 1) * 8
     task = max(chunk_size, -(-n // (4 * n_workers)))
     task = max(1, min(task, TASK_BYTES // per_variant))
     vset_f = client.scatter(vset, broadcast=True)
+    drawn = None if vset.rows_drawable else vset.draw(n, seed)
     futures = {}
     for sl in _chunks(n, task):
-        fut = client.submit(
-            _chunk_on_worker, vset_f, draws[sl], gains[sl], args, chunk_size, pure=False
-        )
+        rows = (n, seed, sl.start, sl.stop) if drawn is None else (drawn[0][sl], drawn[1][sl])
+        fut = client.submit(_chunk_on_worker, vset_f, rows, args, chunk_size, pure=False)
         futures[fut] = sl
     for fut in as_completed(futures):
         sl = futures[fut]
