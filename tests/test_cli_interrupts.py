@@ -97,20 +97,22 @@ def test_interrupt_swallowed_by_a_weakref_callback_still_exits_130(tmp_path) -> 
         "t = T(); r = weakref.ref(t, slow); del t\n"
         "time.sleep(30)\n"
     )
-    env = dict(os.environ, PYTHONPATH=str(SRC))
+    _interrupt_script_at(script, "in callback")
+
+
+def _interrupt_script_at(script: str, marker: str) -> None:
+    """Run ``script`` in its own process group, Ctrl-C it once it printed ``marker`` on
+    stderr, and check the interrupted exit (130, in time, one line)."""
     proc = subprocess.Popen(
-        [sys.executable, "-c", script],
-        env=env,
-        stdout=subprocess.PIPE,
-        stderr=subprocess.PIPE,
-        start_new_session=True,
-    )
-    seen = _wait_for_stderr(proc, "in callback")
+        [sys.executable, "-c", script], env=dict(os.environ, PYTHONPATH=str(SRC)),
+        stdout=subprocess.PIPE, stderr=subprocess.PIPE, start_new_session=True,
+    )  # fmt: skip
+    seen = _wait_for_stderr(proc, marker)
     code, seconds, err = _interrupt(proc, seen)
     _assert_interrupted(code, seconds, err, seen)
 
 
-def test_interrupt_wrapped_by_python_still_exits_130(tmp_path) -> None:
+def test_interrupt_wrapped_by_python_still_exits_130() -> None:
     """Ctrl-C inside ``__set_name__`` while a class is made (matplotlib's axes at import)
     reaches the command as ``RuntimeError`` from ``KeyboardInterrupt`` (Python 3.11): still
     the one line and 130, not a traceback (a make-test run hit it at random)."""
@@ -129,14 +131,7 @@ def test_interrupt_wrapped_by_python_still_exits_130(tmp_path) -> None:
         "_app.build_command = App\n"
         "sys.exit(_app._run(()))\n"
     )
-    env = dict(os.environ, PYTHONPATH=str(SRC))
-    proc = subprocess.Popen(
-        [sys.executable, "-c", script], env=env, cwd=tmp_path,
-        stdout=subprocess.PIPE, stderr=subprocess.PIPE, start_new_session=True,
-    )  # fmt: skip
-    seen = _wait_for_stderr(proc, "in set_name")
-    code, seconds, err = _interrupt(proc, seen)
-    _assert_interrupted(code, seconds, err, seen)
+    _interrupt_script_at(script, "in set_name")
 
 
 def test_from_interrupt_follows_causes_and_contexts() -> None:
