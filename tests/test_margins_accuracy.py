@@ -222,6 +222,51 @@ def test_inaccurate_schur_form_gives_way_to_lu():
     assert np.max(np.abs(loop_evaluator(factors, 0.0, dt)(f) / ref - 1)) <= 1e-13
 
 
+def test_undamped_mode_on_a_probe_keeps_the_schur_check():
+    # the ill-separated cluster above in series with 1/(s^2 + 1): the probe at the undamped
+    # mode's frequency is exactly its pole, so the batched LU solve raised and every probe
+    # came back inf; the check then passed vacuously and kept the split form, 4.5e-5
+    # relative off near the cluster
+    gaps = 1 + 10.0 ** np.array([-3.1875, -4.0625, -4.875])
+    poles = 10.0**-2.50446849246768 * np.cumprod([1.0, *gaps])
+    g = control.series(
+        control.ss(control.tf([1.5e-10], np.poly(-poles))),
+        control.ss(control.tf([1.0], [1.0, 0.0, 1.0])),
+    )
+    f = np.geomspace(1e-4, 2e-3, 20)
+    with mpmath.workdps(50):
+        ref = np.array([complex(mp_loop([g], mpmath.mpf(float(x)))) for x in f])
+    factors, dt = loop_factors(g)
+    assert np.max(np.abs(loop_evaluator(factors, 0.0, dt)(f) / ref - 1)) <= 1e-12
+
+
+def test_a_form_that_is_not_finite_does_not_agree():
+    from servokit.feedback.exact_forms import agrees, dense_exact
+
+    A = np.array([[0.0, 1.0], [-4.0, -0.4]])
+    exact = dense_exact(A, np.array([[0.0], [1.0]]), np.array([[1.0, 0.0]]), 0j, _x_of_s)
+    poles = np.linalg.eigvals(A)
+    assert not agrees(lambda f: np.full(np.shape(f), np.nan + 0j), poles, exact, None)
+    assert not agrees(lambda f: np.full(np.shape(f), np.inf + 0j), poles, exact, None)
+    assert agrees(lambda f: exact(f)[0], poles, exact, None)
+
+
+def _x_of_s(f: np.ndarray) -> np.ndarray:
+    return 2j * np.pi * np.asarray(f, dtype=float)
+
+
+def test_dense_exact_is_finite_off_a_pole_that_one_point_hits():
+    # one point exactly on a pole made the batched solve raise: every point was inf
+    from servokit.feedback.exact_forms import dense_exact
+
+    A = np.array([[0.0, 1.0], [-1.0, 0.0]])  # poles +-j: 1/(2 pi) Hz is exactly on one
+    exact = dense_exact(A, np.array([[0.0], [1.0]]), np.array([[1.0, 0.0]]), 0j, _x_of_s)
+    f = np.array([0.05, 1 / (2 * np.pi), 0.5])
+    val = exact(f)[0]
+    assert np.isinf(val[1])
+    assert val[[0, 2]] == pytest.approx(1 / (1 - (2 * np.pi * f[[0, 2]]) ** 2), rel=1e-14)
+
+
 def test_accurate_evaluator_at_the_crossings_of_the_dual_stage_loop():
     # Table 5.2's loop: partial fractions cancel (kappa ~ 100-400) at the highest phase
     # crossover, where the LU solve / Horner forms take over
