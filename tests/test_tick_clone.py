@@ -226,3 +226,22 @@ def test_tick_props_deep_copy_a_changed_marker(change):
         want, ax.xaxis._get_tick(True).tick1line._marker.get_transform().get_matrix()
     )
     plt.close(fig)
+
+
+@pytest.mark.skipif(not clone_supported(), reason="unchecked matplotlib")
+def test_tick_props_see_a_marker_changed_after_its_check():
+    # polar ticks rotate their marker's transform in place at every update_position: a
+    # source marker checked once and changed later must be copied with the change
+    fig, ax = plt.subplots()
+    src = ax.xaxis.get_major_ticks()[0]
+    props = _tick_clone.TickProps(ax.xaxis)
+    props(src, ax.xaxis._get_tick(True))  # the marker checked: rebuildable
+    src.tick1line._marker._transform.rotate(0.3)
+    fast, plain = ax.xaxis._get_tick(True), ax.xaxis._get_tick(True)
+    props(src, fast)
+    type(ax.xaxis)._copy_tick_props(ax.xaxis, src, plain)
+    assert _tick_clone.same_marker(fast.tick1line._marker, plain.tick1line._marker)
+    src.tick1line._marker._transform = plain.tick1line._marker._transform.frozen()
+    props(src, fast)  # a new transform object with the same matrix: still the change
+    assert _tick_clone.same_marker(fast.tick1line._marker, plain.tick1line._marker)
+    plt.close(fig)
