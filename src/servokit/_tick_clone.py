@@ -32,6 +32,7 @@ from __future__ import annotations
 
 import enum
 import inspect
+import operator
 import types
 from collections.abc import Iterator
 from contextlib import contextmanager
@@ -303,6 +304,19 @@ def same_marker(a: Any, b: Any) -> bool:
         return False
 
 
+def _state(marker: Any) -> tuple:
+    """What a change of ``marker`` in place alters (polar ticks rotate its transform at
+    every ``update_position``): its attributes' objects and its transforms' matrices."""
+    d = vars(marker)
+    moved = [d.get(k) for k in ("_transform", "_alt_transform")]
+    mats = tuple(t.get_matrix().tobytes() for t in moved if t is not None)
+    return tuple(d), tuple(d.values()), mats
+
+
+def _same_state(a: tuple, b: tuple) -> bool:
+    return a[0] == b[0] and all(map(operator.is_, a[1], b[1])) and a[2] == b[2]
+
+
 class TickProps:
     """``Axis._copy_tick_props`` of one axis with the tick lines' markers rebuilt.
 
@@ -310,9 +324,10 @@ class TickProps:
     each deep-copying the first tick's ``MarkerStyle`` (its paths, transforms and, through
     its bound marker function, the marker once more): 32 µs a line, 0.1 ms of the 0.12 ms
     a tick takes to copy.  A marker that holds exactly the state its arguments make
-    (checked once per source marker: :func:`same_marker`) is instead made again from
-    them, as a fresh tick's is (8 µs); the other properties are copied by matplotlib's own
-    method.  Any other marker is deep-copied as before.
+    (checked once per source marker, and again once it changed in place:
+    :func:`same_marker`) is instead made again from them, as a fresh tick's is (8 µs); the
+    other properties are copied by matplotlib's own method.  Any other marker is
+    deep-copied as before.
 
     Parameters
     ----------
@@ -323,15 +338,16 @@ class TickProps:
     def __init__(self, axis: Any) -> None:
         self.axis = axis
         self._plain = type(axis)._copy_tick_props
-        self._known: dict[int, tuple[Any, bool]] = {}
+        self._known: dict[int, tuple[Any, tuple, bool]] = {}
 
     def _rebuildable(self, marker: Any) -> bool:
         found = self._known.get(id(marker))
-        if found is None or found[0] is not marker:
+        state = _state(marker)
+        if found is None or found[0] is not marker or not _same_state(found[1], state):
             again = _rebuilt(marker)
-            found = (marker, again is not None and same_marker(again, marker))
+            found = (marker, state, again is not None and same_marker(again, marker))
             self._known[id(marker)] = found
-        return found[1]
+        return found[2]
 
     def __call__(self, src: Any, dest: Any) -> None:
         """Copy the properties of tick ``src`` to tick ``dest``."""
