@@ -17,13 +17,11 @@ from hypothesis import strategies as st
 
 import servokit.feedforward._qp_rows as qp_rows
 from servokit.feedforward._qp_rows import MIN_ROWS, solve_by_rows
+from servokit.feedforward._qp_solve import _polish, _run_solver, _stationary_point
+from servokit.feedforward._qp_solve import max_violation as _max_violation
 from servokit.feedforward.constraints import (
     InputLimit,
     VelocityLimit,
-    _max_violation,
-    _polish,
-    _run_solver,
-    _stationary_point,
     constraint_rows,
     solve_fsc_qp,
 )

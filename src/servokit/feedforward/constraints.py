@@ -23,11 +23,9 @@ is infeasible (:class:`InfeasibleConstraintsError`).
 
 from __future__ import annotations
 
-import functools
-import warnings
 from collections.abc import Iterable, Sequence
 from dataclasses import dataclass
-from typing import TYPE_CHECKING
+from typing import TYPE_CHECKING, NoReturn
 
 import numpy as np
 
@@ -36,8 +34,7 @@ import numpy as np
 import scipy
 
 from servokit.errors import ServokitTypeError, ServokitValueError, check_finite, check_positive
-from servokit.feedforward import _qp_rows
-from servokit.feedforward._qp_rows import solve_by_rows
+from servokit.feedforward._qp_solve import feasible, max_violation, solve_reduced
 
 if TYPE_CHECKING:
     from servokit.feedforward.fsc import LiftedModel
@@ -54,9 +51,6 @@ __all__ = [
     "constraint_rows",
     "solve_fsc_qp",
 ]
-
-#: accepted relative violation of an inequality row after the solve
-_INEQ_RTOL = 1e-6
 
 
 class InfeasibleConstraintsError(ServokitValueError):
@@ -347,111 +341,6 @@ def _null_space_split(A_eq: np.ndarray, b_eq: np.ndarray) -> tuple[np.ndarray, n
     return U_p, vt[rank:].T
 
 
-def _feasible(G: np.ndarray, h: np.ndarray) -> bool:
-    """Whether ``G w <= h`` has a solution (HiGHS LP with zero cost)."""
-    if G.shape[0] == 0:
-        return True
-    from servokit._highs_lp import linprog_highs  # linprog's answer, less call overhead
-
-    res = linprog_highs(np.zeros(G.shape[1]), G, h, [(None, None)] * G.shape[1])
-    return bool(res.status == 0)
-
-
-def _run_solver(
-    solver: str, P: np.ndarray, q: np.ndarray, G: np.ndarray, h: np.ndarray
-) -> np.ndarray | None:
-    from qpsolvers import Problem, solve_problem
-
-    if solver == "clarabel":
-        Pm, Gm = scipy.sparse.csc_matrix(P), scipy.sparse.csc_matrix(G) if G.size else None
-        opts: dict[str, float] = {"tol_gap_abs": 1e-12, "tol_gap_rel": 1e-12, "tol_feas": 1e-12}
-    else:
-        Pm, Gm = P, G if G.size else None
-        opts = {"eps_abs": 1e-11, "eps_rel": 1e-11}
-    problem = Problem(Pm, q, Gm, h if G.size else None)
-    with warnings.catch_warnings():
-        warnings.simplefilter("ignore")
-        try:
-            sol = solve_problem(problem, solver=solver, **opts)
-        except Exception:  # noqa: BLE001 - a failing backend falls through to the next one
-            return None
-    if not sol.found or sol.x is None or not np.all(np.isfinite(sol.x)):
-        return None
-    return np.asarray(sol.x, dtype=float)
-
-
-def _stationary_point(P: np.ndarray, q: np.ndarray) -> np.ndarray:
-    """``w`` with ``P w = -q`` (Cholesky; least squares if ``P`` is only semi-definite)."""
-    try:
-        return scipy.linalg.cho_solve(scipy.linalg.cho_factor(P), -q)
-    except (np.linalg.LinAlgError, ValueError):
-        return np.linalg.lstsq(P, -q, rcond=None)[0]
-
-
-def _active_set(
-    P: np.ndarray, q: np.ndarray, G: np.ndarray, h: np.ndarray, w: np.ndarray,
-    iterations: int = 6,
-) -> np.ndarray | None:  # fmt: skip
-    """Exact optimum of ``min w^T P w + 2 q^T w`` s.t. ``G w <= h`` by active-set steps
-    from ``w``, or None when they do not settle within ``iterations``.
-
-    Starting from the rows active (normalised slack below 1e-7) or violated at ``w``, the
-    equality-constrained QP on the active set is solved exactly (its KKT system), violated
-    rows are added and rows with negative multipliers dropped, until neither happens: then
-    every inequality holds with non-negative multipliers, the KKT conditions of the full
-    problem.
-    """
-
-    def rel(v: np.ndarray) -> np.ndarray:  # normalised constraint values, <= 0 feasible
-        return (G @ v - h) / (np.abs(G) @ np.abs(v) + np.abs(h) + 1e-300)
-
-    act, n = rel(w) > -1e-7, w.size
-    for _ in range(iterations):
-        m = int(act.sum())
-        K = np.zeros((n + m, n + m))
-        K[:n, :n], K[:n, n:], K[n:, :n] = P, G[act].T, G[act]
-        try:  # an ill-conditioned KKT matrix means a degenerate active set: give up
-            with warnings.catch_warnings():
-                warnings.simplefilter("error", scipy.linalg.LinAlgWarning)
-                sol = scipy.linalg.solve(K, np.r_[-q, h[act]], assume_a="sym")
-        except (np.linalg.LinAlgError, ValueError, scipy.linalg.LinAlgWarning):
-            return None
-        if not np.all(np.isfinite(sol)):
-            return None
-        we, lam = sol[:n], np.zeros(act.size)
-        lam[act] = sol[n:]
-        add = rel(we) > 1e-12
-        drop = act & (lam < -1e-9 * max(1.0, float(np.max(np.abs(lam)))))
-        if not add.any() and not drop.any():
-            return we
-        act = (act | add) & ~drop
-    return None
-
-
-def _polish(
-    P: np.ndarray, q: np.ndarray, G: np.ndarray, h: np.ndarray, w: np.ndarray
-) -> np.ndarray:
-    """The exact optimum on the active set of an interior-point answer ``w``, if found.
-
-    An interior-point solver stops at its tolerance, which along weakly curved directions
-    of the FSC cost leaves the minimiser off by up to ~1e-4 relative (HDD FFSC, N = 300).
-    :func:`_active_set` from ``w`` gives the exact optimum; it is kept if it costs no more
-    than ``w``, otherwise ``w`` is returned.
-    """
-    we = _active_set(P, q, G, h, w)
-    if we is None:
-        return w
-    cost_w, cost_e = (float(v @ (P @ v) + 2 * q @ v) for v in (w, we))
-    return we if cost_e <= cost_w + 1e-12 * abs(cost_w) else w
-
-
-def _max_violation(G: np.ndarray, h: np.ndarray, w: np.ndarray) -> float:
-    if G.shape[0] == 0:
-        return 0.0
-    scale = np.abs(G) @ np.abs(w) + np.abs(h) + 1e-300
-    return float(np.max((G @ w - h) / scale))
-
-
 def solve_fsc_qp(
     P: np.ndarray,
     q: np.ndarray,
@@ -500,6 +389,29 @@ def solve_fsc_qp(
     ServokitValueError
         Shapes inconsistent, or both solvers fail on a feasible problem.
     """
+    P, q, A_eq, b_eq, G, h, groups = _checked_qp(P, q, A_eq, b_eq, G, h, groups, solver)
+    U_p, Z = _null_space_split(A_eq, b_eq)
+    red = _reduced(P, q, G, h, U_p, Z, groups)
+    w = np.zeros(0)  # no null space: every row is constant and was checked
+    if Z.shape[1]:
+
+        def violation_at(w0: np.ndarray) -> float:
+            return max_violation(G, h, U_p + red.w_scale * (Z @ w0))
+
+        w = solve_reduced(red.P, red.q, red.G, red.h, solver, violation_at)
+    if w is None:
+        _raise_unsolved(red)
+    U = U_p + Z @ (red.w_scale * w)
+    _check_final_state(A_eq, b_eq, U, rtol)
+    return U
+
+
+def _checked_qp(
+    P: np.ndarray, q: np.ndarray, A_eq: np.ndarray, b_eq: np.ndarray,
+    G: np.ndarray | None, h: np.ndarray | None,
+    groups: Sequence[tuple[str, int]] | None, solver: str,
+) -> tuple[np.ndarray, ...]:  # fmt: skip
+    """The arguments of :func:`solve_fsc_qp` as checked float arrays (and the groups)."""
     P = check_finite("P", P)
     N = P.shape[0]
     if P.shape != (N, N):
@@ -522,10 +434,29 @@ def solve_fsc_qp(
         groups = [("inequality constraints", G.shape[0])] if G.shape[0] else []
     if sum(n for _, n in groups) != G.shape[0]:
         raise ServokitValueError("groups must cover the rows of G exactly (sum of n_rows)")
+    return P, q, A_eq, b_eq, G, h, groups
 
-    U_p, Z = _null_space_split(A_eq, b_eq)
-    # In w-space: U = U_p + Z w.  Rows of G are equilibrated so the solver tolerance is
-    # relative to each constraint's size.
+
+@dataclass
+class _Reduced:
+    """The QP in ``w`` (``U = U_p + w_scale Z w``), scaled to O(1): ``w^T P w + 2 q^T w``
+    subject to ``G w <= h``, with the row groups that survived."""
+
+    P: np.ndarray
+    q: np.ndarray
+    G: np.ndarray
+    h: np.ndarray
+    w_scale: float
+    groups: list[tuple[str, np.ndarray]]
+
+
+def _reduced(
+    P: np.ndarray, q: np.ndarray, G: np.ndarray, h: np.ndarray, U_p: np.ndarray,
+    Z: np.ndarray, groups: Sequence[tuple[str, int]],
+) -> _Reduced:  # fmt: skip
+    """The QP in the null space of the final state; rows it cannot move are checked here
+    (:class:`InfeasibleConstraintsError` naming the group) and dropped."""
+    # rows of G are equilibrated so the solver tolerance is relative to each one's size
     Gw = G @ Z
     hw = h - G @ U_p
     row = np.linalg.norm(Gw, axis=1)
@@ -541,57 +472,41 @@ def solve_fsc_qp(
         )
     keep = ~const_rows
     Gw, hw, row = Gw[keep], hw[keep], row[keep]
-    kept_groups = _kept_groups(groups, keep)
     # w = w_scale * w~ with w_scale the size of the particular solution: the solvers'
     # absolute tolerances then apply to an O(1) problem (a HDD input of 1e-7 A/step with
     # a cost of 1e-13 otherwise stops PIQP at its first iterate, far from the optimum)
     w_scale = float(np.max(np.abs(U_p), initial=0.0)) or 1.0
-    Gw, hw = Gw / row[:, None], hw / (row * w_scale)
     Pw = Z.T @ P @ Z
     Pw = 0.5 * (Pw + Pw.T)
     qw = Z.T @ (P @ U_p + q)
     cost_scale = max(float(np.max(np.abs(np.diag(Pw)), initial=0.0)), 1e-300)
-    Pw, qw = Pw / cost_scale, qw / (cost_scale * w_scale)
+    return _Reduced(
+        Pw / cost_scale,
+        qw / (cost_scale * w_scale),
+        Gw / row[:, None],
+        hw / (row * w_scale),
+        w_scale,
+        _kept_groups(groups, keep),
+    )
 
-    # with an empty null space every row is constant and was checked above
-    w = np.zeros(0) if Z.shape[1] == 0 else None
-    start = None  # the unconstrained optimum, where the row generation starts
-    if w is None:
-        # the unconstrained optimum, when it meets every limit, is the answer: exact, and it
-        # spares the interior-point solvers the degenerate case of limits touching it
-        w0 = _stationary_point(Pw, qw)
-        stationary = np.linalg.norm(Pw @ w0 + qw) <= 1e-10 * max(np.linalg.norm(qw), 1.0)
-        start = w0 if stationary else None
-        # judged in U-space: in w-space the relative scale vanishes where w0 = 0
-        if stationary and _max_violation(G, h, U_p + w_scale * (Z @ w0)) <= _INEQ_RTOL:
-            w = w0
-        elif stationary and 0 < Gw.shape[0] < _qp_rows.MIN_ROWS:
-            # active-set iterations from the unconstrained optimum: exact, and on the FSC
-            # problems a few dense solves instead of a whole interior-point run (with more
-            # rows the generated-rows solve below is cheaper: the galvano N = 351 designs
-            # never settled in 12 iterations, 40 ms each)
-            w = _active_set(Pw, qw, Gw, hw, w0, iterations=12)
-    backends = (solver, "clarabel" if solver == "piqp" else "piqp")
-    for name in backends if w is None else ():
-        # on the rows the unconstrained optimum violates first (_qp_rows): same optimum
-        cand = solve_by_rows(functools.partial(_run_solver, name), Pw, qw, Gw, hw, start)
-        if cand is not None and _max_violation(Gw, hw, cand) <= _INEQ_RTOL:
-            w = _polish(Pw, qw, Gw, hw, cand)
-            break
-    if w is None:
-        if not _feasible(Gw, hw):
-            binding = _binding_groups(Gw, hw, kept_groups)
-            names = ", ".join(f"'{b}'" for b in binding) or "all constraints together"
-            raise InfeasibleConstraintsError(
-                f"no input reaches the final state within the constraints; binding: {names}. "
-                "Relax that limit or increase N",
-                binding,
-            )
-        raise ServokitValueError(
-            "the QP solvers (piqp, clarabel) failed on a feasible constrained FSC problem; "
-            "rescale the model (e.g. normalised units) or change N"
+
+def _raise_unsolved(red: _Reduced) -> NoReturn:
+    """Why no answer was found: the binding groups, or the solvers' failure."""
+    if not feasible(red.G, red.h):
+        binding = _binding_groups(red.G, red.h, red.groups)
+        names = ", ".join(f"'{b}'" for b in binding) or "all constraints together"
+        raise InfeasibleConstraintsError(
+            f"no input reaches the final state within the constraints; binding: {names}. "
+            "Relax that limit or increase N",
+            binding,
         )
-    U = U_p + Z @ (w_scale * w)
+    raise ServokitValueError(
+        "the QP solvers (piqp, clarabel) failed on a feasible constrained FSC problem; "
+        "rescale the model (e.g. normalised units) or change N"
+    )
+
+
+def _check_final_state(A_eq: np.ndarray, b_eq: np.ndarray, U: np.ndarray, rtol: float) -> None:
     resid = np.abs(A_eq @ U - b_eq)
     denom = np.abs(A_eq) @ np.abs(U) + np.abs(b_eq)
     err = float(np.max(resid / np.where(denom > 0, denom, 1.0), initial=0.0))
@@ -600,7 +515,6 @@ def solve_fsc_qp(
             f"constrained FSC missed the final state by a relative {err:.2e} > rtol={rtol:.1e}; "
             "reduce N or rescale the model"
         )
-    return U
 
 
 def _group_of(index: int, groups: Sequence[tuple[str, int]]) -> str:
@@ -629,4 +543,4 @@ def _binding_groups(
     labels = np.concatenate([np.full(int(m.sum()), i) for i, (_, m) in enumerate(groups)])
     if len(groups) == 1:
         return [groups[0][0]]
-    return [name for i, (name, _) in enumerate(groups) if _feasible(G[labels != i], h[labels != i])]
+    return [name for i, (name, _) in enumerate(groups) if feasible(G[labels != i], h[labels != i])]
