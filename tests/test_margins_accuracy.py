@@ -24,6 +24,7 @@ from servokit.feedback.factor_response import (
     _poly_roots,
     _tf_partial_fractions,
     loop_evaluator,
+    make_factor,
 )
 from servokit.feedback.margins import loop_factors
 
@@ -323,3 +324,33 @@ def test_undamped_mode_with_a_rigid_body_keeps_the_split_form():
         f = w / (2 * np.pi) * np.array([0.1, 0.5, 0.9, 1.1, 2.0, 10.0])
         ref = [1 / (2j * np.pi * x) ** 2 + w**2 / ((2j * np.pi * x) ** 2 + w**2) for x in f]
         assert loop_evaluator(factors, 0.0, dt)(f) == pytest.approx(ref, rel=1e-12)
+
+
+def test_well_decoupled_split_skips_the_lu_check(monkeypatch):
+    # a rigid body with 40 lightly damped modes as a state space: the split Schur form
+    # (||X|| = 0) is kept without the O(n^4) probe check, and is accurate
+    from servokit.feedback import exact_forms, factor_response
+
+    m = 40
+    w = 2 * np.pi * np.geomspace(100, 20000, m)
+    n = 2 * m + 2
+    A = np.zeros((n, n))
+    A[0, 1] = 1
+    for i, wi in enumerate(w):
+        j = 2 + 2 * i
+        A[j, j + 1], A[j + 1, j], A[j + 1, j + 1] = 1, -(wi**2), -0.02 * wi
+    B = np.zeros((n, 1))
+    B[1, 0] = 1
+    B[3::2, 0] = np.linspace(0.5, 1.0, m) * w**2
+    C = np.zeros((1, n))
+    C[0, 0], C[0, 2::2] = 1, 1
+    g = control.ss(A, B, C, 0)
+    calls = []
+    monkeypatch.setattr(factor_response, "agrees", lambda *a: calls.append(1) or True)
+    factor_response.clear_factor_cache()
+    fa = make_factor(g)
+    assert fa.near is not None and not calls
+    f = np.geomspace(10, 5e4, 50)
+    x_of = lambda x: 2j * np.pi * x  # noqa: E731
+    lu = exact_forms.dense_exact(A, B, C, 0j, x_of)(f)[0]
+    assert np.max(np.abs(fa.response(f) / lu - 1)) < 1e-11
