@@ -134,6 +134,22 @@ def test_interrupt_wrapped_by_python_still_exits_130() -> None:
     _interrupt_script_at(script, "in set_name")
 
 
+def test_ctrl_c_between_the_steps_of_main_exits_130() -> None:
+    """Ctrl-C after the command's module is imported and before it runs (a fresh-clone CI
+    run hit ``import click`` in ``_usage_errors``: a traceback and exit -2)."""
+    script = (
+        "import sys, time\n"
+        "from servokit.cli import _app\n"
+        "def slow():\n"
+        "    print('in usage', file=sys.stderr, flush=True)\n"
+        "    time.sleep(30)\n"
+        "_app._usage_errors = slow\n"
+        "sys.argv = ['servokit', '--version']\n"
+        "_app.main()\n"
+    )
+    _interrupt_script_at(script, "in usage")
+
+
 def test_from_interrupt_follows_causes_and_contexts() -> None:
     from servokit.cli._app import from_interrupt
 

@@ -93,6 +93,8 @@ app = typer.Typer(
     rich_markup_mode=None,
     context_settings={"help_option_names": ["-h", "--help"]},
 )
+
+
 def build_command() -> Any:
     """The click command tree of :data:`app` with the number-flag rules applied."""
     import typer.main
@@ -157,14 +159,19 @@ def _usage_errors() -> tuple[type[BaseException], ...]:
 def main() -> None:
     """Entry point of the ``servokit`` command."""
     _install_interrupt_handling()
-    from servokit.cli import _discover
-
-    try:
-        # imports the command's module: Ctrl-C may land here too
-        _interruptible(_discover, sys.argv[1:])
+    try:  # Ctrl-C may land anywhere: the command's imports, the run, the last warning
+        code = _interruptible(_main)
     except KeyboardInterrupt:
         announce_interrupt()
-        sys.exit(EXIT_INTERRUPTED)
+        code = EXIT_INTERRUPTED
+    sys.exit(code)
+
+
+def _main() -> int:
+    """Import the command's module, run it; the exit status."""
+    from servokit.cli import _discover
+
+    _discover(sys.argv[1:])
     usage = _usage_errors()
     # numpy/matplotlib warnings are held back: on an error only the one error line shows
     with warnings.catch_warnings(record=True) as caught:
@@ -174,15 +181,14 @@ def main() -> None:
         for w in caught:
             warn(str(w.message).splitlines()[0])
     sys.stdout.flush()
-    sys.exit(code)
+    return code
 
 
 def _memory_message(argv: list[str]) -> str:
     flag = "--max-memory-mb"
     has = any(a == flag or a.startswith(flag + "=") for a in argv)
-    return (
-        "the request needs more memory than this machine (or the limit) allows; reduce the "
-        + ("sizes or lower the request" if has else f"sizes (the limit is {flag})")
+    return "the request needs more memory than this machine (or the limit) allows; reduce the " + (
+        "sizes or lower the request" if has else f"sizes (the limit is {flag})"
     )
 
 
