@@ -76,7 +76,13 @@ def positive_roots_in_w2(coeffs: list) -> list:
         coeffs = coeffs[1:]
     if len(coeffs) < 2:
         return []
-    roots = mpmath.polyroots(coeffs, maxsteps=400, extraprec=400)
+    # in u = ω² / s with s the geometric size of the roots, so that they are O(1): on
+    # unscaled coefficients (poles near 100 rad/s, ω² ~ 1e4 to the 6th power) a cluster
+    # left Durand-Kerner unconverged after 400 steps
+    m = len(coeffs) - 1
+    s = abs(coeffs[-1] / coeffs[0]) ** (mpmath.mpf(1) / m) if coeffs[-1] != 0 else 1
+    scaled = [c * s ** (m - i) for i, c in enumerate(coeffs)]
+    roots = [r * s for r in mpmath.polyroots(scaled, maxsteps=2000, extraprec=400)]
     scale = max(abs(r) for r in roots)
     real = [mpmath.re(r) for r in roots if abs(mpmath.im(r)) <= 1e-30 * scale]
     return sorted(mpmath.sqrt(r) for r in real if r > 0)

@@ -66,6 +66,9 @@ LIGHTLY_DAMPED = {
     p0=-2.0, gaps=[-3.0, -3.0, -3.0], others=[0.0], k=0.578125, form="tf"
 )  # dc gain 1.0045: the gain crossover at 9.4e-5 Hz, below the old 1e-4 Hz band edge
 @example(
+    p0=2.0, gaps=[-3.0, -3.0], others=[], k=3.125, form="tf"
+)  # the reference's Durand-Kerner did not converge on unscaled coefficients in ω²
+@example(
     p0=-2.50446849246768, gaps=[-3.1875, -4.0625, -4.875], others=[], k=1.0, form="ss"
 )  # a companion form's nearly defective cluster: the Schur form 3e-5 off, no phase crossover
 def test_clustered_poles_all_crossings_to_1e_9(p0, gaps, others, k, form):
