@@ -357,3 +357,16 @@ def test_well_decoupled_split_skips_the_lu_check(monkeypatch):
     x_of = lambda x: 2j * np.pi * x  # noqa: E731
     lu = exact_forms.dense_exact(A, B, C, 0j, x_of)(f)[0]
     assert np.max(np.abs(fa.response(f) / lu - 1)) < 1e-11
+
+
+def test_fractions_that_are_not_finite_are_not_faithful():
+    # partial fractions with a NaN residue (a failed reduction) must not pass the check
+    # where the exact form is finite (their error is NaN; it used to be dropped)
+    from servokit.feedback.exact_forms import faithful, horner_exact
+
+    num, den = np.array([1.0]), np.poly([-1.0, -3.0])
+    x_of = lambda f: 2j * np.pi * f  # noqa: E731
+    exact = horner_exact(num, den, x_of)
+    poles = np.array([-1.0, -3.0], dtype=complex)
+    assert faithful(_tf_partial_fractions(num, den, poles), x_of, exact, None)
+    assert not faithful((poles, np.array([np.nan, -0.5 + 0j]), 0j), x_of, exact, None)
