@@ -163,7 +163,6 @@ def _copy_artist(artist: Any) -> Any:
     """A copy of one fresh ``Line2D`` or ``Text`` of a tick (checked by
     :func:`_artist_known`): its own registry, data, marker, path, font properties."""
     from matplotlib.lines import Line2D
-    from matplotlib.markers import MarkerStyle
     from matplotlib.path import Path
 
     new = object.__new__(type(artist))
@@ -171,10 +170,7 @@ def _copy_artist(artist: Any) -> Any:
     state.update(vars(artist))
     state["_callbacks"] = _fresh_registry(artist._callbacks)
     if type(artist) is Line2D:
-        m = artist._marker
-        state["_marker"] = MarkerStyle(
-            m._marker, m._fillstyle, m._user_transform, m._user_capstyle, m._user_joinstyle
-        )
+        state["_marker"] = _rebuilt(artist._marker)
         state["_xorig"], state["_yorig"] = list(artist._xorig), list(artist._yorig)
         if artist._xy is not None:
             state["_xy"] = xy = artist._xy.copy()
@@ -251,14 +247,15 @@ class _TickSource:
 
 
 def _rebuilt(marker: Any) -> Any:
-    """A new ``MarkerStyle`` from the arguments ``marker`` was made with (None when it
-    has a user transform, which a rebuild would share instead of copy)."""
+    """A new ``MarkerStyle`` from the arguments ``marker`` was made with; a user transform
+    is copied (as matplotlib's deep copy of the marker copies it), not shared."""
+    import copy
+
     from matplotlib.markers import MarkerStyle
 
-    if marker._user_transform is not None:
-        return None
     m = marker
-    return MarkerStyle(m._marker, m._fillstyle, None, m._user_capstyle, m._user_joinstyle)
+    user = None if m._user_transform is None else copy.deepcopy(m._user_transform)
+    return MarkerStyle(m._marker, m._fillstyle, user, m._user_capstyle, m._user_joinstyle)
 
 
 def _same_value(key: str, x: Any, y: Any) -> bool:
@@ -344,8 +341,7 @@ class TickProps:
         found = self._known.get(id(marker))
         state = _state(marker)
         if found is None or found[0] is not marker or not _same_state(found[1], state):
-            again = _rebuilt(marker)
-            found = (marker, state, again is not None and same_marker(again, marker))
+            found = (marker, state, same_marker(_rebuilt(marker), marker))
             self._known[id(marker)] = found
         return found[2]
 
