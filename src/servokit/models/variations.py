@@ -273,13 +273,10 @@ class VariationSet:
         if n < 1:
             raise ServokitValueError(f"n must be >= 1 (got {n})")
         rng = np.random.default_rng(self.seed if seed is None else seed)
+        if self.distribution == "uniform":
+            return self._uniform_rows(rng, n, 0, n)
         lows = np.array([p.low for p in self.ranges] + [self.gain[0]])
         highs = np.array([p.high for p in self.ranges] + [self.gain[1]])
-        if self.distribution == "uniform":
-            # ranges then gains, in this order: the stream of earlier releases
-            draws = rng.uniform(lows[:-1], highs[:-1], size=(n, len(self.ranges)))
-            gains = rng.uniform(lows[-1], highs[-1], size=n)
-            return draws, gains
         z = rng.standard_normal(size=(n, lows.size))
         both = np.clip((lows + highs) / 2 + z * (highs - lows) / 6, lows, highs)
         return both[:, :-1], both[:, -1]
@@ -323,12 +320,23 @@ class VariationSet:
         if not (self.rows_drawable and type(rng.bit_generator) is np.random.PCG64):
             draws, gains = self.draw(n, seed)
             return draws[lo:hi].copy(), gains[lo:hi].copy()
+        return self._uniform_rows(rng, n, lo, hi)
+
+    def _uniform_rows(
+        self, rng: np.random.Generator, n: int, lo: int, hi: int
+    ) -> tuple[np.ndarray, np.ndarray]:
+        """Rows ``lo:hi`` of the uniform draws of ``n`` rows from a fresh ``rng``: the
+        ranges row by row, then the gains, in this order (the stream of earlier
+        releases); one 64-bit output per number, so the rows before ``lo`` are skipped by
+        advancing the generator."""
         width = len(self.ranges)
         lows = np.array([p.low for p in self.ranges])
         highs = np.array([p.high for p in self.ranges])
-        rng.bit_generator.advance(lo * width)
+        if lo:
+            rng.bit_generator.advance(lo * width)
         draws = rng.uniform(lows, highs, size=(hi - lo, width))
-        rng.bit_generator.advance((n - hi) * width + lo)  # to the gain of row lo
+        if (n - hi) * width + lo:
+            rng.bit_generator.advance((n - hi) * width + lo)  # to the gain of row lo
         gains = rng.uniform(self.gain[0], self.gain[1], size=hi - lo)
         return draws, gains
 
