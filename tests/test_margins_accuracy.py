@@ -167,7 +167,7 @@ def test_cancelling_partial_fractions_are_not_used():
     with mpmath.workdps(40):
         ref = complex(mp_loop([g], mpmath.mpf(float(f[0]))))
     pf = _tf_partial_fractions(num, den, _poly_roots(den))
-    fractions = _partial_fractions(*pf, lambda x: 2j * np.pi * x)(f)[0]
+    fractions = _partial_fractions(*pf, _x_of_s)(f)[0]
     assert abs(fractions - ref) > 1e-7 * abs(ref)
     factors, dt = loop_factors(g)
     assert factors[0].pf is None
@@ -192,7 +192,7 @@ def test_ill_separated_split_is_not_used():
     assert 0 < k < 4
     b = np.linalg.solve(S, Z.conj().T @ B[:, 0])
     c = C[0] @ Z @ S
-    split = _triangular(T[:k, :k], b[:k], c[:k], 0j, lambda x: 2j * np.pi * x)(f) + (
+    split = _triangular(T[:k, :k], b[:k], c[:k], 0j, _x_of_s)(f) + (
         c[k:] * b[k:] / (2j * np.pi * f[:, None] - np.diag(T)[k:])
     ).sum(axis=1)
     assert np.max(np.abs(split / ref - 1)) > 1e-7
@@ -218,7 +218,7 @@ def test_inaccurate_schur_form_gives_way_to_lu():
         ref = np.array([complex(mp_loop([g], mpmath.mpf(float(x)))) for x in f])
     A, B, C = _balanced(g.A, g.B, g.C)
     T, Z = scipy.linalg.schur(A.astype(complex), output="complex")
-    x_of = lambda x: 2j * np.pi * x  # noqa: E731
+    x_of = _x_of_s
     schur = _triangular(T, Z.conj().T @ B[:, 0], C[0] @ Z, 0j, x_of)(f)
     assert np.max(np.abs(schur / ref - 1)) > 1e-9
     factors, dt = loop_factors(g)
@@ -250,9 +250,9 @@ def test_a_form_that_is_not_finite_does_not_agree():
     A = np.array([[0.0, 1.0], [-4.0, -0.4]])
     exact = dense_exact(A, np.array([[0.0], [1.0]]), np.array([[1.0, 0.0]]), 0j, _x_of_s)
     poles = np.linalg.eigvals(A)
-    assert not agrees(lambda f: np.full(np.shape(f), np.nan + 0j), poles, exact, None)
-    assert not agrees(lambda f: np.full(np.shape(f), np.inf + 0j), poles, exact, None)
-    assert agrees(lambda f: exact(f)[0], poles, exact, None)
+    assert not agrees(lambda f: np.full(np.shape(f), np.nan + 0j), poles, _x_of_s, exact, None)
+    assert not agrees(lambda f: np.full(np.shape(f), np.inf + 0j), poles, _x_of_s, exact, None)
+    assert agrees(lambda f: exact(f)[0], poles, _x_of_s, exact, None)
 
 
 def _x_of_s(f: np.ndarray) -> np.ndarray:
@@ -354,7 +354,7 @@ def test_well_decoupled_split_skips_the_lu_check(monkeypatch):
     fa = make_factor(g)
     assert fa.near is not None and not calls
     f = np.geomspace(10, 5e4, 50)
-    x_of = lambda x: 2j * np.pi * x  # noqa: E731
+    x_of = _x_of_s
     lu = exact_forms.dense_exact(A, B, C, 0j, x_of)(f)[0]
     assert np.max(np.abs(fa.response(f) / lu - 1)) < 1e-11
 
@@ -365,7 +365,7 @@ def test_fractions_that_are_not_finite_are_not_faithful():
     from servokit.feedback.exact_forms import faithful, horner_exact
 
     num, den = np.array([1.0]), np.poly([-1.0, -3.0])
-    x_of = lambda f: 2j * np.pi * f  # noqa: E731
+    x_of = _x_of_s
     exact = horner_exact(num, den, x_of)
     poles = np.array([-1.0, -3.0], dtype=complex)
     assert faithful(_tf_partial_fractions(num, den, poles), x_of, exact, None)

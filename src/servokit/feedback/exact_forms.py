@@ -229,7 +229,11 @@ def probe_freqs(poles: np.ndarray, dt: float | None) -> np.ndarray:
 
 
 def agrees(
-    resp: Callable[[np.ndarray], np.ndarray], poles: np.ndarray, exact: Exact, dt: float | None
+    resp: Callable[[np.ndarray], np.ndarray],
+    poles: np.ndarray,
+    x_of: Callable[[np.ndarray], np.ndarray],
+    exact: Exact,
+    dt: float | None,
 ) -> bool:
     """Whether a reduced form ``resp`` of a state space agrees with its LU solve ``exact``
     to :data:`FAITHFUL` at the :func:`probe_freqs` of its ``poles``.
@@ -249,6 +253,8 @@ def agrees(
         ``freq_hz -> complex`` by the reduced form.
     poles : ndarray
         Its poles (s or z).
+    x_of : callable
+        ``freq_hz -> x`` (``j 2π f`` or ``e^{j 2π f dt}``).
     exact : callable
         The LU solve, ``freq_hz -> (value, amplification)``.
     dt : float or None
@@ -259,7 +265,7 @@ def agrees(
     bool
     """
     f = probe_freqs(poles, dt)
-    x = 2j * np.pi * f if dt is None else np.exp(2j * np.pi * f * dt)
+    x = x_of(f)
     # a probe on a pole (an undamped mode's own frequency) is skipped: there both forms are
     # rounding over a vanishing |x - λ| and differ by O(1) relative; elsewhere each is
     # within ~ε|x|/|x - λ| relative, trusted where that is below a tenth of FAITHFUL

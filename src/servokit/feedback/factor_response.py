@@ -296,7 +296,7 @@ def _schur_factor(
             # a well-conditioned decoupling (||X|| small) is accurate: no check needed
             # (its 3n LU probes cost O(n^4): 0.67 s for a rigid body and 100 modes)
             tame = np.linalg.norm(S[:k, k:]) <= _SPLIT_X_MAX
-            if tame or agrees(both, poles, exact, dt):
+            if tame or agrees(both, poles, x_of, exact, dt):
                 return Factor(
                     both,
                     dt,
@@ -311,7 +311,7 @@ def _schur_factor(
     T, Z = scipy.linalg.schur(A.astype(complex), output="complex")
     poles = np.diag(T).copy()
     resp = _triangular(T, Z.conj().T @ B[:, 0], C[0] @ Z, d, x_of)
-    if not agrees(resp, poles, exact, dt):
+    if not agrees(resp, poles, x_of, exact, dt):
         resp = _values_of(exact)
     return Factor(resp, dt, poles, dt is None, sys, zeros=zeros, exact=exact)
 
