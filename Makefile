@@ -4,7 +4,7 @@ BIN := $(VENV)/bin
 STAMP := $(VENV)/.installed
 OUT ?= out
 
-.PHONY: demo test test-dask test-all bench lint clean
+.PHONY: demo test test-dask test-all bench lint clean bytecode
 
 $(BIN)/python:
 	$(PY) -m venv $(VENV)
@@ -22,12 +22,13 @@ $(STAMP): $(BIN)/python pyproject.toml
 # bytecode of the editable sources, as a regular install compiles it: where the
 # environment sets PYTHONDONTWRITEBYTECODE, every run would compile the ~200 modules
 # again (0.25 s of reproduce's CPU); incremental, 0.04 s when up to date
-demo: $(VENV)/.installed-demo
+bytecode: | $(BIN)/python
 	$(BIN)/python -m compileall -q src
+
+demo: $(VENV)/.installed-demo bytecode
 	MPLBACKEND=Agg $(BIN)/servokit reproduce --out $(OUT)
 
-test: $(STAMP)
-	$(BIN)/python -m compileall -q src
+test: $(STAMP) bytecode
 	MPLBACKEND=Agg $(BIN)/python -m pytest
 	$(MAKE) test-dask
 

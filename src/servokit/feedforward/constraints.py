@@ -25,7 +25,7 @@ from __future__ import annotations
 
 from collections.abc import Iterable, Sequence
 from dataclasses import dataclass
-from typing import TYPE_CHECKING, NoReturn
+from typing import TYPE_CHECKING, Any, NoReturn
 
 import numpy as np
 
@@ -410,8 +410,8 @@ def _checked_qp(
     P: np.ndarray, q: np.ndarray, A_eq: np.ndarray, b_eq: np.ndarray,
     G: np.ndarray | None, h: np.ndarray | None,
     groups: Sequence[tuple[str, int]] | None, solver: str,
-) -> tuple[np.ndarray, ...]:  # fmt: skip
-    """The arguments of :func:`solve_fsc_qp` as checked float arrays (and the groups)."""
+) -> tuple[Any, ...]:  # fmt: skip
+    """The arguments of :func:`solve_fsc_qp` as checked float arrays, and the groups."""
     P = check_finite("P", P)
     N = P.shape[0]
     if P.shape != (N, N):
