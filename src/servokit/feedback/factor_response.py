@@ -286,12 +286,12 @@ def _schur_factor(
         rest = _diagonal(T[k:, k:], b[k:, None], c[None, k:])
         if rest is not None:
             lam2, r2 = rest
-            near = _triangular(T[:k, :k], b[:k], c[:k], 0j, x_of)
+            near = _triangular(T[:k, :k], b[:k], c[:k], 0j, lambda x: x)  # a function of x
             far = _partial_fractions(lam2, r2, d, x_of)
             poles = np.r_[np.diag(T[:k, :k]), lam2]
 
             def both(f: np.ndarray) -> np.ndarray:
-                return near(f) + far(f)
+                return near(x_of(f)) + far(f)
 
             # a well-conditioned decoupling (||X|| small) is accurate: no check needed
             # (its 3n LU probes cost O(n^4): 0.67 s for a rigid body and 100 modes)
@@ -304,7 +304,7 @@ def _schur_factor(
                     dt is None,
                     sys,
                     pf=(lam2, r2, d),
-                    near=_triangular(T[:k, :k], b[:k], c[:k], 0j, lambda x: x),
+                    near=near,
                     zeros=zeros,
                     exact=exact,
                 )
