@@ -125,7 +125,7 @@ def test_workers_fork_from_a_frozen_heap(tmp_path, monkeypatch: pytest.MonkeyPat
 
     from servokit.cases import register
     from servokit.cases.registry import _REGISTRY
-    from servokit.cases.runner import iter_cases
+    from servokit.cases.runner import WORKER_GC_THRESHOLD, iter_cases
     from servokit.report import CaseResult
 
     def probe(name: str):
@@ -133,7 +133,12 @@ def test_workers_fork_from_a_frozen_heap(tmp_path, monkeypatch: pytest.MonkeyPat
             # the parent's objects are frozen in the worker: its collections skip them
             from servokit import _heap
 
-            seen = {"pid": os.getpid(), "frozen": gc.get_freeze_count(), "heap": _heap._TUNED}
+            seen = {
+                "pid": os.getpid(),
+                "frozen": gc.get_freeze_count(),
+                "heap": _heap._TUNED,
+                "young": gc.get_threshold()[0],
+            }
             return CaseResult(name, "probe", [], [], extra=seen)
 
         return case
@@ -162,12 +167,28 @@ def test_workers_fork_from_a_frozen_heap(tmp_path, monkeypatch: pytest.MonkeyPat
             _REGISTRY.pop(name, None)
     assert len(seen) == 2
     assert all(s["pid"] != os.getpid() and s["frozen"] > 1000 for s in seen)
+    assert all(s["young"] == WORKER_GC_THRESHOLD for s in seen)
+    assert gc.get_threshold()[0] != WORKER_GC_THRESHOLD  # the parent's is left alone
     if sys.platform.startswith("linux"):  # glibc: the thresholds of a short-lived worker
         from servokit._heap import WORKER_MMAP_THRESHOLD_BYTES, WORKER_TRIM_THRESHOLD_BYTES
 
         worker = (WORKER_MMAP_THRESHOLD_BYTES, WORKER_TRIM_THRESHOLD_BYTES)
         assert all(s["heap"] == worker for s in seen)
     assert gc.get_freeze_count() == 0  # the parent unfrozen again
+
+
+def test_a_worker_freezes_what_each_case_leaves(monkeypatch: pytest.MonkeyPatch) -> None:
+    import gc
+
+    from servokit.cases import runner
+
+    calls: list[str] = []
+    monkeypatch.setattr(runner, "_run_one", lambda out, name, svg: calls.append(name) or name)
+    monkeypatch.setattr(gc, "collect", lambda *a: calls.append("collect") or 0)
+    monkeypatch.setattr(gc, "freeze", lambda: calls.append("freeze"))
+    assert runner._run_group(Path("."), ["a", "b"], False) == ["a", "b"]
+    # the next case's collections walk only its own objects
+    assert calls == ["a", "collect", "freeze", "b", "collect", "freeze"]
 
 
 def test_heap_setting_is_tried_once_per_process(monkeypatch: pytest.MonkeyPatch) -> None:

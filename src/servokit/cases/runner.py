@@ -70,6 +70,9 @@ def default_workers() -> int:
 
 #: Variables read by BLAS/OpenMP libraries loaded after the limit is set (in a worker).
 _THREAD_VARS = ("OPENBLAS_NUM_THREADS", "OMP_NUM_THREADS", "MKL_NUM_THREADS")
+#: Net allocations between two young-generation collections in a case worker
+#: (Python's default: 700).
+WORKER_GC_THRESHOLD = 10_000
 
 
 @contextmanager
@@ -119,6 +122,7 @@ def _init_worker() -> None:
     the workers over the 25 cases instead of 91 000-118 000 with the default setting,
     and 0.3-0.5 s less system time)."""
     import ctypes
+    import gc
     import signal
 
     from servokit._heap import (
@@ -132,6 +136,11 @@ def _init_worker() -> None:
     except (OSError, AttributeError):  # not glibc: the worker ends after its case
         pass
     keep_freed_arrays(WORKER_MMAP_THRESHOLD_BYTES, WORKER_TRIM_THRESHOLD_BYTES)
+    # young collections every 10 000 net allocations instead of 700: a figure's artists
+    # mostly die young, before a collection walks them (with the collection and freeze
+    # after each case, :func:`_run_group`: the collector's time over the 25 cases run
+    # serially 0.32-0.41 s instead of 0.51-0.77 s, peak memory 433 MB instead of 447 MB)
+    gc.set_threshold(WORKER_GC_THRESHOLD, *gc.get_threshold()[1:])
 
 
 def _run_one(outdir: Path, name: str, svg: bool) -> tuple[list[CaseResult], float]:
@@ -147,8 +156,20 @@ def _run_one(outdir: Path, name: str, svg: bool) -> tuple[list[CaseResult], floa
 def _run_group(
     outdir: Path, names: Sequence[str], svg: bool
 ) -> list[tuple[list[CaseResult], float]]:
-    """Cases of one module in one worker (a pool job): they share that module's caches."""
-    return [_run_one(outdir, name, svg) for name in names]
+    """Cases of one module in one worker (a pool job): they share that module's caches.
+
+    After each case the worker collects its garbage once and freezes what survives (the
+    module caches, the registry): the collector's later full passes walk only the next
+    case's objects, as :func:`_frozen_heap` keeps them off the parent's imports.
+    """
+    import gc
+
+    done = []
+    for name in names:
+        done.append(_run_one(outdir, name, svg))
+        gc.collect()
+        gc.freeze()
+    return done
 
 
 def _groups(names: Sequence[str]) -> list[list[str]]:
