@@ -160,8 +160,10 @@ def dask_scaling(n: int = 100_000, rounds: int = 2, n_large: int = 0) -> dict:
                     w0, c0 = best.get(label, (float("inf"), float("inf")))
                     best[label] = (min(w0, wall), min(c0, cpu))
                     out[f"{label}_chunk_size"] = res.chunk_size
-            if n_large and name == "dask_1_worker":
-                _large_pair(vset, ff, n_large, rounds, client, best)
+            if name == "dask_1_worker":
+                out["dask_1_worker_outside_tasks_s"] = _outside_tasks(vset, ff, n, client)
+                if n_large:
+                    _large_pair(vset, ff, n_large, rounds, client, best)
         finally:
             client.close()
             if proc is not None:
@@ -183,6 +185,26 @@ def dask_scaling(n: int = 100_000, rounds: int = 2, n_large: int = 0) -> dict:
         )
     out["same_numbers"] = True
     return out
+
+
+def _outside_tasks(vset, ff, n: int, client) -> float:
+    """Wall seconds of one Dask sweep of ``n`` variants spent outside its tasks'
+    execution on the workers (submission, dispatch, result transfer, the client's draw
+    of the worst plant), from Dask's task stream; with one worker the tasks run one
+    after another, so this is the fixed cost a sweep pays over in-process."""
+    from distributed import get_task_stream
+
+    with get_task_stream(client) as stream:
+        t0 = time.perf_counter()
+        sweep_mod.sweep_seek_times(vset, ff, 10.0, n=n, seed=2026, client=client)
+        wall = time.perf_counter() - t0
+    busy = sum(
+        ss["stop"] - ss["start"]
+        for task in stream.data
+        for ss in task["startstops"]
+        if ss["action"] == "compute"
+    )
+    return wall - busy
 
 
 def _large_pair(vset, ff, n: int, rounds: int, client, best: dict) -> None:

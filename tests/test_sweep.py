@@ -293,7 +293,9 @@ def test_in_process_chunks_run_on_one_blas_thread(threads, monkeypatch):
 
 @pytest.mark.slow
 def test_dask_worker_readied_for_chunks():
-    """connect_dask readies each worker: the heap kept for arrays, one BLAS thread."""
+    """connect_dask readies each worker: the heap kept for arrays, one BLAS thread, no
+    statistical profiler sampling the task thread (a local cluster has no dashboard);
+    the client's own configuration is left as it was."""
     pytest.importorskip("distributed")
     from servokit.seek.sweep import connect_dask
 
@@ -305,10 +307,16 @@ def test_dask_worker_readied_for_chunks():
 
             from servokit import _heap
 
-            blas = [p["num_threads"] for p in threadpool_info() if p["user_api"] == "blas"]
-            return _heap._TUNED, blas
+            import dask
 
-        ((tuned, blas),) = client.run(state).values()
+            blas = [p["num_threads"] for p in threadpool_info() if p["user_api"] == "blas"]
+            return _heap._TUNED, blas, dask.config.get("distributed.worker.profile.enabled")
+
+        ((tuned, blas, profiled),) = client.run(state).values()
     finally:
         client.close()
+    import dask
+
     assert tuned and blas and all(n == 1 for n in blas)
+    assert profiled is False
+    assert dask.config.get("distributed.worker.profile.enabled") is True
