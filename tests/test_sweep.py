@@ -303,11 +303,10 @@ def test_dask_worker_readied_for_chunks():
     try:
 
         def state() -> tuple:
+            import dask
             from threadpoolctl import threadpool_info
 
             from servokit import _heap
-
-            import dask
 
             blas = [p["num_threads"] for p in threadpool_info() if p["user_api"] == "blas"]
             return _heap._TUNED, blas, dask.config.get("distributed.worker.profile.enabled")
