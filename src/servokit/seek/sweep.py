@@ -194,7 +194,7 @@ def connect_dask(scheduler: str | None = None, workers: int | None = None) -> An
         n = check_count("workers", 1 if workers is None else workers, lo=1, hi=256)
         # the client starts (and on close() stops) its own LocalCluster; without a
         # dashboard nobody reads the workers' statistical profiler, which samples the
-        # task thread's stack every 10 ms (1-2 % of a sweep's time on one worker)
+        # task thread's stack every 10 ms (about 1 % of a sweep's time on one worker)
         with dask.config.set({"distributed.worker.profile.enabled": False}):
             client = Client(n_workers=n, threads_per_worker=1, dashboard_address=None)
     client.run(_ready_worker)  # imports and heap set-up now, not in the first chunk
@@ -428,7 +428,7 @@ def _run_dask(
     from distributed import as_completed
 
     n, seed = sample
-    per_variant = (len(vset.ranges) + 1) * 8
+    per_variant = (len(vset.ranges) + 1) * np.dtype(float).itemsize  # draws and gain
     task = max(chunk_size, -(-n // (4 * n_workers)))
     task = max(1, min(task, TASK_BYTES // per_variant))
     drawn = None if vset.rows_drawable else vset.draw(n, seed)
