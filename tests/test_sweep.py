@@ -294,10 +294,10 @@ def test_in_process_chunks_run_on_one_blas_thread(threads, monkeypatch):
 @pytest.mark.slow
 def test_dask_worker_readied_for_chunks():
     """connect_dask readies each worker: the heap kept for arrays, one BLAS thread, no
-    statistical profiler sampling the task thread (a local cluster has no dashboard);
-    the client's own configuration is left as it was."""
+    statistical profiler sampling the task thread and rare health checks and monitors (a
+    local cluster has no dashboard); the client's own configuration is left as it was."""
     pytest.importorskip("distributed")
-    from servokit.seek.sweep import connect_dask
+    from servokit.seek.sweep import LOCAL_CLUSTER_CONFIG, connect_dask
 
     client = connect_dask(workers=1)
     try:
@@ -309,13 +309,25 @@ def test_dask_worker_readied_for_chunks():
             from servokit import _heap
 
             blas = [p["num_threads"] for p in threadpool_info() if p["user_api"] == "blas"]
-            return _heap._TUNED, blas, dask.config.get("distributed.worker.profile.enabled")
+            keys = (*LOCAL_CLUSTER_CONFIG, "distributed.admin.tick.limit")
+            return _heap._TUNED, blas, {k: dask.config.get(k) for k in keys}
 
-        ((tuned, blas, profiled),) = client.run(state).values()
+        ((tuned, blas, worker_config),) = client.run(state).values()
+        # the scheduler and the nanny (in this process) run the same rare callbacks
+        tick_s = client.run_on_scheduler(lambda dask_scheduler: dask_scheduler._tick_interval)
     finally:
         client.close()
     import dask
+    from dask.utils import parse_timedelta
 
     assert tuned and blas and all(n == 1 for n in blas)
-    assert profiled is False
+    assert worker_config.pop("distributed.worker.profile.enabled") is False
+    assert worker_config.pop("distributed.admin.tick.limit") == "3s"  # still reported
+    assert parse_timedelta(worker_config.pop("distributed.admin.tick.interval")) == 1.0
+    assert parse_timedelta(worker_config.pop("distributed.admin.system-monitor.interval")) == 5.0
+    assert parse_timedelta(worker_config.pop("distributed.worker.memory.monitor-interval")) == 1.0
+    assert not worker_config  # every setting checked
+    assert tick_s == pytest.approx(1.0)
+    # the client's own configuration is the default again
     assert dask.config.get("distributed.worker.profile.enabled") is True
+    assert parse_timedelta(dask.config.get("distributed.admin.tick.interval")) == 0.02
