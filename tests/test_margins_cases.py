@@ -175,7 +175,9 @@ def test_frequency_grid_resolves_a_mode_with_damping_1e_6():
 def test_margins_over_a_plant_set_name_the_worst_plant():
     plants = hdd_benchmark_variants()[:6]
     ctrl = benchmark_controller()
-    res = margins_over_set(ctrl, plants)
+    ticks = []
+    res = margins_over_set(ctrl, plants, progress=lambda: ticks.append(len(ticks)))
+    assert ticks == list(range(len(plants)))  # one progress call after each plant
     direct = [stability_margins([p.discretize(ctrl.dt), ctrl]) for p in plants]
     assert [m.phase_margin_deg for m in res.margins] == pytest.approx(
         [m.phase_margin_deg for m in direct]

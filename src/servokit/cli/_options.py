@@ -10,6 +10,7 @@ before the library reads them.
 
 from __future__ import annotations
 
+import dataclasses
 import os
 import re
 import typing
@@ -516,14 +517,30 @@ def variation_corners(vset: Any, flag: str = "--variations") -> list:
 
 def load_variations(value: Path | str, fallback: Any = None, flag: str = "--variations") -> Any:
     """A variation file named on the command line (:func:`~servokit.models.read_variations`);
-    ``fallback`` is the nominal plant when the file names none.  Errors name ``flag``."""
-    from servokit.errors import check_input_file
+    ``fallback`` is the nominal plant when the file names none.  Errors name ``flag``.
+
+    A file that names its plant and a ``--plant`` typed on the command line must agree
+    (gain, modes and delay; names aside): otherwise one of the two would be silently
+    ignored and the results labelled with the other.
+    """
+    from servokit.errors import ServokitValueError, check_input_file
 
     path = check_input_file(value, flag)
     from servokit.models import read_variations
 
     with flag_names({}, prefix=f"{flag} "):
-        return read_variations(path, fallback=fallback)
+        vset = read_variations(path, fallback=fallback)
+    # the reader returns ``fallback`` itself when the file names no plant
+    if fallback is not None and vset.nominal is not fallback and given_on_command_line("plant"):
+        unnamed = {"name": "", "source": ""}
+        if dataclasses.replace(vset.nominal, **unnamed) != dataclasses.replace(
+            fallback, **unnamed
+        ):
+            raise ServokitValueError(
+                f"--plant {fallback.name} and the plant of {flag} {value} "
+                f"({vset.nominal.name}) differ; drop --plant or the file's plant = line"
+            )
+    return vset
 
 
 # ---- size of a plant's discrete state-space model, estimated before it is built ----

@@ -18,6 +18,7 @@ from typing import Any
 from servokit.cli._options import (
     Output,
     flag_names,
+    given_on_command_line,
     load_plant,
     load_variations,
     refuse_inapplicable,
@@ -195,22 +196,25 @@ def _check_flags(f: SeekFlags, inapplicable: Mapping[str, tuple[str, tuple[str, 
     )
 
 
-def _plant_set(f: SeekFlags) -> tuple[Any, list, Any, bool]:
-    """(nominal, plants, robust box or None, whether it is the HDD benchmark)."""
+def _plant_set(f: SeekFlags) -> tuple[Any, list, Any, bool, str]:
+    """(nominal, plants, robust box or None, whether it is the HDD benchmark, the plant's
+    label: ``--plant`` as typed, or the plant a ``--variations`` file names)."""
     from servokit.models import hdd_benchmark_variants
 
     is_hdd = f.plant == "hdd-benchmark"
-    nominal = load_plant(f.plant)
-    plants = hdd_benchmark_variants() if is_hdd else [nominal]
+    given = load_plant(f.plant)
+    plants = hdd_benchmark_variants() if is_hdd else [given]
     if f.variations is None:
-        return nominal, plants, None, is_hdd
+        return given, plants, None, is_hdd, f.plant
     if f.method == "robust":  # validated over the box, not a corner set
         check_count("--n-validation", f.n_validation, lo=1, hi=1_000_000)
-    vset = load_variations(f.variations, fallback=nominal)
+    vset = load_variations(f.variations, fallback=given)
     nominal = vset.nominal
     plants = [nominal] if f.method == "robust" else variation_corners(vset)
     box = vset if f.method == "robust" else None
-    return nominal, plants, box, is_hdd and nominal.name == "hdd-benchmark"
+    # the file's own plant (a typed --plant agrees with it: load_variations checks)
+    label = f.plant if nominal is given or given_on_command_line("plant") else nominal.name
+    return nominal, plants, box, is_hdd and nominal.name == "hdd-benchmark", label
 
 
 def _dt_and_bands(f: SeekFlags, is_hdd: bool) -> tuple[float, list]:
@@ -323,7 +327,7 @@ def seek_job(
 
     n_top = _check_flags(f, inapplicable)
     output = Output.checked(f.plot, f.json_out)
-    nominal, plants, box, is_hdd = _plant_set(f)
+    nominal, plants, box, is_hdd, label = _plant_set(f)
     if f.u_max is not None:
         check_positive("--u-max", f.u_max)
     dt, bands = _dt_and_bands(f, is_hdd)
@@ -341,7 +345,6 @@ def seek_job(
         )  # fmt: skip
         if f.u_max is not None and not robust:  # |u| <= u_max as a QP constraint
             request = dataclasses.replace(request, limits=input_limit(request, f.u_max, n_flag))
-    label = f.plant if f.variations is None or not robust else str(f.variations)
     variations = None if f.variations is None else str(f.variations)
     unit = "track" if is_hdd else "output unit"
     return SeekJob(request, label, unit, output, variations, box, f.n_validation)

@@ -25,6 +25,7 @@ from servokit.cli._app import (
     flag_names,
     load_plant,
     plot_target,
+    progress,
     sub_app,
     wrote,
 )
@@ -33,8 +34,10 @@ from servokit.cli._options import (
     controller_states,
     discrete_states,
     load_controller_data,
+    load_variations,
     old_name,
     renamed,
+    variation_corners,
 )
 from servokit.errors import (
     DEFAULT_MAX_MEMORY_MB,
@@ -465,13 +468,14 @@ def _margins_over_file(
     controller: str, dt: float,
 ) -> None:
     from servokit.feedback import margins_over_set
-    from servokit.models.variation_file import read_variations
 
-    try:
-        plants = read_variations(path, nominal=p).corners()
-    except ServokitValueError as exc:
-        raise ServokitValueError(f"--variations: {exc}") from None
-    res = margins_over_set(chain, plants, delay, n_freq=n_freq)
+    # the file's plant, else --plant (a typed --plant must agree with the file's); the
+    # corners refused above MAX_CORNERS before any is built, as in seek and simulate
+    vset = load_variations(path, fallback=p)
+    plants = variation_corners(vset)
+    p = vset.nominal
+    with progress(len(plants), f"margins of {len(plants)} plants") as advance:
+        res = margins_over_set(chain, plants, delay, n_freq=n_freq, progress=advance)
     worst = plants[res.worst_index]
     _warn_unstable(False if res.all_stable is False else None, f"plant {res.worst_index}")
     if json_out:

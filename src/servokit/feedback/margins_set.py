@@ -9,7 +9,7 @@ reported as well, each with the index of its plant.
 
 from __future__ import annotations
 
-from collections.abc import Sequence
+from collections.abc import Callable, Sequence
 from dataclasses import dataclass
 from typing import Any
 
@@ -84,7 +84,12 @@ def _argmin(values: list[float]) -> int:
 
 
 def margins_over_set(
-    controller: Any, plants: Sequence[Any], delay: float = 0.0, **kwargs: Any
+    controller: Any,
+    plants: Sequence[Any],
+    delay: float = 0.0,
+    *,
+    progress: Callable[[], object] | None = None,
+    **kwargs: Any,
 ) -> SetMargins:
     """Margins of ``controller`` with each plant of ``plants``, and the worst plant.
 
@@ -98,6 +103,8 @@ def margins_over_set(
         Plants (ModalPlant, LTI or callables), at least one.
     delay : float
         Extra loop delay [s], as in :func:`~servokit.feedback.stability_margins`.
+    progress : callable, optional
+        Called with no argument after each plant (e.g. a progress bar's ``advance``).
     **kwargs
         Passed on to :func:`~servokit.feedback.stability_margins` (``fmin``, ``fmax``,
         ``n_freq``).
@@ -109,7 +116,12 @@ def margins_over_set(
     plants = list(plants)
     if not plants:
         raise ServokitValueError("plants is empty; give at least one plant")
-    ms = tuple(stability_margins(_as_loop(controller, p), delay, **kwargs) for p in plants)
+    found = []
+    for p in plants:
+        found.append(stability_margins(_as_loop(controller, p), delay, **kwargs))
+        if progress is not None:
+            progress()
+    ms = tuple(found)
     unstable = [i for i, m in enumerate(ms) if m.closed_loop_stable is False]
     worst = unstable[0] if unstable else _argmin([m.modulus_margin for m in ms])
     verdicts = [m.closed_loop_stable for m in ms]

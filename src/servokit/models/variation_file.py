@@ -119,13 +119,18 @@ def _match(path: Path, where: str, freq: float, nominal: ModalPlant) -> int:
     return hits[0]
 
 
+def _quoted(keys: set[str] | frozenset[str]) -> str:
+    """The file's keys, quoted: they are its words, never rewritten into CLI flags."""
+    return ", ".join(repr(k) for k in sorted(keys))
+
+
 def _mode_ranges(path: Path, k: int, table: Any, nominal: ModalPlant) -> list[Perturbation]:
     if not isinstance(table, dict):
         raise VariationFileError(f"{path}: modes[{k}] must be a table ([[modes]])")
     extra = sorted(set(table) - _MODE_KEYS)
     if extra:
         raise VariationFileError(
-            f"{path}: unknown key 'modes[{k}].{extra[0]}'; allowed: {', '.join(sorted(_MODE_KEYS))}"
+            f"{path}: unknown key 'modes[{k}].{extra[0]}'; allowed keys are {_quoted(_MODE_KEYS)}"
         )
     if "freq_hz" not in table:
         raise VariationFileError(f"{path}: missing field 'modes[{k}].freq_hz' (nominal frequency)")
@@ -165,7 +170,11 @@ def _nominal(
         raise VariationFileError(f"{path}: field 'plant' must be a catalogue name or a file")
     if ref not in CATALOGUE and not Path(ref).is_absolute():
         ref = str(Path(path).parent / ref)  # a plant file next to the variation file
-    return get_plant(ref)
+    try:
+        return get_plant(ref)
+    except (ServokitValueError, OSError) as exc:
+        # the plant is the file's field, not a file the user typed: say where it came from
+        raise VariationFileError(f"{path}: field 'plant' = {data['plant']!r}: {exc}") from None
 
 
 def _check_overlap(path: Path, ranges: list[Perturbation]) -> None:
@@ -238,7 +247,7 @@ def read_variations(
     extra = sorted(set(data) - _TOP_KEYS)
     if extra:
         raise VariationFileError(
-            f"{path}: unknown key '{extra[0]}'; allowed: {', '.join(sorted(_TOP_KEYS))}"
+            f"{path}: unknown key '{extra[0]}'; allowed keys are {_quoted(_TOP_KEYS)}"
         )
     plant = _nominal(path, data, nominal, fallback)
     tables = data.get("modes", [])
