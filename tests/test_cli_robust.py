@@ -117,6 +117,7 @@ def test_variations_reports_the_validated_worst(tmp_path):
     assert res.exit_code == 0, res.output
     data = json.loads(res.stdout)
     assert data["n_validation"] == 300 and data["converged"]
+    assert data["plant"] == "small" and data["variations"] == str(box)  # the file's plant
     vset = read_variations(box)
     ff = FeedforwardInput(
         u=np.array(data["input"]), dt=1e-4, target=1.0, jerk=np.zeros(data["n_samples"])

@@ -190,6 +190,9 @@ JSON_RUNS: dict[str, list[str]] = {
 }  # fmt: skip
 #: runs over ~5 s (the book's cases): in the slow suite
 _SLOW_JSON = {"reproduce"}
+#: Commands whose JSON object is keyed by data (``plant list``: the catalogue's names),
+#: not by documented fields.
+_KEYED_BY_DATA = {"plant list"}
 #: Keys still without a unit suffix, with a comment saying why (the test fails when a
 #: listed key is gone, so the list only shrinks); empty: every dimensional key has one.
 KNOWN_UNSUFFIXED: dict[str, set[str]] = {}
@@ -280,3 +283,11 @@ def test_json_keys_carry_a_unit_or_are_listed_dimensionless(
     assert not bad and not gone, (
         f"{name}: keys without a unit suffix: {bad}; fixed (remove from KNOWN_UNSUFFIXED): {gone}"
     )
+    # every top-level key is listed in the command's --help (README: "listed in each --help")
+    command = name.split(" --")[0]
+    if command in _KEYED_BY_DATA:
+        return
+    (cmd,) = [c for path, c in _commands() if path == command]
+    listed = set(re.findall(r"[A-Za-z_][A-Za-z0-9_]*", f"{cmd.help or ''} {cmd.epilog or ''}"))
+    unlisted = sorted(set(json.loads(out)) - listed)
+    assert not unlisted, f"{name}: JSON keys missing from --help: {unlisted}"

@@ -26,9 +26,10 @@ __all__ = ["JSON_KEYS", "robust_seek"]
 
 #: JSON keys of ``servokit seek --method robust --json`` (documented in its help)
 JSON_KEYS = (
-    "plant, method, target_out, n_samples, dt_s, u_max, peak_input, settle_band_out, "
-    "design_band_out, margin, seek_time_s (simulated worst case), guaranteed_seek_time_s (LP), "
-    "worst_plant, binding_plant, n_plants, seek_times_s, design_time_s, n_lp, input, n_search "
+    "plant, variations (file or null), method, target_out, n_samples, dt_s, u_max, "
+    "peak_input, settle_band_out, design_band_out, margin, seek_time_s (simulated worst "
+    "case), guaranteed_seek_time_s (LP), worst_plant, binding_plant, n_plants, seek_times_s, "
+    "design_time_s, n_lp, input, n_search "
     "{n_samples, guaranteed_seek_time_s}, plot; with --variations: seek_time_s (validated "
     "worst inside the box), guaranteed_seek_time_s (design set), n_validation, n_adversarial, "
     "n_design, converged, rounds, worst_source, seek_times_s (validation sample)"
@@ -172,8 +173,9 @@ def _render_box(job: SeekJob, res: ValidatedSeek, design_time: float) -> None:
         emit_json(data)
         return
     console.print(
-        f"ROBUST seek of {req.target:g} on {job.label}: N = {ff.N}, worst-case seek time "
-        f"{res.seek_time * 1e3:.6g} ms validated ({res.n_validation} Monte-Carlo plants + "
+        f"ROBUST seek of {req.target:g} on {job.label} over {job.variations}: N = {ff.N}, "
+        f"worst-case seek time {res.seek_time * 1e3:.6g} ms validated ({res.n_validation} "
+        "Monte-Carlo plants + "
         f"{res.n_adversarial} adversarial, worst {res.worst_source}); design guarantee "
         f"{res.design_seek_time * 1e3:.6g} ms on {res.n_design} plants, peak input "
         f"{data['peak_input']:.4g}, designed in {design_time:.2f} s"
@@ -193,7 +195,7 @@ def _plot(job: SeekJob, plants: list, ff: Any, title: str) -> None:
     out = simulate_seek(plants, ff, req.target, band=req.band)  # shorter record
     seek_plot(
         out, req.target, title, path,
-        resonances_hz=plants[0].resonances_hz(), band=req.band,
+        resonances_hz=plants[0].resonances_hz(), band=req.band, unit=job.unit,
     )  # fmt: skip
     wrote(Path(path))
 
@@ -203,6 +205,7 @@ def _common_keys(job: SeekJob, ff: Any) -> dict:
     req = job.request
     return {
         "plant": job.label,
+        "variations": job.variations,
         "method": "robust",
         "target_out": req.target,
         "n_samples": ff.N,

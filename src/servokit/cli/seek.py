@@ -36,6 +36,7 @@ from servokit.cli._options import (
 )
 from servokit.cli._render import ms
 from servokit.cli._requests import SEEK_FLAGS, SeekFlags, SeekJob, seek_job
+from servokit.cli.robust import JSON_KEYS as ROBUST_JSON_KEYS
 from servokit.errors import DEFAULT_MAX_MEMORY_MB
 
 _JSON_KEYS = (
@@ -96,7 +97,7 @@ NValidationOpt = Annotated[
         "servokit seek --plant hdd-benchmark --target 1 --method ffsc --json",
         "servokit seek --target 10 --method fsc --n-samples 26 --plot seek.png",
     )
-    + f"  JSON: {_JSON_KEYS}.",
+    + f"  JSON (fsc, ffsc): {_JSON_KEYS}.  JSON (robust): {ROBUST_JSON_KEYS}.",
 )
 def seek_cmd(
     plant: PlantOpt = "hdd-benchmark",

@@ -75,10 +75,13 @@ def seek_plot(
             ax.axvspan(lo * 1e-3, hi * 1e-3, color="C1", alpha=0.25)
     for fr in resonances_hz:
         ax.axvline(fr * 1e-3, color="grey", ls=":", lw=0.8)
+    # the key of the marks drawn, no more
+    marks = ["shaded: weighted bands"] if any(q > 0 for _, _, q, _ in bands) else []
+    marks += ["dotted: modes"] if len(resonances_hz) else []
     ax.set(
         xlabel="Frequency [kHz]",
         ylabel="Spectrum [unit s]",
-        title="Input spectrum (shaded: weighted bands; dotted: modes)",
+        title="Input spectrum" + (f" ({'; '.join(marks)})" if marks else ""),
     )
     ax.grid(alpha=0.3)
     ax.legend(loc="upper right")
