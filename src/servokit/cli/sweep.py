@@ -27,6 +27,7 @@ from servokit.cli._app import (
     emit_json,
     example,
     flag_names,
+    load_plant,
     load_variations,
     progress,
     quiet_children,
@@ -51,6 +52,7 @@ class _Design:
     u: np.ndarray
     dt: float
     source: str
+    target: float | None = None  # the distance a --design file's input was designed for
 
 
 @dataclasses.dataclass(frozen=True)
@@ -58,6 +60,7 @@ class SweepFlags:
     """The flags of ``servokit sweep`` as typed."""
 
     design: Path | None
+    plant: str | None
     method: str
     tracks: float
     n_samples: int | None
@@ -96,11 +99,25 @@ class SweepJob:
 
 
 def _from_file(path: Path) -> _Design:
-    """Held samples from a ``servokit seek --json`` output (``input`` and ``dt_s``/``dt``)."""
-    from servokit.export.designs import read_seek_json
+    """Held samples from a ``servokit seek --json`` output (``input`` and ``dt_s``/``dt``),
+    with the seek distance it was designed for (``target_out``)."""
+    from servokit.export.designs import read_seek_design
 
-    u, dt = read_seek_json(path, "--design")
-    return _Design(u, dt, str(path))
+    u, dt, target = read_seek_design(path, "--design")
+    return _Design(u, dt, str(path), target)
+
+
+def _seek_distance(f: SweepFlags, d: _Design) -> float:
+    """``--target``, else the ``--design`` file's ``target_out``; the two must agree (an
+    input designed for one distance never settles at another)."""
+    if d.target is None:
+        return check_target(f.tracks)
+    if given_on_command_line("tracks") and not np.isclose(f.tracks, d.target, rtol=1e-9):
+        raise ServokitValueError(
+            f"--target {f.tracks:g} differs from target_out {d.target:g} of --design "
+            f"{f.design} (the input was designed for {d.target:g}); drop --target"
+        )
+    return check_target(d.target)
 
 
 def _from_method(f: SweepFlags) -> _Design:
@@ -198,7 +215,7 @@ def _applied(d: _Design, actuator: Any) -> tuple[_Design, int]:
     if actuator is None:
         return d, 0
     u, n_clipped = limit_input(d.u, actuator)
-    return (_Design(u, d.dt, f"{d.source}, limited") if n_clipped else d), n_clipped
+    return (_Design(u, d.dt, f"{d.source}, limited", d.target) if n_clipped else d), n_clipped
 
 
 def _design_info(d: _Design, actuator: Any, n_clipped: int) -> dict[str, Any]:
@@ -214,8 +231,11 @@ def _plant_set(f: SweepFlags) -> tuple[Any, int]:
     """The variation set drawn from (Table 2.3 box or ``--variations``) and the seed."""
     from servokit.models import hdd_benchmark_variation_set, without_delay
 
+    if f.plant is not None and f.variations is None:
+        raise ServokitValueError("--plant applies only with --variations FILE; drop it")
     if f.variations is not None:
-        vset = load_variations(f.variations)
+        nominal = None if f.plant is None else load_plant(f.plant)
+        vset = load_variations(f.variations, fallback=nominal)
         if f.design is None and vset.nominal.name != "hdd-benchmark":
             raise ServokitValueError(
                 f"--variations {f.variations}: the design methods use the HDD benchmark; for "
@@ -252,13 +272,15 @@ def sweep_job(f: SweepFlags) -> SweepJob:
     band = check_positive("--settle-band", f.settle_band)
     if f.chunk_size is not None:
         check_count("--chunk-size", f.chunk_size, lo=1)
-    target = check_target(f.tracks)
+    if f.design is None:
+        check_target(f.tracks)
     _check_design_args(f)
     actuator = _actuator(f.u_max, f.slew_max)  # clips any design, the file's too
     if f.seed is not None and f.seed < 0:
         raise ServokitValueError(f"--seed must be >= 0 (got {f.seed})")
     vset, seed = _plant_set(f)
     d, n_clipped = _applied(_from_file(f.design) if f.design else _from_method(f), actuator)
+    target = _seek_distance(f, d)
     chunks = f"--n-variants {n}, --chunk-size {f.chunk_size if f.chunk_size else 'auto'}: "
     with flag_names({}, prefix=chunks):  # refuse early, naming the flags that set the size
         plan_chunks(vset, d, n, chunk_size=f.chunk_size, max_memory_mb=f.max_memory_mb)
@@ -269,6 +291,14 @@ def sweep_job(f: SweepFlags) -> SweepJob:
 UMaxOpt = u_max_option(
     "the robust design respects it; any other design is clipped at it before the sweep"
 )
+SweepPlantOpt = Annotated[
+    str | None,
+    typer.Option(
+        "--plant",
+        help="nominal plant of a --variations file that names none (catalogue name or .toml)",
+        metavar="NAME_OR_TOML",
+    ),
+]
 DesignOpt = Annotated[
     Path | None,
     typer.Option(
@@ -329,6 +359,7 @@ WorkersOpt = Annotated[
 )
 def sweep_cmd(
     design: DesignOpt = None,
+    plant: SweepPlantOpt = None,
     method: MethodOpt = "ffsc",
     tracks: TargetOpt = 1.0,
     n_samples: NSamplesOpt = None,
@@ -352,7 +383,10 @@ def sweep_cmd(
 
     Percentiles are nearest-rank over all plants; unsettled plants count as inf.
 
-    --variations FILE draws the plants from a variation file instead of the Table 2.3 box.
+    --variations FILE draws the plants from a variation file instead of the Table 2.3 box;
+    its nominal is the file's plant, else --plant.
+
+    --design FILE: the seek distance is the file's target_out (a --target must agree).
 
     --u-max / --slew-max: the held input is clipped (then rate-limited) as the actuator
     would apply it, and the sweep runs on the applied input; design.n_clipped counts the

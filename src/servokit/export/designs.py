@@ -13,11 +13,13 @@ from servokit.errors import ServokitValueError, check_count, check_positive
 if TYPE_CHECKING:
     from servokit.feedforward import FeedforwardInput
 
-__all__ = ["book_ivc_gain", "hdd_feedforward", "read_seek_json"]
+__all__ = ["book_ivc_gain", "hdd_feedforward", "read_seek_design", "read_seek_json"]
 
 
 def read_seek_json(path: str | Path, flag: str) -> tuple[np.ndarray, float]:
     """Held input samples of a ``servokit seek --json`` output (``input``, ``dt_s``).
+
+    :func:`read_seek_design` also returns the seek distance the input was designed for.
 
     Parameters
     ----------
@@ -32,6 +34,29 @@ def read_seek_json(path: str | Path, flag: str) -> tuple[np.ndarray, float]:
         The held input ``u[k]`` [plant input unit], shape ``(N,)``.
     dt : float
         Hold period [s].
+    """
+    u, dt, _ = read_seek_design(path, flag)
+    return u, dt
+
+
+def read_seek_design(path: str | Path, flag: str) -> tuple[np.ndarray, float, float | None]:
+    """:func:`read_seek_json` and the file's ``target_out`` (None when absent).
+
+    Parameters
+    ----------
+    path : str or Path
+        The JSON file.
+    flag : str
+        The CLI flag that named the file, for error messages.
+
+    Returns
+    -------
+    u : numpy.ndarray
+        The held input [plant input unit].
+    dt : float
+        Hold period [s].
+    target : float or None
+        The seek distance the input was designed for [output unit].
     """
     import json
 
@@ -54,7 +79,13 @@ def read_seek_json(path: str | Path, flag: str) -> tuple[np.ndarray, float]:
     dt = check_positive(f"{flag} {path}: 'dt_s'", float(dt_arr), "s")
     if not 1e-9 <= dt <= 1e3:  # the CLI's --dt range
         raise ServokitValueError(f"{flag} {path}: 'dt_s' {dt:g} s is outside 1e-09..1000 s")
-    return u, dt
+    raw_target = data.get("target_out")
+    if raw_target is None:
+        return u, dt, None
+    target = number_array(raw_target, f"{flag} {path}: 'target_out'")
+    if target.ndim != 0 or not np.isfinite(target) or float(target) == 0.0:
+        raise ServokitValueError(f"{flag} {path}: 'target_out' must be one non-zero number")
+    return u, dt, float(target)
 
 
 def hdd_feedforward(design: int, target: float, n_samples: int | None = None) -> FeedforwardInput:
