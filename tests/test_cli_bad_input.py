@@ -455,6 +455,19 @@ CASES: list[tuple[list[str], str]] = [
     (["sweep", "--method", "fsc", "--u-max", "3"], "--u-max"),
     (["sweep", "--design", "u.txt", "--method", "ffsc"], "--method"),
     # ---- margins
+    # a box beyond the corner limit is refused before any plant is built (3^8 corners)
+    ([*MARG, "--variations", "BIGBOX.toml"], "--variations"),
+    # a typed --plant and a different plant named in the variation file: not one ignored
+    ([*MARG, "--variations", "VAR.toml"], "--plant"),
+    (["seek", "--plant", "hdd-benchmark", "--variations", "VAR.toml"], "--plant"),
+    (["sweep", "--plant", "hdd-benchmark", "--n-variants", "10"], "--plant"),
+    # an input designed for 100 never settles at another distance
+    (["sweep", "--design", "TGT.json", "--target", "1"], "--target"),
+    # the file's words stay the file's words; the plant it names is named as its field
+    (["seek", "--variations", "TYPOVAR.toml"], "'freq_hz'"),
+    (["seek", "--variations", "MISSPLANT.toml"], "field 'plant'"),
+    # a misspelt input name is said so, before the rules of the flags beside it
+    (["srs", "--input", "halfsine", "--duration", "0.5e-3", "--dt", "25e-6"], "'halfsine'"),
     ([*MARG, "--loop-delay", "-1"], "--loop-delay"),
     ([*MARG, "--loop-delay", "1e300"], "--loop-delay"),
     ([*MARG, "--delay", "nan"], "--delay"),
@@ -897,6 +910,16 @@ def _materialise(args: list[str], where: Path, monkeypatch: pytest.MonkeyPatch) 
     (where / "VAR.toml").write_text(
         'kind = "variations"\nplant = "galvano-scanner"\ngain_rel = 0.1\n'
     )
+    (where / "BIGBOX.toml").write_text(
+        'kind = "variations"\nplant = "hdd-sampled-data"\n'
+        + "".join(f"[[modes]]\nfreq_hz = {f}\nfreq_rel = 0.05\ndamping_rel = 0.1\n"
+                  for f in (4100, 5700, 6200, 7650))
+    )  # fmt: skip
+    (where / "TYPOVAR.toml").write_text(
+        'kind = "variations"\nplant = "hdd-benchmark"\n[[modes]]\nfreq_hz = 4100\nfrq_rel = 0.1\n'
+    )
+    (where / "MISSPLANT.toml").write_text('kind = "variations"\nplant = "nope.toml"\n')
+    (where / "TGT.json").write_text('{"input": [1.0, -1.0], "dt_s": 1e-4, "target_out": 100}')
     (where / "BADVAR.toml").write_text(
         'kind = "variations"\nplant = "hdd-benchmark"\n[[modes]]\nfreq_hz = 3333\nfreq_rel = 0.1\n'
     )

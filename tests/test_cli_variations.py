@@ -5,11 +5,14 @@ from __future__ import annotations
 
 import json
 import sys
+from pathlib import Path
 
 import pytest
 
 import servokit.cli
 from servokit.models import HDD_BENCHMARK_VARIATIONS, ModalPlant, Mode, save_plant
+
+ROOT = Path(__file__).resolve().parents[1]
 
 
 def _run(monkeypatch, capsys, *args: str) -> dict:
@@ -122,3 +125,58 @@ def test_simulate_u_max_limits_the_input_and_anti_windup_settles(monkeypatch, ca
     assert guarded["peak_input"] == pytest.approx(0.3) and guarded["u_max"] == 0.3
     assert guarded["worst_settling_time_s"] < 0.05
     assert wound["worst_settling_time_s"] is None  # inf in JSON: the wound-up loop diverges
+
+
+def _boxes(tmp_path):
+    """The stage saved as a plant file, a box naming it and the same box naming none."""
+    save_plant(STAGE, tmp_path / "stage.toml")
+    ranges = "[[modes]]\nfreq_hz = 2130\nfreq_rel = 0.05\n"
+    named, plantless = tmp_path / "named.toml", tmp_path / "plantless.toml"
+    named.write_text(f'kind = "variations"\nname = "box"\nplant = "stage.toml"\n{ranges}')
+    plantless.write_text(f'kind = "variations"\nname = "box"\n{ranges}')
+    return str(tmp_path / "stage.toml"), str(named), str(plantless)
+
+
+def test_a_box_naming_its_plant_is_designed_on_and_named_by_it(tmp_path, monkeypatch, capsys):
+    """seek without --plant designs on the file's plant and names it (not the default
+    --plant); the same plant typed as --plant gives the same design."""
+    stage, named, _ = _boxes(tmp_path)
+    common = ["seek", "--dt", "5e-5", "--target", "10", "--method", "fsc", "--n-samples", "30"]
+    alone = _run(monkeypatch, capsys, *common, "--variations", named)
+    typed = _run(monkeypatch, capsys, *common, "--variations", named, "--plant", stage)
+    assert alone["plant"] == "stage" and typed["plant"] == stage
+    assert alone["n_plants"] == typed["n_plants"] == 3
+    assert alone["seek_times_s"] == typed["seek_times_s"]
+    assert alone["input"] == typed["input"]
+
+
+def test_margins_over_a_box_take_its_plant_as_seek_does(tmp_path, monkeypatch, capsys):
+    """margins --variations: the file's plant, else --plant (the same margins both ways)."""
+    stage, named, plantless = _boxes(tmp_path)
+    common = ["margins", "--controller", "examples/data/stage_controller.toml"]
+    monkeypatch.chdir(ROOT)
+    by_file = _run(monkeypatch, capsys, *common, "--plant", stage, "--variations", named)
+    by_flag = _run(monkeypatch, capsys, *common, "--plant", stage, "--variations", plantless)
+    assert by_file["plant"] == by_flag["plant"] == "stage"
+    assert len(by_file["plants"]) == 3  # the nominal frequency and its two ends
+    for key in ("plants", "worst_index", "min_gain_margin_db", "min_phase_margin_deg"):
+        assert by_file[key] == by_flag[key]
+
+
+def test_sweep_nominal_from_plant_and_distance_from_the_design(tmp_path, monkeypatch, capsys):
+    """sweep --plant gives a plantless box its nominal (as a box naming the plant does),
+    and --design's target_out is the seek distance unless --target says the same."""
+    stage, named, plantless = _boxes(tmp_path)
+    design = _run(
+        monkeypatch, capsys, "seek", "--plant", stage, "--dt", "5e-5", "--target", "10",
+        "--method", "fsc", "--n-samples", "30",
+    )  # fmt: skip
+    (tmp_path / "design.json").write_text(json.dumps(design))
+    common = ["sweep", "--design", str(tmp_path / "design.json"), "--n-variants", "200"]
+    common += ["--settle-band", "0.5"]
+    a = _run(monkeypatch, capsys, *common, "--variations", named)
+    b = _run(monkeypatch, capsys, *common, "--variations", plantless, "--plant", stage)
+    c = _run(monkeypatch, capsys, *common, "--variations", named, "--target", "10")
+    assert a["target_out"] == b["target_out"] == c["target_out"] == 10
+    assert a["percentiles_s"] == b["percentiles_s"] == c["percentiles_s"]
+    assert a["n_unsettled"] == 0  # settled about 10, not about the default 1

@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import math
+from pathlib import Path
 from typing import Annotated
 
 import typer
@@ -126,6 +127,8 @@ def srs_cmd(
     if dt is not None:
         check_positive("--dt", dt, "s")
     kind_of_input = input_ if input_ in ("half-sine", "polynomial") else "FILE"
+    if kind_of_input == "FILE" and not Path(input_).exists():
+        _read_samples(input_)  # a misspelt input name: say so before the flags' rules
     refuse_inapplicable("--input", kind_of_input, _INPUT_APPLIES)
     size = (n, fmax, kind, at, max_memory_mb)
     accel, dur = _input(input_, dt, duration, n_samples, target, size)
