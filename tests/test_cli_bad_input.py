@@ -466,6 +466,8 @@ CASES: list[tuple[list[str], str]] = [
     # the file's words stay the file's words; the plant it names is named as its field
     (["seek", "--variations", "TYPOVAR.toml"], "'freq_hz'"),
     (["seek", "--variations", "MISSPLANT.toml"], "field 'plant'"),
+    # a variation file given where a plant file goes is named for what it is
+    (["plant", "show", "VAR.toml"], "--variations"),
     # a misspelt input name is said so, before the rules of the flags beside it
     (["srs", "--input", "halfsine", "--duration", "0.5e-3", "--dt", "25e-6"], "'halfsine'"),
     ([*MARG, "--loop-delay", "-1"], "--loop-delay"),

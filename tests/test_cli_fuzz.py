@@ -64,7 +64,8 @@ def _leaf_commands() -> list[tuple[str, click.Command]]:
 def _base_args(path: str, cmd: click.Command) -> list[str]:
     """The first runnable example of the command's help (``--plot`` dropped)."""
     epilog = (cmd.epilog or "").split("Example: ", 1)[-1]
-    first = epilog.split("  |  ")[0].split("  ")[0].strip()  # "  JSON: ..." may follow
+    # a paragraph ("JSON: ...") may follow the examples
+    first = epilog.split("\n\n")[0].split("  |  ")[0].split("  ")[0].strip()
     if not first.startswith("servokit ") or any(c in first for c in _PIPED):
         return path.split()
     words = shlex.split(first)[1:]

@@ -50,3 +50,16 @@ def test_every_number_is_either_ordinary_or_named(x: float) -> None:
     assert "--x" in out  # named either as extreme or among the number flags given
     ordinary = 1e-12 <= abs(x) <= 1e12 or x == 0.0
     assert ("far outside" in out) == (not ordinary)
+
+
+def test_a_message_naming_a_typed_argument_gets_no_hint() -> None:
+    """A missing file or an unknown name is named as typed: no "default inputs" guess."""
+    missing = "FRF_FILE nosuch.csv: no such file"
+    assert with_input_hint(missing, ["fit", "nosuch.csv", "--out", "o"]) == missing
+    unknown = "PLANT: unknown plant 'nosuch': choose one of hdd-benchmark"
+    assert with_input_hint(unknown, ["plant", "show", "nosuch"]) == unknown
+    # a word of the command line merely inside another word is not a mention
+    vague = "the plant has no modes"
+    assert with_input_hint(vague, ["plant", "show", "x.toml"]).endswith(
+        "(with the default inputs of this command)"
+    )

@@ -49,6 +49,13 @@ def _numeric_flags(argv: list[str]) -> list[tuple[str, str, bool]]:
     return found
 
 
+def _names(message: str, arg: str) -> bool:
+    """Whether ``message`` names the argument ``arg`` as typed: an existing path anywhere,
+    any other word quoted (``unknown plant 'nosuch'``) or before a colon (``x.csv: no such
+    file``), as the errors of a missing file or an unknown name put it."""
+    return arg in message and (os.path.exists(arg) or f"'{arg}'" in message or f"{arg}:" in message)
+
+
 def with_input_hint(message: str, argv: list[str]) -> str:
     """``message``, followed by the inputs that likely caused it if it names no flag.
 
@@ -66,7 +73,7 @@ def with_input_hint(message: str, argv: list[str]) -> str:
         else with ``(at --flag VALUE: ...)`` naming the extreme numbers, or the number
         flags given, appended.
     """
-    if "--" in message or any(a in message for a in argv if len(a) > 2 and os.path.exists(a)):
+    if "--" in message or any(_names(message, a) for a in argv if len(a) > 2):
         return message
     flags = _numeric_flags(argv)
     extreme = [f"{flag} {value}" for flag, value, bad in flags if bad]

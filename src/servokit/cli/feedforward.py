@@ -38,7 +38,7 @@ _ARRAYS_PER_SAMPLE = 8
 @feedforward_app.command(
     "polynomial",
     epilog=example("servokit feedforward polynomial --order 3 --n-samples 40 --dt 25e-6 --json")
-    + "  JSON: order, n_samples, dt_s, target_out, formula, peak_input, u (u[0..N]).",
+    + "\n\nJSON: order, n_samples, dt_s, target_out, formula, peak_input, u (u[0..N]).",
 )
 def polynomial_cmd(
     n_samples: NSamplesOpt,
@@ -105,7 +105,7 @@ def _polynomial_plot(u, n: int, dt: float, order: int, path) -> None:  # noqa: A
 @feedforward_app.command(
     "minimum-jerk",
     epilog=example("servokit feedforward minimum-jerk --move-time 1 --dt 0.1 --json")
-    + "  JSON: move_time_s, dt_s, target_out, final_error, final_velocity_per_s, n_samples.",
+    + "\n\nJSON: move_time_s, dt_s, target_out, final_error, final_velocity_per_s, n_samples.",
 )
 def minimum_jerk_cmd(
     dt: DtOpt,

@@ -128,7 +128,7 @@ def _print(data: dict) -> None:
 @app.command(
     "fit",
     epilog=example("servokit fit examples/data/stage_frf.csv --out fitted --plot fit.png")
-    + "  Writes OUT/plant.toml (read by every --plant).  JSON: plant_file, n_points, n_modes, "
+    + "\n\nWrites OUT/plant.toml (read by every --plant).  JSON: plant_file, n_points, n_modes, "
     "gain, delay_s, delay_std_s, modes [{freq_hz, damping, residue, "
     "gain_residue_out_per_in_s2 (output unit per input unit per s^2), freq_std_hz, "
     "damping_std, gain_residue_std_out_per_in_s2}], median_error, max_error, noise_rel, "

@@ -172,7 +172,7 @@ def _print(res: Any) -> None:
         "servokit loopshape examples/data/stage_frf.csv --dt 2.5e-5 --order 4 --out ctrl",
         "servokit loopshape p1.csv p2.csv --dt 3.7879e-5 --order 12 --out ctrl --plot loops.png",
     )
-    + "  Writes OUT/controller.toml (read by every --controller).  JSON: "
+    + "\n\nWrites OUT/controller.toml (read by every --controller).  JSON: "
     + JSON_KEYS
     + ".",
 )

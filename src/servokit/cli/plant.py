@@ -54,7 +54,7 @@ def list_cmd(json_out: JsonOpt = False) -> None:
 @plant_app.command(
     "show",
     epilog=example("servokit plant show hdd-benchmark --json")
-    + "  JSON: name, gain, delay_s, source, modes [{freq_hz, damping, residue}].",
+    + "\n\nJSON: name, gain, delay_s, source, modes [{freq_hz, damping, residue}].",
 )
 def show(plant: PlantArg, json_out: JsonOpt = False) -> None:
     """Print the plant's gain, delay and mode table."""
@@ -86,7 +86,7 @@ def show(plant: PlantArg, json_out: JsonOpt = False) -> None:
 @plant_app.command(
     "bode",
     epilog=example("servokit plant bode hdd-sampled-data --plot bode.png")
-    + "  JSON: freq_hz, magnitude_db, phase_deg, plot.",
+    + "\n\nJSON: freq_hz, magnitude_db, phase_deg, plot.",
 )
 def bode(
     plant: PlantArg,

@@ -97,7 +97,7 @@ NValidationOpt = Annotated[
         "servokit seek --plant hdd-benchmark --target 1 --method ffsc --json",
         "servokit seek --target 10 --method fsc --n-samples 26 --plot seek.png",
     )
-    + f"  JSON (fsc, ffsc): {_JSON_KEYS}.  JSON (robust): {ROBUST_JSON_KEYS}.",
+    + f"\n\nJSON (fsc, ffsc): {_JSON_KEYS}.  JSON (robust): {ROBUST_JSON_KEYS}.",
 )
 def seek_cmd(
     plant: PlantOpt = "hdd-benchmark",

@@ -65,7 +65,7 @@ _JSON_KEYS = (
         "servokit sensitivity --plant hdd-sampled-data --controller eq-4.69 --multirate "
         "--plot ssd.png"
     )
-    + f"  JSON: {_JSON_KEYS}.",
+    + f"\n\nJSON: {_JSON_KEYS}.",
 )
 def sensitivity_cmd(
     plant: PlantOpt = "hdd-sampled-data",

@@ -187,7 +187,7 @@ def simulate_job(f: SimulateFlags) -> SimulateJob:
         "servokit simulate --plant hdd-sampled-data --dt 153.5e-6 --duration 0.02 --step 1 "
         "--controller eq-4.69 --json"
     )
-    + "  --variations FILE simulates every corner of the file's box (nominal, low, high of "
+    + "\n\n--variations FILE simulates every corner of the file's box (nominal, low, high of "
     "each range); --u-max/--slew-max limit the actuator (anti-windup for the controller; the "
     "output is then sampled).  JSON: plants, final_out, peak_out, settling_time_s, "
     "worst_plant, worst_settling_time_s (null: does not settle), reason, peak_input, u_max, "

@@ -83,7 +83,7 @@ def _read_samples(path: str) -> object:
 @app.command(
     "srs",
     epilog=example("servokit srs --input half-sine --duration 0.5e-3 --dt 25e-6 --plot srs.png")
-    + f"  JSON: {_JSON_KEYS}.",
+    + f"\n\nJSON: {_JSON_KEYS}.",
 )
 def srs_cmd(
     input_: Annotated[

@@ -85,7 +85,7 @@ def _check_level(level: float) -> None:
 @unobservable_app.command(
     "magnitude",
     epilog=example("servokit unobservable magnitude --freq 4000 --dt 25e-6 --json")
-    + "  JSON: freq_hz, dt_s, damping, n_samples, worst, worst_sampling_phase, minimum, "
+    + "\n\nJSON: freq_hz, dt_s, damping, n_samples, worst, worst_sampling_phase, minimum, "
     "minimum_sampling_phase, rms, histogram_edges, histogram_percent, plot (sampling phases "
     "as a fraction of --dt).",
 )
@@ -184,7 +184,7 @@ def _sampling_range(
 @unobservable_app.command(
     "sampling",
     epilog=example("servokit unobservable sampling --freq 4000 --damping 0.01 --n-samples 10")
-    + "  JSON: freq_hz, damping, n_samples, level, fs_range_hz, intervals [{low_hz, high_hz, "
+    + "\n\nJSON: freq_hz, damping, n_samples, level, fs_range_hz, intervals [{low_hz, high_hz, "
     "peak_hz, peak_rms}], plot.",
 )
 def sampling_cmd(
@@ -275,7 +275,7 @@ def _sampling_render(
 @unobservable_app.command(
     "time",
     epilog=example("servokit unobservable time --freq 4000 --dt 25e-6 --damping 0.01")
-    + "  JSON: freq_hz, dt_s, damping, level, n_samples (null if not reached), time_s, "
+    + "\n\nJSON: freq_hz, dt_s, damping, level, n_samples (null if not reached), time_s, "
     "crossing_time_s, rms, plot.",
 )
 def time_cmd(

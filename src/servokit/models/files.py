@@ -109,8 +109,15 @@ def load_plant(path: str | Path) -> ModalPlant:
     """
     path = Path(path)
     data = _read(path)
+    kind = data.get("kind", "plant")
+    if kind in ("variations", "controller"):  # a file of servokit's, in the wrong place
+        what, where = {"variations": ("variation", "--variations"),
+                       "controller": ("controller", "--controller")}[kind]  # fmt: skip
+        raise PlantFileError(
+            f"{path}: a {what} file (kind = {kind!r}), not a plant file; give it to {where}"
+        )
     _unknown(path, "", set(data), _PLANT_KEYS)
-    if data.get("kind", "plant") != "plant":
+    if kind != "plant":
         raise PlantFileError(f"{path}: field 'kind' must be 'plant' for a plant file")
     if "gain" not in data:
         raise PlantFileError(f"{path}: missing field 'gain'; add e.g. 'gain = 3.93e9'")
