@@ -76,6 +76,7 @@ def test_guide_commands_run_and_numbers_hold(tmp_path, monkeypatch, capsys):
     _check_robust_seek(plant)
     html = Path("design/report.html").read_text(encoding="utf-8")
     assert "Example stage design" in html and "book" not in html.lower()
+    assert "sample 20" in html  # each Monte-Carlo plant named in the margins table
     # the exported seek input is the validated one; the controller step clamps at 40 V
     header = Path("firmware/stage_ff.h").read_text()
     n = len(json.loads(Path("seek.json").read_text())["input"])

@@ -379,3 +379,29 @@ def test_two_modes_at_one_frequency_discrete_split_form():
     assert len(m.gain_crossovers_hz) == 3
     assert np.abs(case.dense(np.array(m.gain_crossovers_hz))) == pytest.approx(1.0, rel=1e-9)
     assert m.closed_loop_stable is not case.unstable()[0]
+
+
+def test_bode_plot_unwrapped_phase_has_no_jumps(tmp_path, monkeypatch):
+    """``unwrap=True`` draws the principal phase plus multiples of 360° with no step above
+    180° between grid points, where the principal value jumps at the resonances."""
+    import servokit.feedback.plots as plots
+
+    drawn = {}
+
+    def keep(fig, path, **kw):
+        drawn["lines"] = [ln.get_ydata() for ln in fig.axes[1].get_lines()]
+        return path
+
+    monkeypatch.setattr(plots, "save_figure", keep)
+    pd = hdd_benchmark_variants()[0].discretize(benchmark_controller().dt)
+    loop = [pd, benchmark_controller()]
+    f = frequency_grid(loop, 10.0, 0.5 / benchmark_controller().dt, 3000)
+    phases = {}
+    for unwrap in (False, True):
+        plots.bode_responses_plot({"L": loop}, f, path=tmp_path / "b.png", title="t",
+                                  unwrap=unwrap)  # fmt: skip
+        (phases[unwrap],) = drawn["lines"]
+    assert np.abs(np.diff(phases[False])).max() > 300.0  # the principal value jumps
+    assert np.abs(np.diff(phases[True])).max() < 180.0
+    turns = (phases[True] - phases[False]) / 360.0  # the same angle, whole turns apart
+    assert np.allclose(turns, np.round(turns), atol=1e-9)

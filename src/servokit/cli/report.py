@@ -62,7 +62,10 @@ def _plant_set(nominal: Any, variations: Path | None, n_plants: int) -> list[Any
     from servokit.cli._app import load_variations
 
     box = load_variations(variations, fallback=nominal)
-    return [nominal, *box.monte_carlo(n_plants)]
+    # each plant named in the report's tables (the samples carry the nominal's name)
+    name = box.name or "box"
+    samples = box.monte_carlo(n_plants)
+    return [box.nominal, *(p.replace(name=f"{name} sample {i}") for i, p in enumerate(samples, 1))]
 
 
 def _read_inputs(

@@ -460,7 +460,8 @@ def _margins_plot(loop: list[Any], m: Any, dt: float, target: Any) -> None:
         f"open loop L: PM {m.phase_margin_deg:.3g}° at {m.pm_freq_hz:.4g} Hz, "
         f"GM {m.gain_margin_db:.3g} dB at {m.gm_freq_hz:.4g} Hz"
     )
-    wrote(bode_responses_plot({"L = P C F": loop}, f, path=target, title=title))
+    # continuous phase: the -180° crossings read off the curve, no jumps at resonances
+    wrote(bode_responses_plot({"L = P C F": loop}, f, path=target, title=title, unwrap=True))
 
 
 def _margins_over_file(

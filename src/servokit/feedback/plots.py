@@ -22,6 +22,7 @@ def bode_responses_plot(
     path: str | Path,
     title: str,
     magnitude_only: bool = False,
+    unwrap: bool = False,
 ) -> Path:
     """Magnitude [dB] and phase [deg] of labelled systems (LTI, ModalPlant, callable, list).
 
@@ -37,6 +38,9 @@ def bode_responses_plot(
         Figure title (with the book's figure number).
     magnitude_only : bool
         Draw the magnitude only.
+    unwrap : bool
+        Continuous phase (no ±360° jumps; a loop's phase lag read down to the Nyquist
+        frequency) instead of the book figures' principal value in [-180°, 180°].
 
     Returns
     -------
@@ -52,11 +56,13 @@ def bode_responses_plot(
         h = resp(freq_hz)
         axes[0, 0].semilogx(freq_hz, 20 * np.log10(np.abs(h)), label=label)
         if not magnitude_only:
-            axes[1, 0].semilogx(freq_hz, np.degrees(np.angle(h)), label=label)
+            phase = np.unwrap(np.angle(h)) if unwrap else np.angle(h)
+            axes[1, 0].semilogx(freq_hz, np.degrees(phase), label=label)
     axes[0, 0].set_ylabel("Magnitude [dB]")
     if not magnitude_only:
         axes[1, 0].set_ylabel("Phase [deg]")
-        axes[1, 0].set_ylim(-185, 185)
+        if not unwrap:
+            axes[1, 0].set_ylim(-185, 185)
     axes[-1, 0].set_xlabel("Frequency [Hz]")
     for ax in axes[:, 0]:
         ax.grid(True, which="both", alpha=0.3)
