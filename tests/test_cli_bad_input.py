@@ -466,6 +466,9 @@ CASES: list[tuple[list[str], str]] = [
     # the file's words stay the file's words; the plant it names is named as its field
     (["seek", "--variations", "TYPOVAR.toml"], "'freq_hz'"),
     (["seek", "--variations", "MISSPLANT.toml"], "field 'plant'"),
+    # a limit no input of that length meets: the flags to change named once
+    (["seek", "--target", "10", "--method", "fsc", "--n-samples", "12", "--u-max", "1e-6"],
+     "raise --u-max or --n-samples"),  # fmt: skip
     # a variation file given where a plant file goes is named for what it is
     (["plant", "show", "VAR.toml"], "--variations"),
     # a misspelt input name is said so, before the rules of the flags beside it

@@ -296,9 +296,11 @@ def input_limit(request: Any, u_max: float, n_flag: str) -> tuple:
         fsc_input(design, request.dt, n_top, request.target, band_weights=list(
             request.band_weights), model=request.model, constraints=limit)  # fmt: skip
     except InfeasibleConstraintsError as exc:
+        # the flags to change are named here, once: not the library's "increase N"
+        binding = ", ".join(f"'{b}'" for b in exc.binding) or "the constraints together"
         raise ServokitValueError(
-            f"--u-max {u_max:g}: no input of N = {n_top} samples reaches the target within "
-            f"|u| <= {u_max:g} ({str(exc).splitlines()[0]}); raise --u-max or {n_flag}"
+            f"--u-max {u_max:g}: no input of {n_top} samples ({n_flag} {n_top}) reaches the "
+            f"target within |u| <= {u_max:g} (binding: {binding}); raise --u-max or {n_flag}"
         ) from None
     return limit
 
