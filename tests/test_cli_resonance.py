@@ -149,6 +149,12 @@ def test_margins_of_an_unstable_loop_print_one_warning_line():
     assert out.exit_code == 0, out.output
     warnings = [ln for ln in out.output.splitlines() if "warning" in ln]
     assert len(warnings) == 1 and "UNSTABLE" in warnings[0]
+    # no crossover offers a delay margin to an unstable loop: the headline 0 and the rows
+    # say the same thing
+    text = " ".join(out.stdout.split())
+    assert "delay margin 0 us (the closed loop is already unstable)" in text
+    rows = [ln for ln in out.stdout.splitlines() if "gain crossover" in ln]
+    assert rows and all(ln.rstrip().endswith("delay margin      n/a") for ln in rows)
     js = run(
         *"margins --plant hdd-sampled-data --controller eq-4.69 --loop-delay 2e-3 --json".split()
     )

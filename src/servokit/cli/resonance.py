@@ -417,13 +417,17 @@ def _margins_render(m: Any, name: str, controller: str, dt: float, json_out: boo
     console.print(
         f"{name} with {controller} (dt = {dt:g} s): GM {m.gain_margin_db:.4g} dB at "
         f"{m.gm_freq_hz:.5g} Hz, PM {m.phase_margin_deg:.4g} deg at {m.pm_freq_hz:.5g} Hz, "
-        f"delay margin {m.delay_margin_s * 1e6:.4g} us, modulus margin "
-        f"{m.modulus_margin:.4g} at {m.modulus_margin_freq_hz:.5g} Hz"
+        f"delay margin {m.delay_margin_s * 1e6:.4g} us"
+        + (" (the closed loop is already unstable)" if m.closed_loop_stable is False else "")
+        + f", modulus margin {m.modulus_margin:.4g} at {m.modulus_margin_freq_hz:.5g} Hz"
     )
+    # a crossover's delay margin is the extra delay that moves it to -180 deg: for an
+    # unstable loop it is no margin (the headline says 0), so the rows say so
+    unstable = m.closed_loop_stable is False
     for f, pm, dm in zip(m.gain_crossovers_hz, m.phase_margins_deg, m.delay_margins_s, strict=True):
+        delay = f"{'n/a':>8}" if unstable else f"{dm * 1e6:8.4g} us"
         console.print(
-            f"  gain crossover {f:10.5g} Hz  phase margin {pm:8.4g} deg"
-            f"  delay margin {dm * 1e6:8.4g} us"
+            f"  gain crossover {f:10.5g} Hz  phase margin {pm:8.4g} deg  delay margin {delay}"
         )
     for f, gm in zip(m.phase_crossovers_hz, m.gain_margins_db, strict=True):
         console.print(f"  phase crossover {f:9.5g} Hz  gain margin {gm:8.4g} dB")
