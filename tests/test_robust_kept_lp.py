@@ -71,6 +71,17 @@ def test_kept_answers_equal_fresh_linprog(gains, freqs, dampings, residues, N, s
             assert abs(x[: kept.N].sum()) <= 1e-6 and np.all(np.abs(x[: kept.N]) <= 1 + 1e-9)
 
 
+@pytest.mark.parametrize("scale", [1e-6, 1.0, 1e6])
+def test_a_dual_simplex_solve_error_is_decided_by_the_interior_point(scale):
+    """Hypothesis found a 16-row LP (coefficients 8e-11 to 28) on which HiGHS's dual
+    simplex stops with "Solve error" at every scale: the fresh path asks the interior point
+    method instead of raising, and agrees with the kept model (infeasible)."""
+    plants = _plants((97.0, 109.0), (28.75, 21.0), (0.3, 0.125), (0.5, 0.5), scale)
+    kept, fresh = _lp(plants, 13, scale), _lp(plants, 13, scale)
+    assert _fresh(fresh, fresh.J) is None
+    assert kept.solve(kept.J) is None
+
+
 def test_rigid_body_only():
     """No flexible mode (no envelope columns): the same decisions as linprog."""
     plants = [ModalPlant(gain=g, modes=(Mode(0.0, 0.0, 1.0),), delay=0.0) for g in (100, 90)]

@@ -262,9 +262,13 @@ class _SeekLP:
             bounds.append((0.0, 1.0))
             c = np.zeros(n + 1)
             c[n] = 1.0
-        res = scipy.optimize.linprog(
-            c, A_ub=A_ub, b_ub=b_ub, A_eq=A_eq, b_eq=[0.0], bounds=bounds, method="highs-ds"
-        )
+        problem = {"A_ub": A_ub, "b_ub": b_ub, "A_eq": A_eq, "b_eq": [0.0], "bounds": bounds}
+        res = scipy.optimize.linprog(c, **problem, method="highs-ds")
+        if res.status == 4:
+            # HiGHS "solve error": the dual simplex lost its way on a tiny, badly conditioned
+            # LP (hypothesis: 16 rows with coefficients from 8e-11 to 28); the interior point
+            # method decides it (at any scale of the output units)
+            res = scipy.optimize.linprog(c, **problem, method="highs-ipm")
         if res.status == 2:
             return None
         if res.status != 0:
