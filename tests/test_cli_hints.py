@@ -56,6 +56,8 @@ def test_a_message_naming_a_typed_argument_gets_no_hint() -> None:
     """A missing file or an unknown name is named as typed: no "default inputs" guess."""
     missing = "FRF_FILE nosuch.csv: no such file"
     assert with_input_hint(missing, ["fit", "nosuch.csv", "--out", "o"]) == missing
+    shown = "PLANT nosuch.toml: no such file"  # typed as ./nosuch.toml
+    assert with_input_hint(shown, ["plant", "show", "./nosuch.toml"]) == shown
     unknown = "PLANT: unknown plant 'nosuch': choose one of hdd-benchmark"
     assert with_input_hint(unknown, ["plant", "show", "nosuch"]) == unknown
     # a word of the command line merely inside another word is not a mention

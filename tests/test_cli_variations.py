@@ -150,17 +150,24 @@ def test_a_box_naming_its_plant_is_designed_on_and_named_by_it(tmp_path, monkeyp
     assert alone["input"] == typed["input"]
 
 
-def test_margins_over_a_box_take_its_plant_as_seek_does(tmp_path, monkeypatch, capsys):
-    """margins --variations: the file's plant, else --plant (the same margins both ways)."""
+def test_margins_accept_a_box_naming_the_typed_plant(tmp_path, monkeypatch, capsys):
+    """margins needs --plant; a box naming that same plant (written with its modes in
+    another order) is no conflict and gives the margins of the plantless box (a different
+    plant is refused: tests/test_cli_bad_input.py)."""
     stage, named, plantless = _boxes(tmp_path)
-    common = ["margins", "--controller", "examples/data/stage_controller.toml"]
+    # the box's own plant file lists the modes in reverse; --plant is another file
+    save_plant(STAGE.replace(modes=STAGE.modes[::-1]), tmp_path / "stage.toml")
+    save_plant(STAGE, tmp_path / "typed.toml")
+    typed = str(tmp_path / "typed.toml")
+    common = ["margins", "--controller", "examples/data/stage_controller.toml", "--plant", typed]
     monkeypatch.chdir(ROOT)
-    by_file = _run(monkeypatch, capsys, *common, "--plant", stage, "--variations", named)
-    by_flag = _run(monkeypatch, capsys, *common, "--plant", stage, "--variations", plantless)
+    by_file = _run(monkeypatch, capsys, *common, "--variations", named)
+    by_flag = _run(monkeypatch, capsys, *common, "--variations", plantless)
     assert by_file["plant"] == by_flag["plant"] == "stage"
     assert len(by_file["plants"]) == 3  # the nominal frequency and its two ends
-    for key in ("plants", "worst_index", "min_gain_margin_db", "min_phase_margin_deg"):
-        assert by_file[key] == by_flag[key]
+    assert by_file["worst_index"] == by_flag["worst_index"]
+    for key in ("min_gain_margin_db", "min_phase_margin_deg", "min_delay_margin_s"):
+        assert by_file[key] == pytest.approx(by_flag[key], rel=1e-9)
 
 
 def test_sweep_nominal_from_plant_and_distance_from_the_design(tmp_path, monkeypatch, capsys):
@@ -180,3 +187,29 @@ def test_sweep_nominal_from_plant_and_distance_from_the_design(tmp_path, monkeyp
     assert a["target_out"] == b["target_out"] == c["target_out"] == 10
     assert a["percentiles_s"] == b["percentiles_s"] == c["percentiles_s"]
     assert a["n_unsettled"] == 0  # settled about 10, not about the default 1
+
+
+def test_a_conflict_names_the_plant_as_typed(tmp_path, monkeypatch, capsys):
+    """The refusal quotes --plant as the user typed it, and says how to agree."""
+    stage, named, _ = _boxes(tmp_path)
+    other = STAGE.replace(gain=2 * STAGE.gain, name="stage")  # the same name, another plant
+    save_plant(other, tmp_path / "other.toml")
+    monkeypatch.setattr(sys, "argv", ["servokit", "seek", "--plant", str(tmp_path / "other.toml"),
+                                      "--variations", named, "--dt", "5e-5", "--target", "10"])
+    with pytest.raises(SystemExit) as exc:
+        servokit.cli.main()
+    err = capsys.readouterr().err.strip()
+    assert exc.value.code == 2 and len(err.splitlines()) == 1
+    assert f"--plant {tmp_path / 'other.toml'} and the plant named in --variations" in err
+    assert "give the same plant to both" in err
+
+
+def test_sweep_refuses_a_target_off_a_tiny_design_distance(tmp_path, monkeypatch, capsys):
+    """A nanometre design distance: a --target of another sign and size is no match."""
+    design = {"input": [1.0, -1.0], "dt_s": 1e-4, "target_out": 1e-9}
+    (tmp_path / "d.json").write_text(json.dumps(design))
+    monkeypatch.setattr(sys, "argv", ["servokit", "sweep", "--design", str(tmp_path / "d.json"),
+                                      "--target", "-5e-9", "--n-variants", "5"])
+    with pytest.raises(SystemExit) as exc:
+        servokit.cli.main()
+    assert exc.value.code == 2 and "--target -5e-09 differs" in capsys.readouterr().err

@@ -53,7 +53,12 @@ def _names(message: str, arg: str) -> bool:
     """Whether ``message`` names the argument ``arg`` as typed: an existing path anywhere,
     any other word quoted (``unknown plant 'nosuch'``) or before a colon (``x.csv: no such
     file``), as the errors of a missing file or an unknown name put it."""
-    return arg in message and (os.path.exists(arg) or f"'{arg}'" in message or f"{arg}:" in message)
+    for form in {arg, os.path.normpath(arg)}:  # "./x.toml" is shown as "x.toml"
+        if form in message and (
+            os.path.exists(form) or f"'{form}'" in message or f"{form}:" in message
+        ):
+            return True
+    return False
 
 
 def with_input_hint(message: str, argv: list[str]) -> str:

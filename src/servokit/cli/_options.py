@@ -532,15 +532,30 @@ def load_variations(value: Path | str, fallback: Any = None, flag: str = "--vari
         vset = read_variations(path, fallback=fallback)
     # the reader returns ``fallback`` itself when the file names no plant
     if fallback is not None and vset.nominal is not fallback and given_on_command_line("plant"):
-        unnamed = {"name": "", "source": ""}
-        if dataclasses.replace(vset.nominal, **unnamed) != dataclasses.replace(
-            fallback, **unnamed
-        ):
+        if _physics(vset.nominal) != _physics(fallback):
             raise ServokitValueError(
-                f"--plant {fallback.name} and the plant of {flag} {value} "
-                f"({vset.nominal.name}) differ; drop --plant or the file's plant = line"
+                f"--plant {_typed('plant', fallback.name)} and the plant named in {flag} "
+                f"{value} ({vset.nominal.name}) differ; give the same plant to both, or "
+                "remove the file's plant = line"
             )
     return vset
+
+
+def _physics(plant: Any) -> Any:
+    """A plant's gain, delay and modes (in frequency order), without its name and source:
+    the same plant whatever its file calls it or in which order it lists its modes."""
+    modes = tuple(sorted(plant.modes, key=lambda m: (m.freq_hz, m.damping, m.residue)))
+    return dataclasses.replace(plant, name="", source="", modes=modes)
+
+
+def _typed(name: str, default: str) -> str:
+    """The value of the command's parameter ``name`` as the user typed it (``default``
+    outside a command)."""
+    from typer._click.globals import get_current_context
+
+    ctx = get_current_context(silent=True)
+    value = None if ctx is None else ctx.params.get(name)
+    return default if value is None else str(value)
 
 
 # ---- size of a plant's discrete state-space model, estimated before it is built ----

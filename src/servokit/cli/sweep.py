@@ -9,6 +9,7 @@ Flags -> :func:`sweep_job` (the checked set, design and limits; a design method 
 from __future__ import annotations
 
 import dataclasses
+import math
 import time
 from pathlib import Path
 from typing import Annotated, Any
@@ -112,7 +113,8 @@ def _seek_distance(f: SweepFlags, d: _Design) -> float:
     input designed for one distance never settles at another)."""
     if d.target is None:
         return check_target(f.tracks)
-    if given_on_command_line("tracks") and not np.isclose(f.tracks, d.target, rtol=1e-9):
+    # relative only: a nanometre seek in metres is as much a distance as a 100 um one
+    if given_on_command_line("tracks") and not math.isclose(f.tracks, d.target, rel_tol=1e-9):
         raise ServokitValueError(
             f"--target {f.tracks:g} differs from target_out {d.target:g} of --design "
             f"{f.design} (the input was designed for {d.target:g}); drop --target"

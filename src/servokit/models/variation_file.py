@@ -160,7 +160,8 @@ def _nominal(
         return fallback
     if "plant" not in data:
         raise VariationFileError(
-            f'{path}: no nominal plant; add plant = "NAME_OR_FILE" or pass the plant'
+            f'{path}: no nominal plant; add plant = "NAME_OR_FILE" or pass the plant '
+            "(fallback=; --plant on the command line)"
         )
     from servokit.models.catalogue import CATALOGUE
     from servokit.models.lookup import get_plant

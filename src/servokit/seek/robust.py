@@ -264,7 +264,9 @@ class _SeekLP:
             c[n] = 1.0
         problem = {"A_ub": A_ub, "b_ub": b_ub, "A_eq": A_eq, "b_eq": [0.0], "bounds": bounds}
         res = scipy.optimize.linprog(c, **problem, method="highs-ds")
+        tried = "HiGHS's dual simplex"
         if res.status == 4:
+            tried += " and interior point"
             # HiGHS "solve error": the dual simplex lost its way on a tiny, badly conditioned
             # LP (hypothesis: 16 rows with coefficients from 8e-11 to 28); the interior point
             # method decides it (at any scale of the output units)
@@ -273,8 +275,7 @@ class _SeekLP:
             return None
         if res.status != 0:
             raise ServokitValueError(
-                f"the robust seek LP failed ({res.message}); rescale the plant units or "
-                "change the band"
+                f"the robust seek LP failed ({res.message}, {tried}); change N or the band"
             )
         return np.asarray(res.x[:n])
 
