@@ -469,6 +469,10 @@ CASES: list[tuple[list[str], str]] = [
     # a limit no input of that length meets: the flags to change named once
     (["seek", "--target", "10", "--method", "fsc", "--n-samples", "12", "--u-max", "1e-6"],
      "raise --u-max or --n-samples"),  # fmt: skip
+    # |T| is 0 dB wherever |L| is large: no loop meets a bound at or below it
+    (["loopshape", "FRF.csv", "--dt", "2.5e-5", "--out", "o", "--t-max-db", "0"], "--t-max-db"),
+    # the model's own check of a plant file's value names the file
+    (["plant", "show", "SLOWDELAY.toml"], "SLOWDELAY.toml: delay"),
     # a variation file given where a plant file goes is named for what it is
     (["plant", "show", "VAR.toml"], "--variations"),
     # a misspelt input name is said so, before the rules of the flags beside it
@@ -924,6 +928,9 @@ def _materialise(args: list[str], where: Path, monkeypatch: pytest.MonkeyPatch) 
         'kind = "variations"\nplant = "hdd-benchmark"\n[[modes]]\nfreq_hz = 4100\nfrq_rel = 0.1\n'
     )
     (where / "MISSPLANT.toml").write_text('kind = "variations"\nplant = "nope.toml"\n')
+    (where / "SLOWDELAY.toml").write_text(
+        'gain = 1.0\ndelay = 10\n[[modes]]\nfreq_hz = 0\ndamping = 0\nresidue = 1\n'
+    )
     (where / "TGT.json").write_text('{"input": [1.0, -1.0], "dt_s": 1e-4, "target_out": 100}')
     (where / "BADVAR.toml").write_text(
         'kind = "variations"\nplant = "hdd-benchmark"\n[[modes]]\nfreq_hz = 3333\nfreq_rel = 0.1\n'

@@ -140,6 +140,20 @@ def test_loopshape_rejects_bad_input() -> None:
         )
 
 
+def test_a_t_bound_the_start_misses_is_named_as_such() -> None:
+    """A stable initial controller above the ‖T‖∞ bound is refused for that bound, not as
+    unstable; a bound at or below 0 dB (|T| -> 1 where |L| is large) is refused at once."""
+    _, f, P = _small_set()
+    start = loopshape(f, P, DT, s_max_db=6.0, structure="order", order=4, max_iter=0)
+    t_peak = max(r.t_peak_db for r in start.table.rows)
+    assert start.table.all_stable and t_peak > 0.5
+    with pytest.raises(ValueError, match=r"‖T‖∞ .* dB is above t_max_db"):
+        loopshape(f, P, DT, s_max_db=6.0, structure="order", order=4, max_iter=0,
+                  initial=start.controller, t_max_db=t_peak - 0.25)  # fmt: skip
+    with pytest.raises(ValueError, match="t_max_db must be > 0 dB"):
+        loopshape(f, P, DT, s_max_db=6.0, t_max_db=0.0)
+
+
 def test_cli_loopshape_writes_a_readable_controller(tmp_path, monkeypatch, capsys) -> None:
     import sys
 

@@ -108,9 +108,11 @@ def _scan(pb: Any) -> np.ndarray:
         if ok and tab.worst_s_peak_db < best_s:
             best, best_s = theta, tab.worst_s_peak_db
     if best is None:
+        # the scan accepts only starts within the ‖T‖∞ bound too: say which bound it was
+        within = "" if pb.t_max is None else f" within t_max_db {pb.t_max:g} dB"
         raise ServokitValueError(
-            "no PI-lead controller in the structure stabilises every FRF; give a stabilising "
-            "initial controller"
+            f"no PI-lead controller in the structure stabilises every FRF{within}; give a "
+            "stabilising initial controller" + (" or raise t_max_db" if within else "")
         )
     return best
 

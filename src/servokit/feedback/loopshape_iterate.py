@@ -365,6 +365,9 @@ def loopshape(
     s_max = float(check_finite("s_max_db", s_max_db))
     if s_max <= 0:
         raise ServokitValueError(f"s_max_db must be > 0 dB (got {s_max:g})")
+    if t_max_db is not None and float(check_finite("t_max_db", t_max_db)) <= 0:
+        # |T| -> 1 (0 dB) wherever |L| is large: a bound at or below 0 dB admits no loop
+        raise ServokitValueError(f"t_max_db must be > 0 dB (got {float(t_max_db):g})")
     iters = check_count("max_iter", max_iter, lo=0, hi=10_000)
     t0 = time.perf_counter()
     n_pi = (
@@ -378,6 +381,13 @@ def loopshape(
     theta0, note = initial_parameters(pb, initial)
     ok, tab0 = pb.ok(theta0, np.inf)
     if not ok:
+        stable = tab0.all_stable and all(r.resolved for r in tab0.rows)
+        if stable:  # stable, but above the ‖T‖∞ bound: say so, not "unstable"
+            t_peak = max(r.t_peak_db for r in tab0.rows)
+            raise ServokitValueError(
+                f"initial controller's ‖T‖∞ {t_peak:.3f} dB is above t_max_db {t_max_db:g}; "
+                "give an initial controller within the bound or raise t_max_db"
+            )
         raise ServokitValueError(
             "initial controller does not stabilise every FRF (Nyquist count on the grid); "
             "give a stabilising initial controller"

@@ -104,6 +104,14 @@ def _fit_residues(ss: Any, modes: list[tuple[float, float]], rigid: bool, rtol: 
     Mw, Hw = M * weight[:, None], H * weight
     A, *_ = np.linalg.lstsq(np.vstack([Mw.real, Mw.imag]), np.r_[Hw.real, Hw.imag], rcond=None)
     err = np.max(np.abs(Mw @ A - Hw))
+    if np.isfinite(err) and rtol < err <= _ROUNDING_MISFIT:
+        # the structure fits; the digits do not: a transfer function's polynomials of a
+        # high-order plant round its modes (the galvano scanner: 1.5e-6)
+        raise ServokitValueError(
+            f"plant is a sum of modes up to a relative misfit of {err:.2e} > rtol {rtol:g}: "
+            "rounding in the system's coefficients (a transfer function's polynomials lose "
+            "digits); convert its state-space form, or pass a larger rtol"
+        )
     if not np.isfinite(err) or err > rtol:
         raise ServokitValueError(
             f"plant is not a sum of modes A_i / (s^2 + 2 zeta w s + w^2) (relative misfit "
@@ -111,6 +119,11 @@ def _fit_residues(ss: Any, modes: list[tuple[float, float]], rigid: bool, rtol: 
             "cannot be represented; use a python-control simulation for it"
         )
     return A
+
+
+#: A relative misfit of the modal fit below this is rounding of the system's
+#: coefficients, not a structure the modal sum cannot hold (those miss by 1e-2 and more).
+_ROUNDING_MISFIT = 1e-4
 
 
 def as_modal_plant(

@@ -154,13 +154,16 @@ def load_plant(path: str | Path) -> ModalPlant:
                 f"(got {vals['freq_hz']:g})"
             )
         modes.append(Mode(**vals))
-    return ModalPlant(
-        gain=gain,
-        modes=tuple(modes),
-        delay=delay,
-        name=str(data.get("name", path.stem)),
-        source=str(data.get("source", str(path))),
-    )
+    try:
+        return ModalPlant(
+            gain=gain,
+            modes=tuple(modes),
+            delay=delay,
+            name=str(data.get("name", path.stem)),
+            source=str(data.get("source", str(path))),
+        )
+    except ServokitValueError as exc:  # the model's own checks (e.g. a delay above 1 s)
+        raise PlantFileError(f"{path}: {exc}") from None
 
 
 def save_plant(plant: ModalPlant, path: str | Path) -> None:
