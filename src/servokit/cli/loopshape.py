@@ -101,8 +101,12 @@ def _notches(values: list[str]) -> tuple[tuple[float, float], ...] | None:
     return tuple(out)
 
 
-def _check_numbers(s_max_db: float, time_limit: float, keep_low_gain: float) -> None:
+def _check_numbers(
+    s_max_db: float, time_limit: float, keep_low_gain: float, t_max_db: float | None
+) -> None:
     check_positive("--s-max-db", s_max_db, "dB")
+    if t_max_db is not None:  # |T| is 0 dB wherever |L| is large
+        check_positive("--t-max-db", t_max_db, "dB")
     check_positive("--time-limit", time_limit, "s")
     if not 0.0 <= keep_low_gain <= 1.0:
         raise ServokitValueError(f"--keep-low-gain must be in [0, 1] (got {keep_low_gain})")
@@ -252,7 +256,7 @@ def loopshape_cmd(
     outdir = check_out_dir(out)
     structure, order = _structure(structure, order)
     refuse_inapplicable("--structure", structure, _STRUCTURE_APPLIES)
-    _check_numbers(s_max_db, time_limit, keep_low_gain)
+    _check_numbers(s_max_db, time_limit, keep_low_gain, t_max_db)
     notches = _notches(notch or [])
     lp = tuple(check_positive("--lowpass", v, "Hz") for v in (lowpass or []))
     init = None if controller is None else load_controller(controller, dt)
