@@ -95,3 +95,20 @@ def test_held_out_histogram_same_pixels_as_bars(tmp_path: Path, monkeypatch) -> 
     assert drawn == ["stepfilled"] * 4
     with Image.open(path) as new, Image.open(ref) as old:
         np.testing.assert_array_equal(np.asarray(new), np.asarray(old))
+
+
+def test_loop_phase_is_continuous_and_every_plant_starts_on_one_branch() -> None:
+    """A loop near -180 deg at the first frequency (where the principal value flips sign)
+    is drawn continuous, each plant from (-360, 0], the same angle as the principal value."""
+    from servokit.feedback.loopshape_plots import loop_phase_deg
+
+    f, plants, controllers = _loop_set()
+    loop = plants * controllers["designed"][None, :]
+    loop[1] *= np.exp(-0.05j)  # its first point (-178.3 deg) moved below -180: +178.9
+    wrapped = np.degrees(np.angle(loop))
+    assert wrapped[:, 0].max() > 170 and wrapped[:, 0].min() < -170  # both branches
+    phase = loop_phase_deg(loop)
+    assert np.all((phase[:, 0] > -360) & (phase[:, 0] <= 0))
+    assert np.abs(np.diff(phase, axis=1)).max() < 180
+    turns = (phase - wrapped) / 360.0
+    np.testing.assert_allclose(turns, np.round(turns), atol=1e-9)

@@ -332,7 +332,7 @@ def _plot(res: Any, f: np.ndarray, P: np.ndarray, dt: float, s_max_db: float, pl
         {f"loopshape ({res.structure.name})": k},
         s_max_db=s_max_db,
         path=plot,
-        title=f"FRF-set loop shaping, {P.shape[0]} plants",
+        title=f"FRF-set loop shaping, {P.shape[0]} plant{'' if P.shape[0] == 1 else 's'}",
     )
 
 

@@ -8,7 +8,20 @@ import numpy as np
 
 from servokit._figures import save_figure
 
-__all__ = ["loopshape_plot"]
+__all__ = ["loop_phase_deg", "loopshape_plot"]
+
+
+def loop_phase_deg(L: np.ndarray) -> np.ndarray:
+    """Continuous phase of each row of ``L`` [deg], its first point in (-360, 0].
+
+    The principal value of a loop whose phase sits near -180° (integrators and a
+    lead) flips between +180 and -180 from one frequency to the next and fills the panel;
+    unwrapped along frequency, with every plant started on the same branch, the curves
+    of a set lie together.
+    """
+    phase = np.degrees(np.unwrap(np.angle(L), axis=-1))
+    turns = np.floor(-phase[..., :1] / 360.0)  # whole turns that bring the start to (-360, 0]
+    return phase + 360.0 * turns
 
 
 def _draw_set(ax_mag, ax_ph, ax_ny, f, L, color, label):
@@ -18,7 +31,7 @@ def _draw_set(ax_mag, ax_ph, ax_ny, f, L, color, label):
 
     curves = (
         (ax_mag, np.broadcast_to(f, L.shape), 20 * np.log10(np.abs(L))),
-        (ax_ph, np.broadcast_to(f, L.shape), np.degrees(np.angle(L))),
+        (ax_ph, np.broadcast_to(f, L.shape), loop_phase_deg(L)),
         (ax_ny, L.real, L.imag),
     )
     for ax, x, y in curves:
@@ -26,6 +39,15 @@ def _draw_set(ax_mag, ax_ph, ax_ny, f, L, color, label):
             np.stack([x, y], axis=-1), colors=color, linewidths=0.6, alpha=0.6, label=label
         )
         ax.add_collection(lines)
+
+
+def _magnitude_range(responses: np.ndarray, controllers: dict) -> tuple[float, float]:
+    """|L| axis limits [dB] holding the curves (notch floors and dc poles aside: the
+    0.5th to 99.5th percentile), 5 dB of room, never narrower than -40..60 dB."""
+    mags = [20 * np.log10(np.abs(responses * K[None, :])) for K in controllers.values()]
+    finite = np.concatenate([m[np.isfinite(m)] for m in mags])
+    lo, hi = np.percentile(finite, [0.5, 99.5]) if finite.size else (-40.0, 60.0)
+    return min(-40.0, float(lo) - 5.0), max(60.0, float(hi) + 5.0)
 
 
 def loopshape_plot(
@@ -60,6 +82,7 @@ def loopshape_plot(
         The written figure.
     """
     import matplotlib.pyplot as plt
+    from matplotlib.ticker import MaxNLocator
 
     fig = plt.figure(figsize=(12, 7))
     ax_mag = fig.add_subplot(2, 2, 1)
@@ -89,12 +112,17 @@ def loopshape_plot(
     ax_ny.grid(True, alpha=0.3)
     ax_mag.axhline(0.0, color="k", lw=0.6)
     ax_mag.set_ylabel("|L| [dB]")
-    ax_mag.set_ylim(-40, 60)
+    ax_mag.set_ylim(*_magnitude_range(responses, controllers))
     ax_mag.set_title("Open loop L = P K, every plant")
     ax_mag.legend(fontsize=8)
     ax_ph.set_ylabel("arg L [deg]")
     ax_ph.set_xlabel("Frequency [Hz]")
-    ax_ph.set_ylim(-185, 185)
+    ax_ph.axhline(-180.0, color="k", lw=0.6)
+    # ticks on multiples of 45 deg; the lag a delay piles up near Nyquist is cut at two
+    # turns, as the Nyquist panel zooms on -1
+    ax_ph.yaxis.set_major_locator(MaxNLocator(nbins=8, steps=[1.8, 4.5, 9, 10]))
+    lo, hi = ax_ph.dataLim.y0, ax_ph.dataLim.y1
+    ax_ph.set_ylim(max(lo, -720.0) - 10.0, hi + 10.0)
     for ax in (ax_mag, ax_ph):
         ax.grid(True, which="both", alpha=0.3)
     fig.suptitle(title)
