@@ -18,6 +18,16 @@ def loop_phase_deg(L: np.ndarray) -> np.ndarray:
     lead) flips between +180 and -180 from one frequency to the next and fills the panel;
     unwrapped along frequency, with every plant started on the same branch, the curves
     of a set lie together.
+
+    Parameters
+    ----------
+    L : ndarray of complex
+        Loop responses, one plant per row, along an increasing frequency grid.
+
+    Returns
+    -------
+    ndarray
+        Phase [deg], the shape of ``L``: the principal value plus whole turns.
     """
     phase = np.degrees(np.unwrap(np.angle(L), axis=-1))
     turns = np.floor(-phase[..., :1] / 360.0)  # whole turns that bring the start to (-360, 0]
