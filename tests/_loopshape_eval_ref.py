@@ -50,6 +50,8 @@ def closed_loop_unstable(freq_hz, L, dt, *, n_integrators, n_unstable=0) -> tupl
     delta = first + steps.sum()
     z_out = n_unstable + n_integrators / 2 - delta / np.pi
     resolved = bool(np.all(np.abs(steps) < MAX_PHASE_STEP)) and bool(abs(first) < MAX_PHASE_STEP)
+    if not np.isfinite(z_out):  # 1 + L = 0 on the grid: a pole on the circle, not stable
+        return 1, False
     return int(np.rint(z_out)), resolved
 
 

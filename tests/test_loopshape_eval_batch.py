@@ -97,3 +97,18 @@ def test_random_loops_bit_for_bit(seed: int, m: int, n: int, n_int: int) -> None
         assert ev.evaluate_loop(f, loop, DT, n_integrators=n_int) == ref_loop(
             f, loop, DT, n_integrators=n_int
         ) or np.isnan(ref_loop(f, loop, DT, n_integrators=n_int).crossover_hz)
+
+
+def test_a_loop_through_minus_one_on_the_grid_is_not_stable() -> None:
+    """1 + L = 0 at a grid point (a closed-loop pole on the unit circle; hypothesis found
+    it cast NaN to a count of -2^63): one pole counted not stable, the count unresolved."""
+    f, L = _loops(9, 1, 4, 0)
+    L[0, 2] = 1.0  # the falsifying example, built as the random test builds it
+    L[0] *= 1e-9
+    L[0, 1] = -1.0  # the phase step through 1 + L = 0 is NaN
+    with np.errstate(divide="ignore", invalid="ignore"):
+        got = ev.closed_loop_unstable(f, L[0], DT, n_integrators=0, n_unstable=1)
+        ref = ref_unstable(f, L[0], DT, n_integrators=0, n_unstable=1)
+        row = ev.evaluate_set(f, L, np.ones(4, complex), DT, n_integrators=0).rows[0]
+    assert got == ref == (1, False)
+    assert row.unstable_poles == 1 and not row.stable

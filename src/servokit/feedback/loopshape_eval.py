@@ -182,7 +182,15 @@ def _unstable(freq_hz, L: np.ndarray, dt: float, n_integrators: int, n_unstable:
     delta = first + steps.sum(axis=1)
     z_out = n_unstable + n_integrators / 2 - delta / np.pi
     resolved = np.all(np.abs(steps) < MAX_PHASE_STEP, axis=1) & (np.abs(first) < MAX_PHASE_STEP)
-    return np.rint(z_out).astype(int), resolved
+    # 1 + L = 0 on the grid (a closed-loop pole on the unit circle): no count, not stable
+    return _pole_count(z_out), resolved & np.isfinite(z_out)
+
+
+def _pole_count(z_out: np.ndarray) -> np.ndarray:
+    """Rounded ``Z_out``; 1 where it is not finite (the loop passes through -1 on the grid:
+    a closed-loop pole on the unit circle, counted as one not stable)."""
+    finite = np.isfinite(z_out)
+    return np.where(finite, np.rint(np.where(finite, z_out, 0.0)), 1.0).astype(int)
 
 
 def closed_loop_unstable(
