@@ -100,7 +100,7 @@ def test_held_out_histogram_same_pixels_as_bars(tmp_path: Path, monkeypatch) -> 
 def test_loop_phase_is_continuous_and_every_plant_starts_on_one_branch() -> None:
     """A loop near -180 deg at the first frequency (where the principal value flips sign)
     is drawn continuous, each plant from (-360, 0], the same angle as the principal value."""
-    from servokit.feedback.loopshape_plots import loop_phase_deg
+    from servokit.feedback.plots import loop_phase_deg
 
     f, plants, controllers = _loop_set()
     loop = plants * controllers["designed"][None, :]

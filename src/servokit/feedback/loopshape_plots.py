@@ -7,31 +7,9 @@ from pathlib import Path
 import numpy as np
 
 from servokit._figures import save_figure
+from servokit.feedback.plots import loop_phase_deg
 
-__all__ = ["loop_phase_deg", "loopshape_plot"]
-
-
-def loop_phase_deg(L: np.ndarray) -> np.ndarray:
-    """Continuous phase of each row of ``L`` [deg], its first point in (-360, 0].
-
-    The principal value of a loop whose phase sits near -180° (integrators and a
-    lead) flips between +180 and -180 from one frequency to the next and fills the panel;
-    unwrapped along frequency, with every plant started on the same branch, the curves
-    of a set lie together.
-
-    Parameters
-    ----------
-    L : ndarray of complex
-        Loop responses, one plant per row, along an increasing frequency grid.
-
-    Returns
-    -------
-    ndarray
-        Phase [deg], the shape of ``L``: the principal value plus whole turns.
-    """
-    phase = np.degrees(np.unwrap(np.angle(L), axis=-1))
-    turns = np.floor(-phase[..., :1] / 360.0)  # whole turns that bring the start to (-360, 0]
-    return phase + 360.0 * turns
+__all__ = ["loopshape_plot"]
 
 
 def _draw_set(ax_mag, ax_ph, ax_ny, f, L, color, label):

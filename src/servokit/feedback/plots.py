@@ -12,7 +12,30 @@ from servokit._figures import save_figure
 from servokit.feedback.margins import loop_response
 from servokit.feedback.rootlocus import RootLocus
 
-__all__ = ["bode_responses_plot", "root_locus_plot"]
+__all__ = ["bode_responses_plot", "loop_phase_deg", "root_locus_plot"]
+
+
+def loop_phase_deg(L: np.ndarray) -> np.ndarray:
+    """Continuous phase of each row of ``L`` [deg], its first point in (-360, 0].
+
+    The principal value of a loop whose phase sits near -180° (integrators and a
+    lead) flips between +180 and -180 from one frequency to the next and fills the panel;
+    unwrapped along frequency, with every plant started on the same branch, the curves
+    of a set lie together.
+
+    Parameters
+    ----------
+    L : ndarray of complex
+        Loop responses, one plant per row, along an increasing frequency grid.
+
+    Returns
+    -------
+    ndarray
+        Phase [deg], the shape of ``L``: the principal value plus whole turns.
+    """
+    phase = np.degrees(np.unwrap(np.angle(L), axis=-1))
+    turns = np.floor(-phase[..., :1] / 360.0)  # whole turns that bring the start to (-360, 0]
+    return phase + 360.0 * turns
 
 
 def bode_responses_plot(
@@ -39,8 +62,9 @@ def bode_responses_plot(
     magnitude_only : bool
         Draw the magnitude only.
     unwrap : bool
-        Continuous phase (no ±360° jumps; a loop's phase lag read down to the Nyquist
-        frequency) instead of the book figures' principal value in [-180°, 180°].
+        Continuous phase (:func:`loop_phase_deg`: no ±360° jumps, a loop's phase lag read
+        down to the Nyquist frequency) instead of the book figures' principal value in
+        [-180°, 180°].
 
     Returns
     -------
@@ -56,8 +80,8 @@ def bode_responses_plot(
         h = resp(freq_hz)
         axes[0, 0].semilogx(freq_hz, 20 * np.log10(np.abs(h)), label=label)
         if not magnitude_only:
-            phase = np.unwrap(np.angle(h)) if unwrap else np.angle(h)
-            axes[1, 0].semilogx(freq_hz, np.degrees(phase), label=label)
+            phase = loop_phase_deg(h) if unwrap else np.degrees(np.angle(h))
+            axes[1, 0].semilogx(freq_hz, phase, label=label)
     axes[0, 0].set_ylabel("Magnitude [dB]")
     if not magnitude_only:
         axes[1, 0].set_ylabel("Phase [deg]")
