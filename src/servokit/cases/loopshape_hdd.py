@@ -19,7 +19,7 @@ from pathlib import Path
 import numpy as np
 
 from servokit.cases import register
-from servokit.feedback.loopshape_eval import LoopTable, evaluate_set
+from servokit.feedback.loopshape_eval import LoopTable, evaluate_set, tf_coefficients
 from servokit.feedback.loopshape_iterate import certify_banks, certify_models, loopshape
 from servokit.feedback.loopshape_plots import loopshape_plot
 from servokit.feedback.loopshape_problem import (
@@ -70,7 +70,8 @@ def _held_out(f, controllers):
     out = {}
     for name, c in controllers.items():
         K = np.asarray(c(z)).ravel()
-        tab = evaluate_set(f, P, K, HDD_BENCHMARK_TS, n_integrators=3)
+        xy = tf_coefficients(c)
+        tab = evaluate_set(f, P, K, HDD_BENCHMARK_TS, n_integrators=3, controller_coefficients=xy)
         radius = certify_banks(c, banks, HELD_OUT)
         out[name] = {**tab.summary(), "max_pole_radius": float(radius.max())}
     return out
@@ -199,7 +200,9 @@ def loopshape_hdd_case(outdir: Path) -> CaseResult:
     names = tuple(f"{p.name} x{g:g}" for g in GAINS for p in plants)
     c0 = benchmark_controller()
     z = np.exp(2j * np.pi * f * dt)
-    base = evaluate_set(f, P, np.asarray(c0(z)).ravel(), dt, n_integrators=3, names=names)
+    K0 = np.asarray(c0(z)).ravel()
+    xy = tf_coefficients(c0)
+    base = evaluate_set(f, P, K0, dt, n_integrators=3, names=names, controller_coefficients=xy)
     res = loopshape(
         f,
         P,
@@ -217,7 +220,7 @@ def loopshape_hdd_case(outdir: Path) -> CaseResult:
         f,
         P,
         {
-            "baseline (benchmark controller)": np.asarray(c0(z)).ravel(),
+            "baseline (benchmark controller)": K0,
             f"loopshape (order {ORDER})": np.asarray(res.controller(z)).ravel(),
         },
         s_max_db=base.worst_s_peak_db,

@@ -24,6 +24,30 @@ Every number here comes from the loop response ``L = P K`` on the given grid, wi
   (``Z_out = 1``) for ``k > 2``. The count is exact when the grid starts where ``|L| >> 1`` at
   its asymptotic phase, ends at Nyquist and resolves every phase swing of ``1 + L``
   (``resolved`` is False when two neighbours differ by more than 90°).
+
+Below the grid. The measured grid starts at ``f_0 > 0``, and the asymptote rule above
+takes ``arg L`` to travel less than 90° over ``(0, f_0]``. That holds for a plant measured
+from low enough a frequency, but not for a controller with zeros or poles below ``f_0``:
+a loop-shaping step that put a lag zero pair at 6 Hz, under a stage FRF starting at
+10 Hz, made ``K`` travel 99° there, and the rule counted one unstable pole in a loop whose
+exact closed-loop poles lie inside the unit circle (largest modulus 0.9989). The controller
+is known exactly (its ``x`` and ``y``, ``controller_coefficients``), and below ``f_0`` the
+plant is taken at its asymptote ``g/(z - 1)^m`` (``g`` real: the modulus of
+``(z - 1)^m L/K`` at ``f_0`` with the sign of its real part). Then ``1 + L`` below the
+grid is ``φ/((1 - q)^m y)`` with ``φ = (1 - q)^m y + g q^m x`` (``q = z^{-1}``), and its
+travel over ``(0, ω_0]`` is that of ``φ`` less that of the denominator, each summed over
+root factors in closed form (:func:`poly_travel`): a factor ``1 - q/s`` with ``|s| > 1``
+stays in a half plane (``|q/s| < 1``), so its travel is the principal
+``arg((1 - q_0/s)/(1 - 1/s))``; with ``|s| < 1`` it is ``-(q/s)(1 - s/q)``, travelling
+``-ω_0`` plus the principal ``arg((1 - s/q_0)/(1 - s))``; each root at ``q = 1`` travels
+``-ω_0/2`` and each leading ``q`` ``-ω_0``. This also holds where ``|L|`` dips below 1
+under the grid (a lag zero pair). The measured ``1 + L(f_0)`` joins it through the
+principal angle to ``1 + L_asymptote(f_0)``. ``resolved`` is False when that angle or the
+plant's angle to its asymptote exceeds 90°. The controller's poles outside the unit disc
+are counted from ``y`` (a free denominator can move there). Checked against the roots of
+the characteristic polynomial of exact discrete loops (tests); a closed-loop pole closer
+to the unit circle than the plant's departure from its asymptote (``~ω/2`` for a ZOH
+double integrator) can fall on either side.
 """
 
 from __future__ import annotations
@@ -33,10 +57,113 @@ from typing import Any
 
 import numpy as np
 
-__all__ = ["LoopTable", "LoopRow", "evaluate_loop", "evaluate_set", "closed_loop_unstable"]
+__all__ = [
+    "LoopTable",
+    "LoopRow",
+    "closed_loop_unstable",
+    "controller_unstable_poles",
+    "poly_travel",
+    "tf_coefficients",
+    "evaluate_loop",
+    "evaluate_set",
+]
 
 #: Largest phase step of 1 + L between grid neighbours for a trusted winding count [rad].
 MAX_PHASE_STEP = np.pi / 2
+#: ``|x(1)| <= UNIT_ROOT_TOL * sum |x_k|``: a root of a controller polynomial at ``z = 1``
+#: (an integrator: a factor ``1 - z^{-1}`` multiplied out leaves ``x(1)`` at rounding level)
+UNIT_ROOT_TOL = 1e-12
+
+
+def _unit_roots(x: np.ndarray, count: int | None = None) -> tuple[np.ndarray, int]:
+    """``x`` (ascending powers of ``q = z^{-1}``) with its roots at ``q = 1`` divided out:
+    ``count`` of them, or as many as :data:`UNIT_ROOT_TOL` finds."""
+    m = 0
+    while x.size > 1 and (
+        m < count if count is not None else abs(x.sum()) <= UNIT_ROOT_TOL * np.abs(x).sum()
+    ):
+        x = np.cumsum(x)[:-1]  # x = (1 - q) r: r_k = x_0 + ... + x_k
+        m += 1
+    return x, m
+
+
+def poly_travel(x: Any, w0: float, unit_roots: int | None = None) -> float:
+    """Continuous change of ``arg x(e^{-jω})`` from ``ω = 0+`` to ``w0`` (module doc).
+
+    Parameters
+    ----------
+    x : array_like
+        Nonzero polynomial in ascending powers of ``q = z^{-1}``.
+    w0 : float
+        End of the arc [rad/sample], in ``(0, π]``.
+    unit_roots : int, optional
+        Roots at ``q = 1`` known from the structure (divided out exactly); by default
+        those within :data:`UNIT_ROOT_TOL`.
+
+    Returns
+    -------
+    float
+        The travel [rad]: per root ``|s| > 1`` the principal ``arg((1 - q_0/s)/(1 - 1/s))``;
+        per root ``|s| < 1`` the principal ``arg((1 - s/q_0)/(1 - s)) - w0``; ``-w0/2``
+        per root at ``q = 1``; ``-w0`` per leading power of ``q``.
+    """
+    x = np.trim_zeros(np.atleast_1d(np.asarray(x, dtype=float)), "b")
+    x, m = _unit_roots(x, unit_roots)
+    nz = np.flatnonzero(x)
+    lead = int(nz[0])
+    roots = np.roots(x[lead : nz[-1] + 1][::-1])
+    q0 = np.exp(-1j * w0)
+    inside = np.abs(roots) < 1.0
+    out, ins = roots[~inside], roots[inside]
+    # |s| > 1: 1 - q/s stays in a half plane, its travel is the principal angle;
+    # |s| < 1: 1 - q/s = -(q/s)(1 - s/q), where q turns by -w0 and 1 - s/q is as above
+    travel = np.sum(np.angle((1.0 - q0 / out) / (1.0 - 1.0 / out)))
+    travel += np.sum(np.angle((1.0 - ins / q0) / (1.0 - ins))) - ins.size * w0
+    return float(travel) - lead * w0 - m * w0 / 2
+
+
+def controller_unstable_poles(den: Any) -> int:
+    """Roots of ``y`` (ascending powers of ``q = z^{-1}``) outside the unit disc in ``z``.
+
+    A root ``s`` in ``q`` is the pole ``z = 1/s``; roots at ``z = 1`` (integrators) are
+    divided out first, as :func:`poly_travel` does.
+    """
+    y = np.trim_zeros(np.atleast_1d(np.asarray(den, dtype=float)), "b")
+    y = _unit_roots(y)[0]
+    y = y[np.flatnonzero(y)[0] :]
+    return int(np.count_nonzero(np.abs(np.roots(y[::-1])) < 1.0))
+
+
+def tf_coefficients(controller: Any) -> tuple[np.ndarray, np.ndarray]:
+    """Numerator and denominator of a discrete SISO python-control transfer function in
+    ascending powers of ``z^{-1}`` (both padded to the denominator's degree in ``z``)."""
+    num = np.asarray(controller.num[0][0], dtype=float)
+    den = np.asarray(controller.den[0][0], dtype=float)
+    n = max(num.size, den.size)  # z^-n times both: descending z is ascending z^-1
+    return tuple(np.concatenate([np.zeros(n - v.size), v]) for v in (num, den))  # type: ignore[return-value]
+
+
+def _low_travel(x: np.ndarray, y: np.ndarray, g: np.ndarray, m: int, w0: float) -> np.ndarray:
+    """Per plant, the travel of ``arg(1 + L)`` over ``(0, w0]`` with the plant at its
+    asymptote ``g / (z - 1)^m`` and the controller ``x / y`` (module doc)."""
+    den = np.convolve(_one_minus_q(m), y)  # (1 - q)^m y; and g q^m x beside it:
+    shifted = np.concatenate([np.zeros(m), x])
+    n = max(den.size, shifted.size)
+    den, shifted = (np.pad(v, (0, n - v.size)) for v in (den, shifted))
+    # roots at z = 1 from the structure, not from a tolerance: phi(1) = g x(1) is small
+    # but not zero under a lag zero pair near z = 1
+    mx, my = _unit_roots(x)[1], _unit_roots(y)[1]
+    base = poly_travel(den, w0, m + my)
+    return np.array(
+        [poly_travel(den + gi * shifted, w0, min(m + my, mx)) - base for gi in g.tolist()]
+    )
+
+
+def _one_minus_q(m: int) -> np.ndarray:
+    out = np.ones(1)
+    for _ in range(m):
+        out = np.convolve(out, [1.0, -1.0])
+    return out
 
 
 @dataclass(frozen=True)
@@ -171,17 +298,39 @@ def _gain_margins_db(L: np.ndarray) -> np.ndarray:
     return out
 
 
-def _unstable(freq_hz, L: np.ndarray, dt: float, n_integrators: int, n_unstable: int):
-    """Per row, ``Z_out`` and whether the grid resolved the phase (:func:`closed_loop_unstable`)."""
+def _first_travel(freq_hz, L: np.ndarray, dt: float, n_integrators: int, coeffs):
+    """Per row, the travel of ``arg(1 + L)`` from ``ω = 0+`` to the first grid point and
+    whether the assumptions below the grid hold there (module doc)."""
     w = 2 * np.pi * freq_hz[0] * dt
-    g = L[:, 0] * (np.exp(1j * w) - 1.0) ** n_integrators
-    start = np.where(g.real >= 0, 0.0, np.pi) - n_integrators * np.pi / 2
+    z0 = np.exp(1j * w)
+    r0 = 1.0 + L[:, 0]
+    if coeffs is None:  # the whole loop by the asymptote rule
+        g = L[:, 0] * (z0 - 1.0) ** n_integrators
+        start = np.where(g.real >= 0, 0.0, np.pi) - n_integrators * np.pi / 2
+        first = np.angle(r0 * np.exp(-1j * start))
+        return first, np.abs(first) < MAX_PHASE_STEP
+    x, y = (np.trim_zeros(np.asarray(v, dtype=float), "b") for v in coeffs)
+    m = n_integrators - (_unit_roots(y)[1] - _unit_roots(x)[1])  # the plant's
+    k0 = np.polyval(x[::-1], 1 / z0) / np.polyval(y[::-1], 1 / z0)
+    if m < 0:  # fewer loop integrators than the controller has: no asymptote
+        return np.zeros(L.shape[0]), np.zeros(L.shape[0], dtype=bool)
+    gc = L[:, 0] / k0 * (z0 - 1.0) ** m  # the plant's (z - 1)^m P at the first point
+    g = np.where(gc.real >= 0, 1.0, -1.0) * np.abs(gc)
+    near = np.angle(r0 / (1.0 + g / (z0 - 1.0) ** m * k0))  # measured against asymptote
+    first = _low_travel(x, y, g, m, w) + near
+    return first, (np.abs(np.angle(gc / g)) < MAX_PHASE_STEP) & (np.abs(near) < MAX_PHASE_STEP)
+
+
+def _unstable(freq_hz, L: np.ndarray, dt: float, n_integrators: int, n_unstable: int, coeffs=None):
+    """Per row, ``Z_out`` and whether the grid resolved the phase (:func:`closed_loop_unstable`)."""
     r = 1.0 + L
     steps = np.angle(r[:, 1:] / r[:, :-1])
-    first = np.angle(r[:, 0] * np.exp(-1j * start))
+    first, first_ok = _first_travel(freq_hz, L, dt, n_integrators, coeffs)
     delta = first + steps.sum(axis=1)
+    if coeffs is not None:  # a free denominator can leave the unit disc: count its poles
+        n_unstable += controller_unstable_poles(coeffs[1])
     z_out = n_unstable + n_integrators / 2 - delta / np.pi
-    resolved = np.all(np.abs(steps) < MAX_PHASE_STEP, axis=1) & (np.abs(first) < MAX_PHASE_STEP)
+    resolved = np.all(np.abs(steps) < MAX_PHASE_STEP, axis=1) & first_ok
     # 1 + L = 0 on the grid (a closed-loop pole on the unit circle): no count, not stable
     return _pole_count(z_out), resolved & np.isfinite(z_out)
 
@@ -194,7 +343,13 @@ def _pole_count(z_out: np.ndarray) -> np.ndarray:
 
 
 def closed_loop_unstable(
-    freq_hz: np.ndarray, L: np.ndarray, dt: float, *, n_integrators: int, n_unstable: int = 0
+    freq_hz: np.ndarray,
+    L: np.ndarray,
+    dt: float,
+    *,
+    n_integrators: int,
+    n_unstable: int = 0,
+    controller_coefficients: tuple[np.ndarray, np.ndarray] | None = None,
 ) -> tuple[int, bool]:
     """Number of closed-loop poles outside the unit disc by the Nyquist count (module doc).
 
@@ -209,18 +364,26 @@ def closed_loop_unstable(
     n_integrators : int
         Open-loop poles at ``z = 1`` (plant rigid body plus controller integrators).
     n_unstable : int
-        Open-loop poles outside the unit disc.
+        Open-loop poles outside the unit disc (the plant's only when
+        ``controller_coefficients`` are given).
+    controller_coefficients : tuple of ndarray, optional
+        The controller's ``x`` and ``y`` in ascending powers of ``z^{-1}``: the loop below
+        the first grid point is then the plant's asymptote times the exact controller,
+        and the controller's poles outside the unit disc are counted from ``y`` (module
+        doc); without them the whole loop is taken at its asymptote there.
 
     Returns
     -------
     tuple of (int, bool)
         ``Z_out`` (0 for a stable loop) and whether the grid resolved every phase step.
     """
-    z_out, resolved = _unstable(freq_hz, np.asarray(L)[None, :], dt, n_integrators, n_unstable)
+    z_out, resolved = _unstable(
+        freq_hz, np.asarray(L)[None, :], dt, n_integrators, n_unstable, controller_coefficients
+    )
     return int(z_out[0]), bool(resolved[0])
 
 
-def _loop_rows(freq_hz, L: np.ndarray, dt: float, n_integrators: int, n_unstable: int):
+def _loop_rows(freq_hz, L: np.ndarray, dt: float, n_integrators: int, n_unstable: int, coeffs=None):
     """:class:`LoopRow` of each row of ``L`` (loops on one grid), as arrays per column."""
     m, mag = L.shape[0], np.abs(L)
     r, fc, pm = _crossings(freq_hz, L, mag)
@@ -236,7 +399,7 @@ def _loop_rows(freq_hz, L: np.ndarray, dt: float, n_integrators: int, n_unstable
     with np.errstate(divide="ignore"):
         s = 20 * np.log10(_peak(np.ones(1), ret, 1.0 / np.abs(ret)))
         t = 20 * np.log10(_peak(L, ret, mag / np.abs(ret)))
-    z_out, resolved = _unstable(freq_hz, L, dt, n_integrators, n_unstable)
+    z_out, resolved = _unstable(freq_hz, L, dt, n_integrators, n_unstable, coeffs)
     return (crossover, pm0, _gain_margins_db(L), dm, s, t, z_out, resolved)
 
 
@@ -266,7 +429,13 @@ def _rows_of(cols) -> list[LoopRow]:
 
 
 def evaluate_loop(
-    freq_hz: np.ndarray, L: np.ndarray, dt: float, *, n_integrators: int, n_unstable: int = 0
+    freq_hz: np.ndarray,
+    L: np.ndarray,
+    dt: float,
+    *,
+    n_integrators: int,
+    n_unstable: int = 0,
+    controller_coefficients: tuple[np.ndarray, np.ndarray] | None = None,
 ) -> LoopRow:
     """Margins, sensitivity peaks and the stability count of one loop on its grid.
 
@@ -281,7 +450,11 @@ def evaluate_loop(
     n_integrators : int
         Open-loop poles at ``z = 1``.
     n_unstable : int
-        Open-loop poles outside the unit disc.
+        Open-loop poles outside the unit disc (the plant's only when
+        ``controller_coefficients`` are given).
+    controller_coefficients : tuple of ndarray, optional
+        The controller's ``x`` and ``y`` in ascending powers of ``z^{-1}``
+        (:func:`closed_loop_unstable`).
 
     Returns
     -------
@@ -289,7 +462,8 @@ def evaluate_loop(
         Lowest crossover with its phase margin, gain and delay margins, ``‖S‖∞`` and
         ``‖T‖∞`` [dB] and the count of unstable closed-loop poles.
     """
-    cols = _loop_rows(freq_hz, np.asarray(L)[None, :], dt, n_integrators, n_unstable)
+    L2 = np.asarray(L)[None, :]
+    cols = _loop_rows(freq_hz, L2, dt, n_integrators, n_unstable, controller_coefficients)
     return _rows_of(cols)[0]
 
 
@@ -306,6 +480,7 @@ def evaluate_set(
     n_integrators: int,
     n_unstable: int = 0,
     names: tuple[str, ...] | None = None,
+    controller_coefficients: tuple[np.ndarray, np.ndarray] | None = None,
 ) -> LoopTable:
     """Per-plant table of :func:`evaluate_loop` for one controller over a set of FRFs.
 
@@ -325,6 +500,9 @@ def evaluate_set(
         Open-loop poles outside the unit disc.
     names : tuple of str, optional
         Plant names for the table (default ``"0"``, ``"1"``, ...).
+    controller_coefficients : tuple of ndarray, optional
+        The controller's ``x`` and ``y`` in ascending powers of ``z^{-1}``
+        (:func:`closed_loop_unstable`).
 
     Returns
     -------
@@ -334,7 +512,8 @@ def evaluate_set(
     out: list[LoopRow] = []
     for lo in range(0, len(responses), CHUNK):
         L = responses[lo : lo + CHUNK] * controller_response[None, :]
-        out += _rows_of(_loop_rows(freq_hz, L, dt, n_integrators, n_unstable))
+        cols = _loop_rows(freq_hz, L, dt, n_integrators, n_unstable, controller_coefficients)
+        out += _rows_of(cols)
     rows = tuple(out)
     names = names or tuple(str(i) for i in range(len(rows)))
     return LoopTable(rows=rows, names=tuple(names))

@@ -152,8 +152,16 @@ class _Problem:
         return x / y
 
     def table(self, theta: np.ndarray) -> LoopTable:
+        # the controller's phase below the first grid point is known exactly (a step may
+        # put zeros there): only the plant is left to the asymptote rule
         return evaluate_set(
-            self.f, self.P, self.K(theta), self.dt, n_integrators=self.m, names=self.names
+            self.f,
+            self.P,
+            self.K(theta),
+            self.dt,
+            n_integrators=self.m,
+            names=self.names,
+            controller_coefficients=self.st.split(theta),
         )
 
     def ok(self, theta: np.ndarray, s_bound: float) -> tuple[bool, LoopTable]:

@@ -1,0 +1,219 @@
+"""The FRF stability count below the first grid point, with the controller known exactly.
+
+References: the phase travel of a polynomial against a dense unwrap; the count against
+the roots of the characteristic polynomial of an exact discrete loop (a ZOH double
+integrator); and, on the stage example's FRF, against the exact ZOH + delay closed loop
+of the model the FRF was made from.
+"""
+
+from __future__ import annotations
+
+import importlib.util
+from pathlib import Path
+
+import numpy as np
+import pytest
+from hypothesis import HealthCheck, assume, given, settings
+from hypothesis import strategies as st
+
+from servokit.feedback.loopshape_eval import (
+    controller_unstable_poles,
+    evaluate_set,
+    poly_travel,
+    tf_coefficients,
+)
+
+ROOT = Path(__file__).resolve().parents[1]
+
+
+def _dense_travel(x: np.ndarray, w0: float, unit: int = 0) -> float:
+    """Unwrapped ``arg x(e^{-jw}) (1 - e^{-jw})^unit`` over ``(0, w0]`` on a dense grid.
+
+    The unit factor is evaluated as ``2j sin(w/2) e^{-jw/2}`` (no cancellation near DC);
+    the grid starts at ``w0 * 1e-7``, below which the travel is ``-unit w/2`` plus at most
+    ~1e-7 rad from the other factors.
+    """
+    ws = w0 * 1e-7
+    w = np.unique(np.concatenate([np.geomspace(ws, w0, 40_000), np.linspace(ws, w0, 40_000)]))
+    unit_factor = (2j * np.sin(w / 2) * np.exp(-0.5j * w)) ** unit
+    ph = np.unwrap(np.angle(np.polyval(x[::-1], np.exp(-1j * w)) * unit_factor))
+    return float(ph[-1] - ph[0]) - unit * ws / 2
+
+
+def _poly_from_roots(roots_q: list[complex], lead: int, scale: float) -> np.ndarray:
+    """Real polynomial in ascending powers of q with the given roots (conjugates added)."""
+    p = np.array([scale])
+    for s in roots_q:
+        if abs(s.imag) > 0:
+            quad = np.array([1.0, -2 * s.real / abs(s) ** 2, 1 / abs(s) ** 2])  # (1-q/s)(1-q/s*)
+            p = np.convolve(p, quad)
+        else:
+            p = np.convolve(p, [1.0, -1.0 / s.real])
+    return np.concatenate([np.zeros(lead), p])
+
+
+root_q = st.builds(
+    lambda r, a: complex(r * np.cos(a), r * np.sin(a)),
+    st.floats(0.3, 3.0).filter(lambda r: abs(r - 1) > 0.05),
+    st.floats(0.0, np.pi),
+)
+
+
+@settings(max_examples=60, deadline=None)
+@given(
+    roots=st.lists(root_q, min_size=0, max_size=4),
+    lead=st.integers(0, 2),
+    unit=st.integers(0, 2),
+    scale=st.sampled_from([-2.5, 1e-6, 1.0, 3e8]),
+    w0=st.floats(1e-4, 3.0),
+)
+def test_poly_travel_matches_a_dense_unwrap(roots, lead, unit, scale, w0):
+    x = _poly_from_roots(roots, lead, scale)
+    with_unit = x
+    for _ in range(unit):
+        with_unit = np.convolve(with_unit, [1.0, -1.0])
+    assert poly_travel(with_unit, w0) == pytest.approx(_dense_travel(x, w0, unit), abs=2e-5)
+
+
+def test_poly_travel_of_a_lag_zero_pair_below_the_grid():
+    """A zero pair at 0.15 w0, 0.2 % off the circle, turns x by almost +180 degrees."""
+    wz = 0.15 * 0.05
+    s = (1 / 0.998) * np.exp(1j * wz)  # q-root of a zero z = 0.998 e^{j wz}, inside
+    x = _poly_from_roots([s], 0, 1.0)
+    travel = poly_travel(x, 0.05)
+    assert travel == pytest.approx(_dense_travel(x, 0.05), abs=1e-4)
+    assert np.degrees(travel) > 170.0
+
+
+@pytest.mark.parametrize("den", [[1.0, -1.0], [1.0, -2.5, 1.0], [1.0, 0.0, 1.44], [2.0, 1.0]])
+def test_controller_unstable_poles_counts_poles_outside_the_disc(den):
+    den = np.asarray(den)
+    # y(q) = sum y_k q^k is z^-n times sum y_k z^(n-k): the z-polynomial has the same array
+    z_poles = np.roots(den)
+    expected = int(np.count_nonzero((np.abs(z_poles) > 1.0) & (np.abs(z_poles - 1.0) > 1e-9)))
+    assert controller_unstable_poles(den) == expected
+
+
+DT = 1e-4
+
+
+def _double_integrator(g: float) -> tuple[np.ndarray, np.ndarray]:
+    """ZOH of g/s^2 at DT in powers of q: g DT^2/2 q (1 + q) / (1 - q)^2."""
+    return g * DT**2 / 2 * np.array([0.0, 1.0, 1.0]), np.array([1.0, -2.0, 1.0])
+
+
+def _true_unstable(num_p, den_p, x, y) -> tuple[int, float]:
+    """Closed-loop poles outside the disc from the characteristic polynomial in q, and the
+    smallest distance of any closed-loop pole to the unit circle."""
+    phi = np.polyadd(np.convolve(den_p, y)[::-1], np.convolve(num_p, x)[::-1])[::-1]
+    phi = np.trim_zeros(phi, "b")
+    s = np.roots(phi[::-1])  # q-roots; z = 1/s (roots at q = infinity are z = 0)
+    z = 1 / s[np.abs(s) > 0]
+    return int(np.count_nonzero(np.abs(z) > 1.0)), float(np.min(np.abs(np.abs(z) - 1.0)))
+
+
+@settings(max_examples=60, deadline=None, suppress_health_check=[HealthCheck.filter_too_much])
+@given(
+    gain=st.floats(1e5, 1e8),
+    zero_hz=st.floats(0.5, 8.0),
+    zero_damping=st.floats(1e-4, 0.3),
+    lead=st.floats(0.0, 0.95),
+    pole_r=st.floats(0.3, 1.3),
+    pole_hz=st.floats(1500.0, 4500.0),
+)
+def test_count_with_the_controller_matches_the_closed_loop_poles(
+    gain, zero_hz, zero_damping, lead, pole_r, pole_hz
+):
+    """K = integrator x lag zero pair below the grid x lead x a pole pair (maybe outside)."""
+    f = np.geomspace(10.0, 0.5 / DT, 6000)
+    num_p, den_p = _double_integrator(gain)
+    wz = 2 * np.pi * zero_hz * DT
+    rz = np.exp(-zero_damping * wz)
+    wp = 2 * np.pi * pole_hz * DT
+    x = np.convolve([1.0, -2 * rz * np.cos(wz), rz**2], [1.0, -lead])
+    y = np.convolve(
+        np.convolve([1.0, -1.0], [1.0, -0.2]), [1.0, -2 * pole_r * np.cos(wp), pole_r**2]
+    )
+    q = np.exp(-2j * np.pi * f * DT)
+    P = (np.polyval(num_p[::-1], q) / np.polyval(den_p[::-1], q))[None, :]
+    K = np.polyval(x[::-1], q) / np.polyval(y[::-1], q)
+    expected, margin = _true_unstable(num_p, den_p, x, y)
+    # the plant below the grid is its asymptote (phase off by w/2 here): a closed-loop
+    # pole closer to the circle than that can fall on either side
+    assume(margin > 1e-3)
+    row = evaluate_set(f, P, K, DT, n_integrators=3, controller_coefficients=(x, y)).rows[0]
+    assume(row.resolved)
+    assert row.unstable_poles == expected
+
+
+def test_the_asymptote_rule_alone_miscounts_a_lag_zero_pair_below_the_grid():
+    """The case the controller's coefficients fix: the zero pair turns K by ~ +180 degrees
+    between DC and the first grid point, which the asymptote rule cannot see."""
+    f = np.geomspace(10.0, 0.5 / DT, 6000)
+    num_p, den_p = _double_integrator(3e6)
+    wz = 2 * np.pi * 5.0 * DT
+    x = np.convolve([1.0, -2 * 0.9995 * np.cos(wz), 0.9995**2], [1.0, -0.9])
+    y = np.convolve([1.0, -1.0], [1.0, -0.2])
+    q = np.exp(-2j * np.pi * f * DT)
+    P = (np.polyval(num_p[::-1], q) / np.polyval(den_p[::-1], q))[None, :]
+    K = np.polyval(x[::-1], q) / np.polyval(y[::-1], q)
+    expected, margin = _true_unstable(num_p, den_p, x, y)
+    assert margin > 1e-4
+    exact = evaluate_set(f, P, K, DT, n_integrators=3, controller_coefficients=(x, y)).rows[0]
+    rule = evaluate_set(f, P, K, DT, n_integrators=3).rows[0]
+    assert exact.resolved and exact.unstable_poles == expected
+    assert rule.unstable_poles != expected
+
+
+def _stage_model():
+    spec = importlib.util.spec_from_file_location(
+        "make_stage", ROOT / "examples/data/make_stage_frf.py"
+    )
+    mod = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(mod)
+    return mod.STAGE
+
+
+#: A controller the loop-shaping iteration accepted on the stage FRF before the count knew
+#: the controller (an iterate of ``servokit loopshape examples/data/stage_frf.csv --dt
+#: 2.5e-5 --order 4``): its pole pair at modulus 1.138 was counted as stable.
+STAGE_ITERATE = (
+    [
+        5.521421318138502,
+        -9.172836021040165,
+        7.866503584682515,
+        -10.29464038232668,
+        6.0796038005172965,
+    ],
+    [1.0, -1.3632332567756142, 1.1451466455801926, -1.9748386006864465, 1.192925211881868],
+)
+
+
+def test_stage_iterate_is_counted_unstable_as_its_model_loop_is():
+    import control
+
+    from servokit.cli.loopshape import _read_set
+    from servokit.feedback.loopshape_iterate import certify_models
+
+    dt = 2.5e-5
+    f, P = _read_set([str(ROOT / "examples/data/stage_frf.csv")])
+    x, y = (np.asarray(v) for v in STAGE_ITERATE)
+    q = np.exp(-2j * np.pi * f * dt)
+    K = np.polyval(x[::-1], q) / np.polyval(y[::-1], q)
+    row = evaluate_set(f, P, K, dt, n_integrators=3, controller_coefficients=(x, y)).rows[0]
+    radius = float(certify_models(control.tf(x, y, dt), [_stage_model()]).max())
+    assert radius > 1.0  # the exact model loop is unstable ...
+    assert not row.stable  # ... and so is the count on the FRF
+
+
+def test_tf_coefficients_pads_a_strictly_proper_numerator():
+    import control
+
+    c = control.tf([2.0, 1.0], [1.0, -1.5, 0.5], 1e-3)  # (2z + 1)/(z^2 - 1.5z + 0.5)
+    x, y = tf_coefficients(c)
+    np.testing.assert_array_equal(x, [0.0, 2.0, 1.0])
+    np.testing.assert_array_equal(y, [1.0, -1.5, 0.5])
+    q = np.exp(-1j * 0.3)
+    assert np.polyval(x[::-1], q) / np.polyval(y[::-1], q) == pytest.approx(
+        complex(np.asarray(c(np.exp(1j * 0.3))).ravel()[0])
+    )
