@@ -471,6 +471,8 @@ CASES: list[tuple[list[str], str]] = [
      "raise --u-max or --n-samples"),  # fmt: skip
     # |T| is 0 dB wherever |L| is large: no loop meets a bound at or below it
     (["loopshape", "FRF.csv", "--dt", "2.5e-5", "--out", "o", "--t-max-db", "0"], "--t-max-db"),
+    # a damping typed in percent is not a wide notch
+    (["loopshape", "FRF.csv", "--dt", "2.5e-5", "--out", "o", "--notch", "2130:20"], "20 % is 0.2"),
     # the model's own check of a plant file's value names the file
     (["plant", "show", "SLOWDELAY.toml"], "SLOWDELAY.toml: delay"),
     # a variation file given where a plant file goes is named for what it is

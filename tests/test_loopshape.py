@@ -248,3 +248,11 @@ def test_model_frfs_blocks_match_dense_solve_and_certify_matches_python_control(
             cl = control.feedback(g * p.discretize(dt) * k, 1)
             expect = np.max(np.abs(np.linalg.eigvals(np.asarray(cl.A))))
             assert got[i, j] == pytest.approx(expect, rel=1e-12)
+
+
+def test_notch_damping_above_one_is_refused_as_no_notch() -> None:
+    """(s^2 + 2 z w s + w^2) has real roots for z > 1: a damping typed in percent (20) is
+    refused, while z = 1 (critically damped, the widest pair) is kept."""
+    assert pid_notch_structure(DT, notches=((1000.0, 1.0),)).order == 3
+    with pytest.raises(ServokitValueError, match=r"20 % is 0\.2"):
+        pid_notch_structure(DT, notches=((1000.0, 20.0),))

@@ -98,6 +98,11 @@ def _notches(values: list[str]) -> tuple[tuple[float, float], ...] | None:
         out.append(
             (check_positive("--notch FREQ_HZ", f, "Hz"), check_positive("--notch DAMPING", z))
         )
+        if z > 1:  # a percentage typed for a ratio would pass as a wide pair of real poles
+            raise ServokitValueError(
+                f"--notch {v!r}: DAMPING {z:g} is above 1 (two real poles, not a notch); "
+                "the damping is a ratio, e.g. 20 % is 0.2 (real poles: --lowpass HZ)"
+            )
     return tuple(out)
 
 

@@ -140,7 +140,7 @@ def pid_notch_structure(
     dt : float
         Sampling period [s].
     notches : tuple of (freq_hz, damping)
-        Notch pole frequencies [Hz] and pole damping ratios.
+        Notch pole frequencies [Hz] and pole damping ratios in ``(0, 1]``.
     lowpass_hz : tuple of float
         Corner frequencies of first-order low-pass / lead poles [Hz].
     extra_num : int
@@ -166,6 +166,11 @@ def pid_notch_structure(
     for f, zeta in notches:
         f = check_positive("notch frequency", f, "Hz")
         zeta = check_positive("notch damping", zeta)
+        if zeta > 1:  # (s^2 + 2 zeta w s + w^2) then has two real roots: no resonant pair
+            raise ServokitValueError(
+                f"notch damping {zeta:g} is above 1: two real poles, not a notch (the damping "
+                "is a ratio, 20 % is 0.2; real poles are lowpass_hz corners)"
+            )
         if f >= nyq:
             raise ServokitValueError(f"notch frequency {f:g} must be below Nyquist {nyq:g} Hz")
         w = 2 * np.pi * f
