@@ -127,6 +127,16 @@ def controller_unstable_poles(den: Any) -> int:
 
     A root ``s`` in ``q`` is the pole ``z = 1/s``; roots at ``z = 1`` (integrators) are
     divided out first, as :func:`poly_travel` does.
+
+    Parameters
+    ----------
+    den : array_like
+        Controller denominator ``y`` in ascending powers of ``z^{-1}``.
+
+    Returns
+    -------
+    int
+        Number of poles with ``|z| > 1``.
     """
     y = np.trim_zeros(np.atleast_1d(np.asarray(den, dtype=float)), "b")
     y = _unit_roots(y)[0]
@@ -135,8 +145,19 @@ def controller_unstable_poles(den: Any) -> int:
 
 
 def tf_coefficients(controller: Any) -> tuple[np.ndarray, np.ndarray]:
-    """Numerator and denominator of a discrete SISO python-control transfer function in
-    ascending powers of ``z^{-1}`` (both padded to the denominator's degree in ``z``)."""
+    """Numerator and denominator of a discrete SISO controller in powers of ``z^{-1}``.
+
+    Parameters
+    ----------
+    controller : control.TransferFunction
+        Discrete SISO transfer function.
+
+    Returns
+    -------
+    tuple of ndarray
+        ``x`` and ``y`` in ascending powers of ``z^{-1}``, both padded to the larger degree
+        in ``z`` (``K = x/y``, as :func:`evaluate_set` takes them).
+    """
     num = np.asarray(controller.num[0][0], dtype=float)
     den = np.asarray(controller.den[0][0], dtype=float)
     n = max(num.size, den.size)  # z^-n times both: descending z is ascending z^-1
