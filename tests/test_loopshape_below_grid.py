@@ -222,3 +222,31 @@ def test_tf_coefficients_pads_a_strictly_proper_numerator():
     assert np.polyval(x[::-1], q) / np.polyval(y[::-1], q) == pytest.approx(
         complex(np.asarray(c(np.exp(1j * 0.3))).ravel()[0])
     )
+
+
+@settings(max_examples=40, deadline=None)
+@given(
+    seed=st.integers(0, 2**32 - 1),
+    m=st.integers(0, 2),
+    integrators=st.integers(0, 2),
+    zero_at_one=st.booleans(),
+)
+def test_batched_low_travel_equals_one_polynomial_at_a_time(seed, m, integrators, zero_at_one):
+    """The companion-matrix batch of ``_low_travel`` against :func:`poly_travel` per plant."""
+    from servokit.feedback.loopshape_eval import _low_travel, _one_minus_q, _unit_roots
+
+    rng = np.random.default_rng(seed)
+    x = rng.normal(size=rng.integers(1, 5))
+    if zero_at_one:
+        x = np.convolve(x, [1.0, -1.0])
+    y = np.convolve(_one_minus_q(integrators), np.concatenate([[1.0], rng.normal(size=3) * 0.4]))
+    g = rng.normal(size=7) * 10.0 ** rng.uniform(-3, 3)
+    w0 = 10.0 ** rng.uniform(-3, 0)
+    den = np.convolve(_one_minus_q(m), y)
+    shifted = np.concatenate([np.zeros(m), x])
+    n = max(den.size, shifted.size)
+    den, shifted = (np.pad(v, (0, n - v.size)) for v in (den, shifted))
+    u = min(m + integrators, _unit_roots(x)[1])
+    base = poly_travel(den, w0, m + integrators)
+    one_by_one = [poly_travel(den + gi * shifted, w0, u) - base for gi in g]
+    np.testing.assert_allclose(_low_travel(x, y, g, m, w0), one_by_one, atol=1e-9)

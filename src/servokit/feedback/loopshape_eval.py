@@ -112,14 +112,20 @@ def poly_travel(x: Any, w0: float, unit_roots: int | None = None) -> float:
     nz = np.flatnonzero(x)
     lead = int(nz[0])
     roots = np.roots(x[lead : nz[-1] + 1][::-1])
+    return float(_roots_travel(roots[None, :], w0)[0]) - lead * w0 - m * w0 / 2
+
+
+def _roots_travel(roots: np.ndarray, w0: float) -> np.ndarray:
+    """Per row of ``roots`` (q-roots, none at ``q = 1`` or 0), the summed factor travels."""
     q0 = np.exp(-1j * w0)
     inside = np.abs(roots) < 1.0
-    out, ins = roots[~inside], roots[inside]
+    safe = np.where(inside, 2.0, roots)  # (the other branch's value, dropped below)
     # |s| > 1: 1 - q/s stays in a half plane, its travel is the principal angle;
     # |s| < 1: 1 - q/s = -(q/s)(1 - s/q), where q turns by -w0 and 1 - s/q is as above
-    travel = np.sum(np.angle((1.0 - q0 / out) / (1.0 - 1.0 / out)))
-    travel += np.sum(np.angle((1.0 - ins / q0) / (1.0 - ins))) - ins.size * w0
-    return float(travel) - lead * w0 - m * w0 / 2
+    out = np.angle((1.0 - q0 / safe) / (1.0 - 1.0 / safe))
+    small = np.where(inside, roots, 0.5)
+    ins = np.angle((1.0 - small / q0) / (1.0 - small)) - w0
+    return np.where(inside, ins, out).sum(axis=1)
 
 
 def controller_unstable_poles(den: Any) -> int:
@@ -174,10 +180,19 @@ def _low_travel(x: np.ndarray, y: np.ndarray, g: np.ndarray, m: int, w0: float) 
     # roots at z = 1 from the structure, not from a tolerance: phi(1) = g x(1) is small
     # but not zero under a lag zero pair near z = 1
     mx, my = _unit_roots(x)[1], _unit_roots(y)[1]
+    u = min(m + my, mx)
     base = poly_travel(den, w0, m + my)
-    return np.array(
-        [poly_travel(den + gi * shifted, w0, min(m + my, mx)) - base for gi in g.tolist()]
-    )
+    # phi = den + g shifted with u unit roots shared by both terms: divided out once
+    d, sh = _unit_roots(den, u)[0], _unit_roots(shifted, u)[0]
+    phi = d[None, :] + g[:, None] * sh[None, :]
+    if phi.shape[1] < 2 or np.any(phi[:, 0] == 0) or np.any(phi[:, -1] == 0):
+        return np.array([poly_travel(den + gi * shifted, w0, u) - base for gi in g.tolist()])
+    # every row's q-roots at once: eigenvalues of the companion matrices (numpy's roots)
+    k = phi.shape[1] - 1
+    comp = np.zeros((phi.shape[0], k, k))
+    comp[:, 0, :] = -phi[:, -2::-1] / phi[:, -1:]
+    comp[:, np.arange(1, k), np.arange(k - 1)] = 1.0
+    return _roots_travel(np.linalg.eigvals(comp), w0) - u * w0 / 2 - base
 
 
 def _one_minus_q(m: int) -> np.ndarray:
