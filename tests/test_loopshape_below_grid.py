@@ -250,3 +250,35 @@ def test_batched_low_travel_equals_one_polynomial_at_a_time(seed, m, integrators
     base = poly_travel(den, w0, m + integrators)
     one_by_one = [poly_travel(den + gi * shifted, w0, u) - base for gi in g]
     np.testing.assert_allclose(_low_travel(x, y, g, m, w0), one_by_one, atol=1e-9)
+
+
+def test_the_asymptote_below_the_grid_is_real_gain_over_integrators():
+    from servokit.feedback.loopshape_iterate import ASYMPTOTE_DECADES, _with_asymptote
+
+    dt, m = 2.5e-5, 2
+    f = np.geomspace(10.0, 0.5 / dt, 50)
+    z = np.exp(2j * np.pi * f * dt)
+    P = np.vstack([3e3 * np.exp(0.2j) / (z - 1) ** m, -5.0 * np.exp(-0.1j) / (z - 1) ** m])
+    f2, P2, n = _with_asymptote(f, P, dt, m)
+    assert f2[0] == pytest.approx(f[0] * 10.0**-ASYMPTOTE_DECADES) and np.all(np.diff(f2) > 0)
+    np.testing.assert_array_equal(P2[:, n:], P)
+    g = P2[:, :n] * (np.exp(2j * np.pi * f2[:n] * dt) - 1) ** m
+    np.testing.assert_allclose(g, np.array([[3e3], [-5.0]]) * np.ones((1, n)), rtol=1e-9)
+
+
+@pytest.mark.slow
+def test_stage_design_stays_clear_of_the_unit_circle():
+    """``servokit loopshape examples/data/stage_frf.csv --dt 2.5e-5 --order 4`` in Python:
+    the model the FRF was made from closes with every pole well inside the unit circle
+    (without the asymptote below the grid: 312 Hz and a pole at 0.999999)."""
+    import control
+
+    from servokit.cli.loopshape import _read_set
+    from servokit.feedback.loopshape_iterate import certify_models, loopshape
+
+    f, P = _read_set([str(ROOT / "examples/data/stage_frf.csv")])
+    res = loopshape(f, P, 2.5e-5, s_max_db=6.0, structure="order", order=4)
+    assert isinstance(res.controller, control.TransferFunction)
+    radius = float(certify_models(res.controller, [_stage_model()]).max())
+    assert radius < 1.0 - 1e-4
+    assert res.table.all_stable and res.table.min_crossover_hz > 600.0

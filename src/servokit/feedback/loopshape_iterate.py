@@ -27,6 +27,15 @@ A frequency-domain trust region ``|K - K_k| ≤ ρ |K_k|`` keeps each step where
 bounds are accurate. Only points near activity enter the cone program; after each solve
 every plant-frequency point is checked and violated ones are added (constraint generation).
 
+Below the grid. The cone programs also hold on ``ASYMPTOTE_DECADES`` decades below the
+first measured point, where each plant is its asymptote ``g/(z - 1)^m`` (the assumption of
+the stability count, :mod:`~servokit.feedback.loopshape_eval`): without them a step could
+move controller zeros there unseen. On ``servokit loopshape examples/data/stage_frf.csv
+--dt 2.5e-5 --order 4`` (grid from 10 Hz) the steps drove a lag zero pair at 6.8 Hz to
+modulus 0.99999 and stalled at 312.3 Hz with a closed-loop pole of the fitted model at
+0.999999; with the extension the run reaches 705.5 Hz, largest pole modulus 0.999757.
+The tables, the acceptance test and the history are on the measured points only.
+
 Limits (documented in docs/guide/loopshape.md): the guarantees hold on the grid; between
 grid points they rest on the grid resolving the resonances. Every accepted step is
 therefore certified exactly: Nyquist winding count of every loop on the full grid
@@ -123,8 +132,11 @@ def _resolve_structure(
 class _Problem:
     """The data and evaluation of one design (grid, FRFs, structure, bounds)."""
 
-    def __init__(self, f, P, dt, structure: Structure, s_max, t_max, n_plant_int, names):
+    def __init__(
+        self, f, P, dt, structure: Structure, s_max, t_max, n_plant_int, names, n_below=0
+    ):
         self.f, self.P, self.dt, self.st = f, P, dt, structure
+        self.n_below = n_below  # leading asymptote points: in the cone programs only
         self.zinv = np.exp(-2j * np.pi * f * dt)
         self.basis = Basis.build(
             self.zinv, structure.den_fixed, structure.n_num, structure.n_den_free
@@ -152,12 +164,13 @@ class _Problem:
         return x / y
 
     def table(self, theta: np.ndarray) -> LoopTable:
-        # the controller's phase below the first grid point is known exactly (a step may
+        # on the measured points; below them the controller is known exactly (a step may
         # put zeros there): only the plant is left to the asymptote rule
+        i = self.n_below
         return evaluate_set(
-            self.f,
-            self.P,
-            self.K(theta),
+            self.f[i:],
+            self.P[:, i:],
+            self.K(theta)[i:],
             self.dt,
             n_integrators=self.m,
             names=self.names,
@@ -294,6 +307,25 @@ def _one_blas_thread(func: Callable) -> Callable:
     return wrapper
 
 
+#: decades of the plants' low-frequency asymptote put below the first measured point
+ASYMPTOTE_DECADES = 2
+#: points per decade of that extension
+ASYMPTOTE_POINTS = 12
+
+
+def _with_asymptote(f: np.ndarray, P: np.ndarray, dt: float, m: int):
+    """The grid extended ``ASYMPTOTE_DECADES`` below its first point with each plant's
+    asymptote ``g / (z - 1)^m`` (``g`` real, the rule of the stability count), and the
+    number of points added (module doc, "Below the grid")."""
+    n = ASYMPTOTE_DECADES * ASYMPTOTE_POINTS
+    low = f[0] * np.logspace(-ASYMPTOTE_DECADES, 0, n + 1)[:-1]
+    z0, z = np.exp(2j * np.pi * f[0] * dt), np.exp(2j * np.pi * low * dt)
+    gc = P[:, 0] * (z0 - 1.0) ** m
+    g = np.where(gc.real >= 0, 1.0, -1.0) * np.abs(gc)
+    P_low = g[:, None] / (z[None, :] - 1.0) ** m
+    return np.concatenate([low, f]), np.hstack([P_low, P]), n
+
+
 @_one_blas_thread
 def loopshape(
     freq_hz: Any,
@@ -384,8 +416,9 @@ def loopshape(
         else int(plant_integrators_count)
     )
     notches = notches if notches is not None or structure != "pid-notch" else _peaks(f, P, h, n_pi)
+    f, P, n_below = _with_asymptote(f, P, h, n_pi)
     st = _resolve_structure(structure, order, h, notches, lowpass_hz)
-    pb = _Problem(f, P, h, st, s_max, t_max_db, n_pi, names)
+    pb = _Problem(f, P, h, st, s_max, t_max_db, n_pi, names, n_below)
     theta0, note = initial_parameters(pb, initial)
     ok, tab0 = pb.ok(theta0, np.inf)
     if not ok:
