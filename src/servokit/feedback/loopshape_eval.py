@@ -30,7 +30,9 @@ takes ``arg L`` to travel less than 90° over ``(0, f_0]``. That holds for a pla
 from low enough a frequency, but not for a controller with zeros or poles below ``f_0``:
 a loop-shaping step that put a lag zero pair at 6 Hz, under a stage FRF starting at
 10 Hz, made ``K`` travel 99° there, and the rule counted one unstable pole in a loop whose
-exact closed-loop poles lie inside the unit circle (largest modulus 0.9989). The controller
+exact closed-loop poles lie inside the unit circle (largest modulus 0.9989); other steps,
+with a controller pole pair at modulus 1.138 the count did not know of, were counted
+stable. The controller
 is known exactly (its ``x`` and ``y``, ``controller_coefficients``), and below ``f_0`` the
 plant is taken at its asymptote ``g/(z - 1)^m`` (``g`` real: the modulus of
 ``(z - 1)^m L/K`` at ``f_0`` with the sign of its real part). Then ``1 + L`` below the
