@@ -267,18 +267,20 @@ def test_the_asymptote_below_the_grid_is_real_gain_over_integrators():
 
 
 @pytest.mark.slow
-def test_stage_design_stays_clear_of_the_unit_circle():
-    """``servokit loopshape examples/data/stage_frf.csv --dt 2.5e-5 --order 4`` in Python:
-    the model the FRF was made from closes with every pole well inside the unit circle
-    (without the asymptote below the grid: 312 Hz and a pole at 0.999999)."""
-    import control
-
+@pytest.mark.parametrize(("order", "min_crossover_hz", "clearance"), [(4, 600.0, 1e-4),
+                         (6, 600.0, 1e-4), (8, 400.0, 0.0)])  # fmt: skip
+def test_stage_design_moves_and_closes_the_model_inside_the_circle(
+    order, min_crossover_hz, clearance
+):
+    """``servokit loopshape examples/data/stage_frf.csv --dt 2.5e-5 --order N`` in Python
+    (start: 66.1 Hz): the model the FRF was made from closes with every pole inside the
+    unit circle. Without the asymptote below the grid order 4 stalled at 312 Hz with a pole
+    at 0.999999; without the rescue of stalled cone programs orders 6 and 8 took no step."""
     from servokit.cli.loopshape import _read_set
     from servokit.feedback.loopshape_iterate import certify_models, loopshape
 
     f, P = _read_set([str(ROOT / "examples/data/stage_frf.csv")])
-    res = loopshape(f, P, 2.5e-5, s_max_db=6.0, structure="order", order=4)
-    assert isinstance(res.controller, control.TransferFunction)
+    res = loopshape(f, P, 2.5e-5, s_max_db=6.0, structure="order", order=order)
     radius = float(certify_models(res.controller, [_stage_model()]).max())
-    assert radius < 1.0 - 1e-4
-    assert res.table.all_stable and res.table.min_crossover_hz > 600.0
+    assert radius < 1.0 - clearance
+    assert res.table.all_stable and res.table.min_crossover_hz > min_crossover_hz

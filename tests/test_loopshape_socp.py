@@ -306,3 +306,45 @@ def test_worst_slack_from_the_definitions() -> None:
     c = s[prog.n_lin :].reshape(-1, 3)
     want = min(s[: prog.n_lin].min(), (c[:, 0] - np.sqrt(c[:, 1] ** 2 + c[:, 2] ** 2)).min())
     assert socp._worst_slack(prog, z) == pytest.approx(min(want, 0.0), rel=1e-12)
+
+
+class _Stalled:
+    """A Clarabel solver stand-in returning ``x`` with ``status``."""
+
+    def __init__(self, status: str, x: np.ndarray) -> None:
+        self.status, self.x = status, x
+
+    def __call__(self, *args, **kwargs):
+        return self
+
+    def solve(self):
+        return self
+
+
+@pytest.mark.parametrize(
+    ("status", "violation", "rescue", "taken"),
+    [
+        ("InsufficientProgress", 5e-5, True, True),  # rows off by 5e-5: offered
+        ("NumericalError", 5e-5, True, True),
+        ("InsufficientProgress", 5e-3, True, False),  # beyond RESCUE_FEAS: not offered
+        ("InsufficientProgress", 5e-5, False, False),  # only the last fallback rescues
+        ("PrimalInfeasible", 0.0, True, False),  # not a stall
+    ],
+)
+def test_a_stalled_solve_is_offered_only_where_its_rows_hold(
+    monkeypatch, status, violation, rescue, taken
+):
+    import types
+
+    import clarabel
+    import scipy.sparse as sparse
+
+    # rows b - A z >= 0 (two linear rows, one cone (t, u, v) with t >= |(u, v)|)
+    A = sparse.csc_matrix(np.eye(5))
+    b = np.array([1.0, 1.0, 1.0, 0.0, 0.0])
+    z = np.array([1.0 + violation, 0.5, 0.0, 0.0, 0.0])  # first row violated by `violation`
+    prog = types.SimpleNamespace(n_lin=2, n_soc=1, nz=5, nt=1, A=A, b=b)
+    assert socp._worst_slack(prog, z) == pytest.approx(-violation)
+    monkeypatch.setattr(clarabel, "DefaultSolver", _Stalled(status, z))
+    out = socp._solve(prog, socp.TOL_ONE, ("Solved", "AlmostSolved"), rescue=rescue)
+    assert (out is not None) == taken
