@@ -52,7 +52,9 @@ def closed_loop_unstable(freq_hz, L, dt, *, n_integrators, n_unstable=0) -> tupl
     resolved = bool(np.all(np.abs(steps) < MAX_PHASE_STEP)) and bool(abs(first) < MAX_PHASE_STEP)
     if not np.isfinite(z_out):  # 1 + L = 0 on the grid: a pole on the circle, not stable
         return 1, False
-    return int(np.rint(z_out)), resolved
+    # a count that is not a whole number >= 0 means an assumption of the count failed
+    whole = abs(z_out - round(z_out)) < 0.25 and round(z_out) >= 0
+    return int(np.rint(z_out)), resolved and whole
 
 
 def evaluate_loop(freq_hz, L, dt, *, n_integrators, n_unstable=0) -> LoopRow:

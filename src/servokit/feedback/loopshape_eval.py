@@ -44,9 +44,16 @@ stays in a half plane (``|q/s| < 1``), so its travel is the principal
 ``-ω_0`` plus the principal ``arg((1 - s/q_0)/(1 - s))``; each root at ``q = 1`` travels
 ``-ω_0/2`` and each leading ``q`` ``-ω_0``. This also holds where ``|L|`` dips below 1
 under the grid (a lag zero pair). The measured ``1 + L(f_0)`` joins it through the
-principal angle to ``1 + L_asymptote(f_0)``. ``resolved`` is False when that angle or the
-plant's angle to its asymptote exceeds 90°. The controller's poles outside the unit disc
-are counted from ``y`` (a free denominator can move there). Checked against the roots of
+principal angle to ``1 + L_asymptote(f_0)``. ``resolved`` is False when that angle exceeds
+90°, when the plant at ``f_0`` is more than 45° (``ASYMPTOTE_ANGLE``) from its asymptote
+(the sign rule alone keeps that angle within 90°), and, on either path, when ``Z_out`` is
+not within 0.25 of a whole number ``>= 0``. Roots at ``z = 1`` are divided out only from
+``y`` (the structure's integrators, ``controller_integrators``, else those within
+``UNIT_ROOT_TOL``), never from ``x`` or ``φ``: a cluster of lag zeros near ``z = 1`` once
+took ``x(1)`` to 1.6e-13 of ``Σ|x_k|`` and passed for an integrator; a controller zero
+exactly at ``z = 1`` leaves a closed-loop pole there, counted not stable and unresolved.
+The controller's poles outside the unit disc are counted from ``y`` (a free denominator
+can move there). Checked against the roots of
 the characteristic polynomial of exact discrete loops (tests); a closed-loop pole closer
 to the unit circle than the plant's departure from its asymptote (``~ω/2`` for a ZOH
 double integrator) can fall on either side.
@@ -75,6 +82,9 @@ MAX_PHASE_STEP = np.pi / 2
 #: ``|x(1)| <= UNIT_ROOT_TOL * sum |x_k|``: a root of a controller polynomial at ``z = 1``
 #: (an integrator: a factor ``1 - z^{-1}`` multiplied out leaves ``x(1)`` at rounding level)
 UNIT_ROOT_TOL = 1e-12
+#: Largest angle between the plant at the first grid point and its asymptote ``g/(z-1)^m``
+#: for a trusted count below the grid [rad]
+ASYMPTOTE_ANGLE = np.pi / 4
 
 
 def _unit_roots(x: np.ndarray, count: int | None = None) -> tuple[np.ndarray, int]:
@@ -127,10 +137,13 @@ def _roots_travel(roots: np.ndarray, w0: float) -> np.ndarray:
     out = np.angle((1.0 - q0 / safe) / (1.0 - 1.0 / safe))
     small = np.where(inside, roots, 0.5)
     ins = np.angle((1.0 - small / q0) / (1.0 - small)) - w0
-    return np.where(inside, ins, out).sum(axis=1)
+    travel = np.where(inside, ins, out).sum(axis=1)
+    # a root at z = 1 that is no structural integrator (a controller zero cancelling one):
+    # a closed-loop pole on the unit circle, no travel to count
+    return np.where(np.any(np.abs(roots - 1.0) < 1e-12, axis=1), np.nan, travel)
 
 
-def controller_unstable_poles(den: Any) -> int:
+def controller_unstable_poles(den: Any, integrators: int | None = None) -> int:
     """Roots of ``y`` (ascending powers of ``q = z^{-1}``) outside the unit disc in ``z``.
 
     A root ``s`` in ``q`` is the pole ``z = 1/s``; roots at ``z = 1`` (integrators) are
@@ -140,6 +153,9 @@ def controller_unstable_poles(den: Any) -> int:
     ----------
     den : array_like
         Controller denominator ``y`` in ascending powers of ``z^{-1}``.
+    integrators : int, optional
+        Roots of ``y`` at ``z = 1`` known from the structure; by default those within
+        :data:`UNIT_ROOT_TOL`.
 
     Returns
     -------
@@ -147,7 +163,7 @@ def controller_unstable_poles(den: Any) -> int:
         Number of poles with ``|z| > 1``.
     """
     y = np.trim_zeros(np.atleast_1d(np.asarray(den, dtype=float)), "b")
-    y = _unit_roots(y)[0]
+    y = _unit_roots(y, integrators)[0]
     y = y[np.flatnonzero(y)[0] :]
     return int(np.count_nonzero(np.abs(np.roots(y[::-1])) < 1.0))
 
@@ -172,29 +188,29 @@ def tf_coefficients(controller: Any) -> tuple[np.ndarray, np.ndarray]:
     return tuple(np.concatenate([np.zeros(n - v.size), v]) for v in (num, den))  # type: ignore[return-value]
 
 
-def _low_travel(x: np.ndarray, y: np.ndarray, g: np.ndarray, m: int, w0: float) -> np.ndarray:
+def _low_travel(
+    x: np.ndarray, y: np.ndarray, g: np.ndarray, m: int, my: int, w0: float
+) -> np.ndarray:
     """Per plant, the travel of ``arg(1 + L)`` over ``(0, w0]`` with the plant at its
-    asymptote ``g / (z - 1)^m`` and the controller ``x / y`` (module doc)."""
+    asymptote ``g / (z - 1)^m`` and the controller ``x / y``, ``y`` with ``my`` roots at
+    ``z = 1`` (module doc)."""
     den = np.convolve(_one_minus_q(m), y)  # (1 - q)^m y; and g q^m x beside it:
     shifted = np.concatenate([np.zeros(m), x])
     n = max(den.size, shifted.size)
     den, shifted = (np.pad(v, (0, n - v.size)) for v in (den, shifted))
-    # roots at z = 1 from the structure, not from a tolerance: phi(1) = g x(1) is small
-    # but not zero under a lag zero pair near z = 1
-    mx, my = _unit_roots(x)[1], _unit_roots(y)[1]
-    u = min(m + my, mx)
+    # roots at z = 1 from the structure, never from a tolerance on phi or x: phi(1) =
+    # g x(1) is small but not zero under lag zeros near z = 1 (a cluster of them took
+    # x(1) to 1.6e-13 of sum |x| and was once mistaken for a numerator integrator)
     base = poly_travel(den, w0, m + my)
-    # phi = den + g shifted with u unit roots shared by both terms: divided out once
-    d, sh = _unit_roots(den, u)[0], _unit_roots(shifted, u)[0]
-    phi = d[None, :] + g[:, None] * sh[None, :]
+    phi = den[None, :] + g[:, None] * shifted[None, :]
     if phi.shape[1] < 2 or np.any(phi[:, 0] == 0) or np.any(phi[:, -1] == 0):
-        return np.array([poly_travel(den + gi * shifted, w0, u) - base for gi in g.tolist()])
+        return np.array([poly_travel(den + gi * shifted, w0, 0) - base for gi in g.tolist()])
     # every row's q-roots at once: eigenvalues of the companion matrices (numpy's roots)
     k = phi.shape[1] - 1
     comp = np.zeros((phi.shape[0], k, k))
     comp[:, 0, :] = -phi[:, -2::-1] / phi[:, -1:]
     comp[:, np.arange(1, k), np.arange(k - 1)] = 1.0
-    return _roots_travel(np.linalg.eigvals(comp), w0) - u * w0 / 2 - base
+    return _roots_travel(np.linalg.eigvals(comp), w0) - base
 
 
 def _one_minus_q(m: int) -> np.ndarray:
@@ -336,6 +352,11 @@ def _gain_margins_db(L: np.ndarray) -> np.ndarray:
     return out
 
 
+def _known(coeffs, integrators: int | None):
+    """``(x, y, integrators)`` for the count, or None without coefficients."""
+    return None if coeffs is None else (coeffs[0], coeffs[1], integrators)
+
+
 def _first_travel(freq_hz, L: np.ndarray, dt: float, n_integrators: int, coeffs):
     """Per row, the travel of ``arg(1 + L)`` from ``ω = 0+`` to the first grid point and
     whether the assumptions below the grid hold there (module doc)."""
@@ -347,16 +368,19 @@ def _first_travel(freq_hz, L: np.ndarray, dt: float, n_integrators: int, coeffs)
         start = np.where(g.real >= 0, 0.0, np.pi) - n_integrators * np.pi / 2
         first = np.angle(r0 * np.exp(-1j * start))
         return first, np.abs(first) < MAX_PHASE_STEP
-    x, y = (np.trim_zeros(np.asarray(v, dtype=float), "b") for v in coeffs)
-    m = n_integrators - (_unit_roots(y)[1] - _unit_roots(x)[1])  # the plant's
+    x, y = (np.trim_zeros(np.asarray(v, dtype=float), "b") for v in coeffs[:2])
+    my = coeffs[2] if len(coeffs) > 2 and coeffs[2] is not None else _unit_roots(y)[1]
+    m = n_integrators - my  # the plant's
     k0 = np.polyval(x[::-1], 1 / z0) / np.polyval(y[::-1], 1 / z0)
     if m < 0:  # fewer loop integrators than the controller has: no asymptote
         return np.zeros(L.shape[0]), np.zeros(L.shape[0], dtype=bool)
     gc = L[:, 0] / k0 * (z0 - 1.0) ** m  # the plant's (z - 1)^m P at the first point
     g = np.where(gc.real >= 0, 1.0, -1.0) * np.abs(gc)
     near = np.angle(r0 / (1.0 + g / (z0 - 1.0) ** m * k0))  # measured against asymptote
-    first = _low_travel(x, y, g, m, w) + near
-    return first, (np.abs(np.angle(gc / g)) < MAX_PHASE_STEP) & (np.abs(near) < MAX_PHASE_STEP)
+    first = _low_travel(x, y, g, m, my, w) + near
+    # |angle(gc/g)| <= 90 deg by the choice of g's sign: the plant must be nearer than that
+    at_asymptote = np.abs(np.angle(gc / g)) < ASYMPTOTE_ANGLE
+    return first, at_asymptote & (np.abs(near) < MAX_PHASE_STEP)
 
 
 def _unstable(freq_hz, L: np.ndarray, dt: float, n_integrators: int, n_unstable: int, coeffs=None):
@@ -366,9 +390,11 @@ def _unstable(freq_hz, L: np.ndarray, dt: float, n_integrators: int, n_unstable:
     first, first_ok = _first_travel(freq_hz, L, dt, n_integrators, coeffs)
     delta = first + steps.sum(axis=1)
     if coeffs is not None:  # a free denominator can leave the unit disc: count its poles
-        n_unstable += controller_unstable_poles(coeffs[1])
+        n_unstable += controller_unstable_poles(coeffs[1], coeffs[2] if len(coeffs) > 2 else None)
     z_out = n_unstable + n_integrators / 2 - delta / np.pi
-    resolved = np.all(np.abs(steps) < MAX_PHASE_STEP, axis=1) & first_ok
+    # an exact count is an integer >= 0: anything else means an assumption failed
+    whole = (np.abs(z_out - np.rint(z_out)) < 0.25) & (np.rint(z_out) >= 0)
+    resolved = np.all(np.abs(steps) < MAX_PHASE_STEP, axis=1) & first_ok & whole
     # 1 + L = 0 on the grid (a closed-loop pole on the unit circle): no count, not stable
     return _pole_count(z_out), resolved & np.isfinite(z_out)
 
@@ -388,6 +414,7 @@ def closed_loop_unstable(
     n_integrators: int,
     n_unstable: int = 0,
     controller_coefficients: tuple[np.ndarray, np.ndarray] | None = None,
+    controller_integrators: int | None = None,
 ) -> tuple[int, bool]:
     """Number of closed-loop poles outside the unit disc by the Nyquist count (module doc).
 
@@ -409,6 +436,10 @@ def closed_loop_unstable(
         the first grid point is then the plant's asymptote times the exact controller,
         and the controller's poles outside the unit disc are counted from ``y`` (module
         doc); without them the whole loop is taken at its asymptote there.
+    controller_integrators : int, optional
+        Roots of ``y`` at ``z = 1`` known from the structure; by default those within
+        :data:`UNIT_ROOT_TOL` of ``y(1) = 0`` (the numerator's are never inferred: a
+        controller zero at ``z = 1`` leaves a closed-loop pole there, counted not stable).
 
     Returns
     -------
@@ -416,7 +447,12 @@ def closed_loop_unstable(
         ``Z_out`` (0 for a stable loop) and whether the grid resolved every phase step.
     """
     z_out, resolved = _unstable(
-        freq_hz, np.asarray(L)[None, :], dt, n_integrators, n_unstable, controller_coefficients
+        freq_hz,
+        np.asarray(L)[None, :],
+        dt,
+        n_integrators,
+        n_unstable,
+        _known(controller_coefficients, controller_integrators),
     )
     return int(z_out[0]), bool(resolved[0])
 
@@ -474,6 +510,7 @@ def evaluate_loop(
     n_integrators: int,
     n_unstable: int = 0,
     controller_coefficients: tuple[np.ndarray, np.ndarray] | None = None,
+    controller_integrators: int | None = None,
 ) -> LoopRow:
     """Margins, sensitivity peaks and the stability count of one loop on its grid.
 
@@ -493,6 +530,10 @@ def evaluate_loop(
     controller_coefficients : tuple of ndarray, optional
         The controller's ``x`` and ``y`` in ascending powers of ``z^{-1}``
         (:func:`closed_loop_unstable`).
+    controller_integrators : int, optional
+        Roots of ``y`` at ``z = 1`` known from the structure; by default those within
+        :data:`UNIT_ROOT_TOL` of ``y(1) = 0`` (the numerator's are never inferred: a
+        controller zero at ``z = 1`` leaves a closed-loop pole there, counted not stable).
 
     Returns
     -------
@@ -501,7 +542,14 @@ def evaluate_loop(
         ``‖T‖∞`` [dB] and the count of unstable closed-loop poles.
     """
     L2 = np.asarray(L)[None, :]
-    cols = _loop_rows(freq_hz, L2, dt, n_integrators, n_unstable, controller_coefficients)
+    cols = _loop_rows(
+        freq_hz,
+        L2,
+        dt,
+        n_integrators,
+        n_unstable,
+        _known(controller_coefficients, controller_integrators),
+    )
     return _rows_of(cols)[0]
 
 
@@ -519,6 +567,7 @@ def evaluate_set(
     n_unstable: int = 0,
     names: tuple[str, ...] | None = None,
     controller_coefficients: tuple[np.ndarray, np.ndarray] | None = None,
+    controller_integrators: int | None = None,
 ) -> LoopTable:
     """Per-plant table of :func:`evaluate_loop` for one controller over a set of FRFs.
 
@@ -541,6 +590,10 @@ def evaluate_set(
     controller_coefficients : tuple of ndarray, optional
         The controller's ``x`` and ``y`` in ascending powers of ``z^{-1}``
         (:func:`closed_loop_unstable`).
+    controller_integrators : int, optional
+        Roots of ``y`` at ``z = 1`` known from the structure; by default those within
+        :data:`UNIT_ROOT_TOL` of ``y(1) = 0`` (the numerator's are never inferred: a
+        controller zero at ``z = 1`` leaves a closed-loop pole there, counted not stable).
 
     Returns
     -------
@@ -550,7 +603,14 @@ def evaluate_set(
     out: list[LoopRow] = []
     for lo in range(0, len(responses), CHUNK):
         L = responses[lo : lo + CHUNK] * controller_response[None, :]
-        cols = _loop_rows(freq_hz, L, dt, n_integrators, n_unstable, controller_coefficients)
+        cols = _loop_rows(
+            freq_hz,
+            L,
+            dt,
+            n_integrators,
+            n_unstable,
+            _known(controller_coefficients, controller_integrators),
+        )
         out += _rows_of(cols)
     rows = tuple(out)
     names = names or tuple(str(i) for i in range(len(rows)))

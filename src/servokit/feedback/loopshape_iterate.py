@@ -175,6 +175,7 @@ class _Problem:
             n_integrators=self.m,
             names=self.names,
             controller_coefficients=self.st.split(theta),
+            controller_integrators=self.st.n_integrators,
         )
 
     def ok(self, theta: np.ndarray, s_bound: float) -> tuple[bool, LoopTable]:
