@@ -19,11 +19,12 @@ from pathlib import Path
 import numpy as np
 
 from servokit.cases import register
-from servokit.feedback.loopshape_eval import LoopTable, evaluate_set, tf_coefficients
+from servokit.feedback.loopshape_eval import LoopTable, evaluate_set
 from servokit.feedback.loopshape_iterate import certify_banks, certify_models, loopshape
 from servokit.feedback.loopshape_plots import loopshape_plot
 from servokit.feedback.loopshape_problem import (
     bank_frfs,
+    controller_polys,
     fixed_order_structure,
     model_frfs,
     model_resonances,
@@ -70,7 +71,7 @@ def _held_out(f, controllers):
     out = {}
     for name, c in controllers.items():
         K = np.asarray(c(z)).ravel()
-        xy = tf_coefficients(c)
+        xy = controller_polys(c)
         tab = evaluate_set(f, P, K, HDD_BENCHMARK_TS, n_integrators=3, controller_coefficients=xy)
         radius = certify_banks(c, banks, HELD_OUT)
         out[name] = {**tab.summary(), "max_pole_radius": float(radius.max())}
@@ -201,7 +202,7 @@ def loopshape_hdd_case(outdir: Path) -> CaseResult:
     c0 = benchmark_controller()
     z = np.exp(2j * np.pi * f * dt)
     K0 = np.asarray(c0(z)).ravel()
-    xy = tf_coefficients(c0)
+    xy = controller_polys(c0)
     base = evaluate_set(f, P, K0, dt, n_integrators=3, names=names, controller_coefficients=xy)
     res = loopshape(
         f,

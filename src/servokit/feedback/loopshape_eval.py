@@ -72,7 +72,7 @@ __all__ = [
     "closed_loop_unstable",
     "controller_unstable_poles",
     "poly_travel",
-    "tf_coefficients",
+    "asymptote_gain",
     "evaluate_loop",
     "evaluate_set",
 ]
@@ -168,24 +168,26 @@ def controller_unstable_poles(den: Any, integrators: int | None = None) -> int:
     return int(np.count_nonzero(np.abs(np.roots(y[::-1])) < 1.0))
 
 
-def tf_coefficients(controller: Any) -> tuple[np.ndarray, np.ndarray]:
-    """Numerator and denominator of a discrete SISO controller in powers of ``z^{-1}``.
+def asymptote_gain(response0: Any, z0: complex, m: int) -> tuple[np.ndarray, np.ndarray]:
+    """The real gain ``g`` of a plant's asymptote ``g / (z - 1)^m`` below the grid.
 
     Parameters
     ----------
-    controller : control.TransferFunction
-        Discrete SISO transfer function.
+    response0 : array_like of complex
+        Plant responses at the first grid point (one per plant).
+    z0 : complex
+        ``e^{jω_0 T}`` of that point.
+    m : int
+        Plant poles at ``z = 1``.
 
     Returns
     -------
     tuple of ndarray
-        ``x`` and ``y`` in ascending powers of ``z^{-1}``, both padded to the larger degree
-        in ``z`` (``K = x/y``, as :func:`evaluate_set` takes them).
+        ``g`` (the modulus of ``(z_0 - 1)^m P`` with the sign of its real part) and that
+        complex value itself, whose angle to ``g`` says how near the asymptote the plant is.
     """
-    num = np.asarray(controller.num[0][0], dtype=float)
-    den = np.asarray(controller.den[0][0], dtype=float)
-    n = max(num.size, den.size)  # z^-n times both: descending z is ascending z^-1
-    return tuple(np.concatenate([np.zeros(n - v.size), v]) for v in (num, den))  # type: ignore[return-value]
+    gc = np.asarray(response0, dtype=complex) * (z0 - 1.0) ** m
+    return np.where(gc.real >= 0, 1.0, -1.0) * np.abs(gc), gc
 
 
 def _low_travel(
@@ -374,8 +376,7 @@ def _first_travel(freq_hz, L: np.ndarray, dt: float, n_integrators: int, coeffs)
     k0 = np.polyval(x[::-1], 1 / z0) / np.polyval(y[::-1], 1 / z0)
     if m < 0:  # fewer loop integrators than the controller has: no asymptote
         return np.zeros(L.shape[0]), np.zeros(L.shape[0], dtype=bool)
-    gc = L[:, 0] / k0 * (z0 - 1.0) ** m  # the plant's (z - 1)^m P at the first point
-    g = np.where(gc.real >= 0, 1.0, -1.0) * np.abs(gc)
+    g, gc = asymptote_gain(L[:, 0] / k0, z0, m)  # the plant's, from P = L / K
     near = np.angle(r0 / (1.0 + g / (z0 - 1.0) ** m * k0))  # measured against asymptote
     first = _low_travel(x, y, g, m, my, w) + near
     # |angle(gc/g)| <= 90 deg by the choice of g's sign: the plant must be nearer than that

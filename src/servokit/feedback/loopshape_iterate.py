@@ -57,7 +57,7 @@ import numpy as np
 
 from servokit._lazy import control
 from servokit.errors import ServokitValueError, check_count, check_finite, check_positive
-from servokit.feedback.loopshape_eval import LoopTable, evaluate_set
+from servokit.feedback.loopshape_eval import LoopTable, asymptote_gain, evaluate_set
 from servokit.feedback.loopshape_init import initial_parameters, plant_integrators
 from servokit.feedback.loopshape_problem import (
     Structure,
@@ -321,8 +321,7 @@ def _with_asymptote(f: np.ndarray, P: np.ndarray, dt: float, m: int):
     n = ASYMPTOTE_DECADES * ASYMPTOTE_POINTS
     low = f[0] * np.logspace(-ASYMPTOTE_DECADES, 0, n + 1)[:-1]
     z0, z = np.exp(2j * np.pi * f[0] * dt), np.exp(2j * np.pi * low * dt)
-    gc = P[:, 0] * (z0 - 1.0) ** m
-    g = np.where(gc.real >= 0, 1.0, -1.0) * np.abs(gc)
+    g = asymptote_gain(P[:, 0], z0, m)[0]
     P_low = g[:, None] / (z[None, :] - 1.0) ** m
     return np.concatenate([low, f]), np.hstack([P_low, P]), n
 

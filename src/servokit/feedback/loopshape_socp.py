@@ -380,7 +380,7 @@ def _solve(
 
     ``refine`` is Clarabel's iterative refinement of each KKT solve. With ``rescue``, a
     point where Clarabel stalled (:data:`RESCUE`) is returned when every row and cone holds
-    to ``PROGRAM_FEAS``: a candidate for the exact acceptance test of the iteration.
+    to :data:`RESCUE_FEAS`: a candidate for the exact acceptance test of the iteration.
     """
     import clarabel
 
