@@ -3,6 +3,9 @@ VENV := .venv
 BIN := $(VENV)/bin
 STAMP := $(VENV)/.installed
 OUT ?= out
+# src of a tree to alternate reproduce with in `make bench` (issue 24's host-normalised
+# figure), e.g. `git worktree add /tmp/base24 3ed6d77` then BASELINE=/tmp/base24/src
+BASELINE ?=
 
 .PHONY: demo test test-dask test-all bench lint clean bytecode
 
@@ -48,7 +51,7 @@ bench: $(STAMP)
 	MPLBACKEND=Agg $(BIN)/python bench/robust_seek.py
 	MPLBACKEND=Agg $(BIN)/python bench/fit_modal.py
 	MPLBACKEND=Agg $(BIN)/python bench/startup.py
-	MPLBACKEND=Agg $(BIN)/python bench/reproduce_cpu.py
+	MPLBACKEND=Agg $(BIN)/python bench/reproduce_cpu.py $(if $(BASELINE),--baseline $(BASELINE))
 
 lint: $(STAMP)
 	$(BIN)/ruff check src tests bench
