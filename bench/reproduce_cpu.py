@@ -13,9 +13,9 @@ reports each case's CPU seconds (``RUSAGE_SELF`` before and after; the first cas
 pays the imports).
 
 With ``--baseline SRC`` (the ``src`` directory of another tree, e.g. a ``git worktree``
-of ``3ed6d77``, the tree issue 24 measured at 57 s) each run of this tree alternates with
-a run of that tree's ``servokit reproduce`` (by ``PYTHONPATH``), so a change of the shared
-host's speed hits both alike, and it reports the ratio of their best CPU times.  The
+of ``3ed6d77``, the tree issue 24's work started from; the issue measured main at 57 s)
+each run of this tree alternates with a run of that tree's ``servokit reproduce`` (by
+``PYTHONPATH``), so a change of the shared host's speed hits both alike, and it reports the ratio of their best CPU times.  The
 host-normalised figure is the issue's own measurement of the baseline divided by that
 ratio: what this tree would take on the host the issue was measured on; the target in
 this form is a ratio of at least 57 / 20 = 2.85.
@@ -155,7 +155,7 @@ def main() -> None:
     parser.add_argument(
         "--baseline", metavar="SRC",
         help="src directory of a tree to alternate with (every case; e.g. a worktree of "
-        "3ed6d77, the tree issue 24 measured)",
+        "3ed6d77, the tree issue 24's work started from)",
     )  # fmt: skip
     args = parser.parse_args()
     if args.baseline and args.case:
