@@ -15,10 +15,10 @@ pays the imports).
 With ``--baseline SRC`` (the ``src`` directory of another tree, e.g. a ``git worktree``
 of ``3ed6d77``, the tree issue 24's work started from; the issue measured main at 57 s)
 each run of this tree alternates with a run of that tree's ``servokit reproduce`` (by
-``PYTHONPATH``), so a change of the shared host's speed hits both alike, and it reports the ratio of their best CPU times.  The
-host-normalised figure is the issue's own measurement of the baseline divided by that
-ratio: what this tree would take on the host the issue was measured on; the target in
-this form is a ratio of at least 57 / 20 = 2.85.
+``PYTHONPATH``), so a change of the shared host's speed hits both alike, and it reports
+the ratio of their best CPU times.  The host-normalised figure is the issue's own
+measurement of the baseline divided by that ratio: what this tree would take on the host
+the issue was measured on; the target in this form is a ratio of at least 57 / 20 = 2.85.
 
 Run: ``MPLBACKEND=Agg python bench/reproduce_cpu.py [--case NAME ...] [--per-case]
 [--out DIR] [--baseline SRC]``.
