@@ -13,7 +13,7 @@ from pathlib import Path
 import control
 import numpy as np
 import pytest
-from hypothesis import HealthCheck, given, settings
+from hypothesis import HealthCheck, example, given, settings
 from hypothesis import strategies as st
 from scipy import signal
 
@@ -289,7 +289,18 @@ def _assert_rounding_destabilises(tf: control.TransferFunction, precision: str,
     assert precision != "q31" and radius > 0.9, (precision, realization, radius)
 
 
+# a hypothesis find: an integrator, a double pole at 0.995 and one at 1/3 (gain 10.6).  In
+# q15 sections rounding puts the double pole on the circle (it read 1 - 3e-14 and was
+# summed for 40 s before a refusal without advice); in q1.22 the output reaches its clamp
+_FOUND = control.tf(
+    [10.58466585, 0, 0, 0, 0, 0, 0],
+    [1.0, -3.65493417, 5.07985887, -3.30471125, 0.98959788, -0.10981132, 0.0], 1e-4,
+)
+
+
 @settings(max_examples=40, deadline=None, suppress_health_check=[HealthCheck.too_slow])
+@example(filt=(_FOUND, True), precision="q15", realization="sos", rounding="half-up", seed=0)
+@example(filt=(_FOUND, True), precision="q1.22", realization="sos", rounding="half-up", seed=0)
 @given(
     filt=stable_filters(),
     precision=st.sampled_from(["q15", "q31", "q3.12", "q1.22"]),
@@ -318,7 +329,10 @@ def test_random_filters_within_bound_and_range(filt, precision, realization, rou
     assert np.max(np.abs(y)) <= d.out_max  # an integrating filter may sit at its clamp
     z, p, k = signal.tf2zpk(tf.num[0][0], tf.den[0][0])
     ref = signal.sosfilt(signal.zpk2sos(z, p, k), x * d.input_lsb)
-    err = np.max(np.abs(y * d.output_lsb - ref))
+    # the bound holds while the output does not saturate (error_bound): up to the first
+    # sample at the clamp (an integrator driven past u_max)
+    n = int(np.argmax(np.abs(y) >= d.out_max)) if np.any(np.abs(y) >= d.out_max) else n
+    err = np.max(np.abs(y[:n] * d.output_lsb - ref[:n]), initial=0.0)
     assert err <= d.error_bound(n) + 1e-12 * np.max(np.abs(ref)), (err, d.error_bound(n))
 
 

@@ -17,10 +17,18 @@ from servokit.errors import ServokitValueError, check_finite
 if TYPE_CHECKING:
     from servokit.export.fixed_point import FixedPointDesign
 
-__all__ = ["l1_matrix", "modal_realization", "node_impulse_responses", "sos_network",
-           "sos_sections", "split_integrator", "ss_network"]  # fmt: skip
+__all__ = ["L1_RADIUS_LIMIT", "l1_matrix", "modal_realization", "node_impulse_responses",
+           "sos_network", "sos_sections", "split_integrator", "ss_network"]  # fmt: skip
 
 _L1_TAIL = 1e-18  # an impulse response is summed until its terms fall below this
+_L1_TERMS = 2_000_000  # ... or until this many terms, then refused
+
+#: Spectral radius from which :func:`l1_matrix` refuses a network at once.  A pole at
+#: radius ``1 - e`` decays by ``exp(-e N)`` over ``N`` terms: within 1e-5 of the circle the
+#: 2e6 terms shrink by less than ``e^-20`` (2e-9), far from the 1e-18 tail, so summing them
+#: (tens of seconds) could only end in the same refusal.  A quantised pole that rounding
+#: puts on the circle reads ``1 - 3e-14`` from ``eigvals``: also caught here.
+L1_RADIUS_LIMIT = 1.0 - 1e-5
 
 
 def split_integrator(num: np.ndarray, den: np.ndarray) -> tuple[float, np.ndarray, np.ndarray]:
@@ -83,11 +91,11 @@ def l1_matrix(a: np.ndarray, b: np.ndarray, c: np.ndarray, d: np.ndarray) -> np.
     """
     total = np.abs(d).astype(float)
     x = b.astype(float)
-    # an unstable or marginal network has no L1 norm: refuse at once instead of summing
-    # two million terms first
-    if a.size and np.max(np.abs(np.linalg.eigvals(a))) >= 1.0:
+    # an unstable or marginal network has no L1 norm, and one within 1e-5 of the circle
+    # none within the terms summed: refuse at once instead of summing two million first
+    if a.size and np.max(np.abs(np.linalg.eigvals(a))) >= L1_RADIUS_LIMIT:
         raise ServokitValueError("the controller's poles are too close to the unit circle to scale")
-    for k in range(2_000_000):
+    for k in range(_L1_TERMS):
         h = np.abs(c @ x)
         total += h
         if k >= 16 and np.max(np.abs(x), initial=0.0) <= _L1_TAIL * max(np.max(total), 1e-300):

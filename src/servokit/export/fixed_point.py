@@ -69,6 +69,7 @@ from servokit.export.fixed_format import (
     rounding_bound,
 )
 from servokit.export.fixed_network import (
+    L1_RADIUS_LIMIT,
     l1_matrix,
     modal_realization,
     node_impulse_responses,
@@ -379,14 +380,17 @@ def _scale_and_verify(plan: _Plan, fmt: QFormat, rounding: str, g_out: float,
 
 
 def _check_quantized_poles(a: np.ndarray, fmt: QFormat, kind: str) -> None:
-    """Refuse a word whose coefficient rounding moves a pole onto or outside the unit circle.
+    """Refuse a word whose coefficient rounding moves a pole onto or outside the unit circle
+    (or within 1e-5 of it, :data:`~servokit.export.fixed_network.L1_RADIUS_LIMIT`).
 
     Repeated poles near z = 1 move by about the square root of the coefficient step, so a
     filter stable in float can become unstable in a short word (a double pole at 0.992
     in q15 sections).
     """
     radius = float(np.max(np.abs(np.linalg.eigvals(a)))) if a.size else 0.0
-    if radius >= 1.0:
+    # the limit of the L1 sums that scale the network: a rounded pole on the circle reads
+    # 1 - 3e-14, and one just inside it has no L1 norm that can be summed either
+    if radius >= L1_RADIUS_LIMIT:
         other = "ss" if kind == "sos" else "sos"
         raise ServokitValueError(
             f"rounding the coefficients to {fmt.name} moves a pole to radius {radius:.6f} "
